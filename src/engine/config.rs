@@ -74,6 +74,10 @@ pub struct EngineConfig {
     /// End-of-routine gate: withhold when the probability that the routine ends here (or that
     /// nothing is known about what follows) exceeds this (None: no gate).
     pub max_end_prob: Option<f64>,
+    /// States farther than this (Mahalanobis distance, i.e. in σ units) from a window move are
+    /// treated as not explaining it, which bounds the forward pass to nearby states (found with a
+    /// k-d tree). None: every state takes part (the seed).
+    pub match_radius: Option<f64>,
     pub scale: ScaleConfig,
 }
 
@@ -128,6 +132,7 @@ impl EngineConfig {
             max_misfit: None,
             max_spread: None,
             max_end_prob: None,
+            match_radius: None,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -144,6 +149,7 @@ impl EngineConfig {
                 max_misfit: Some(1.0),
                 max_spread: Some(0.5),
                 max_end_prob: Some(0.5),
+                match_radius: Some(6.0),
                 ..seed
             },
         }
@@ -181,6 +187,7 @@ impl EngineConfig {
             ("max_misfit", self.max_misfit),
             ("max_spread", self.max_spread),
             ("max_end_prob", self.max_end_prob),
+            ("match_radius", self.match_radius),
             ("scale.min_gain", Some(sc.min_gain)),
         ];
         for (name, value) in thresholds {
@@ -213,7 +220,8 @@ mod tests {
     #[test]
     fn invalid_settings_are_typed_errors() {
         let base = EngineConfig::default();
-        let cases: Vec<(EngineConfig, fn(&ConfigError) -> bool)> = vec![
+        type Check = fn(&ConfigError) -> bool;
+        let cases: Vec<(EngineConfig, Check)> = vec![
             (
                 EngineConfig {
                     delta: 0.0,

@@ -1,8 +1,28 @@
 //! The prediction engine: pure computation, no I/O.
+//!
+//! Data flow, in the order a taught waypoint meets it:
+//! [`pose`] turns waypoints into relative moves (SRHCT observations); [`metric`] holds the
+//! precision matrix that measures how alike two moves are; [`learner`] assimilates moves into an
+//! observation graph by similarity-based merging; [`hmm`] reads that graph as a continuous-density
+//! HMM; [`predict`] runs the forward recursion over the last few moves and proposes the next move,
+//! gated by confidence, match quality and end-of-routine probability; [`scale`] estimates how much
+//! larger or smaller the taught routine is than the learned pattern; [`teach`] ties these together
+//! for one work cell while an operator teaches routine after routine; [`config`] holds the
+//! settings and the named profiles (`seed`, `default`).
+
 pub mod config;
 pub mod error;
+pub mod hmm;
+pub mod learner;
+pub mod metric;
 pub mod pose;
+pub mod predict;
+pub mod scale;
+pub mod teach;
 
 pub use config::{EngineConfig, Profile};
 pub use error::{ConfigError, PoseError};
 pub use pose::{Move, Observation, Pose, PoseValues};
+
+pub use predict::{PredictOptions, Prediction, Withheld};
+pub use teach::Teacher;

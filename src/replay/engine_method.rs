@@ -1,16 +1,17 @@
-//! The engine under replay (placeholder until the engine lands: never offers anything).
+//! The engine under replay: a [`Teacher`] per program, driven waypoint by waypoint.
 
 use super::method::{Guess, Method, ModelSummary};
-use crate::engine::{ConfigError, EngineConfig, Pose};
+use crate::engine::{ConfigError, EngineConfig, Pose, Teacher};
 
 pub struct EngineMethod {
     config: EngineConfig,
+    teacher: Teacher,
 }
 
 impl EngineMethod {
     pub fn new(config: EngineConfig) -> Result<EngineMethod, ConfigError> {
-        config.validate()?;
-        Ok(EngineMethod { config })
+        let teacher = Teacher::new(config.clone())?;
+        Ok(EngineMethod { config, teacher })
     }
 
     pub fn config(&self) -> &EngineConfig {
@@ -22,13 +23,50 @@ impl Method for EngineMethod {
     fn name(&self) -> &str {
         "engine"
     }
-    fn reset(&mut self) {}
-    fn predict(&mut self, _taught: &[Pose]) -> Option<Guess> {
-        None
+
+    fn reset(&mut self) {
+        // The configuration was validated when this method was built.
+        if let Ok(t) = Teacher::new(self.config.clone()) {
+            self.teacher = t;
+        }
     }
-    fn observe(&mut self, _taught: &[Pose]) {}
-    fn finish_routine(&mut self, _routine: &[Pose]) {}
+
+    fn predict(&mut self, taught: &[Pose]) -> Option<Guess> {
+        debug_assert_eq!(taught.len(), self.teacher.routine().len());
+        let p = self.teacher.predict();
+        if !p.offered() {
+            return None;
+        }
+        // The gate that decides most often in the default profile is the match misfit; report
+        // it (negated: higher = more sure) as the confidence, φ beside it.
+        let confidence = match (self.config.max_misfit, p.misfit) {
+            (Some(_), Some(m)) => -m,
+            _ => p.phi,
+        };
+        p.pose.map(|pose| Guess {
+            pose,
+            confidence: Some(confidence),
+            phi: Some(p.phi),
+            psi: Some(p.psi),
+        })
+    }
+
+    fn observe(&mut self, taught: &[Pose]) {
+        if let Some(last) = taught.last() {
+            self.teacher.teach(*last);
+        }
+    }
+
+    fn finish_routine(&mut self, _routine: &[Pose]) {
+        self.teacher.finish_routine();
+    }
+
     fn summary(&self) -> Option<ModelSummary> {
-        Some(ModelSummary::default())
+        let s = self.teacher.stats();
+        Some(ModelSummary {
+            states: s.states,
+            edges: s.edges,
+            perplexity: s.perplexity,
+        })
     }
 }

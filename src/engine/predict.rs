@@ -1,0 +1,513 @@
+//! Prediction and confidence (ALGORITHM §3, seed §3.10–3.11, §4.5.1).
+//!
+//! Given the moves of the routine being taught, the predictor conditions on the last `h` of
+//! them (the *window*), runs the HMM forward recursion in log space, turns the posterior over the
+//! current state into a pmf ν over the next state, and proposes the most likely next move: the
+//! mode of the mixture `Σ_j ν_j N(mean_j, C⁻¹)`, found by mean-shift.
+//!
+//! Whether the proposal is *offered* is decided by gates, each reported with its figure:
+//!
+//! - **end of routine**: the probability that the matched states are where routines end (or that
+//!   nothing is known about what follows them). Renormalising ν hides this mass; predictions made
+//!   through it were ~400 mm off on the corpus.
+//! - **match quality** (`misfit`): the window's mean squared Mahalanobis distance to the states the
+//!   forward pass put it in. The log-space recursion yields a sharp posterior even for a window
+//!   the model has never seen; the misfit says whether it was seen.
+//! - **confidence φ** = `1 − H(ν)/log₂|Q|`, the seed's gate: how unambiguous the next state is.
+//! - **spread**: the expected squared Mahalanobis distance between the proposal and the moves
+//!   that followed the matched states (the spread of ν around the mode plus each state's own
+//!   scatter). A proposal from a loosely merged state is not precise enough to offer.
+//!
+//! With `match_radius` set, states farther than that from a window move are treated as not
+//! explaining it at all, which bounds the forward pass to states that matter (a k-d tree finds
+//! them). The seed profile evaluates every state.
+
+use std::collections::HashMap;
+
+use serde::Serialize;
+
+use super::config::{EngineConfig, ScaleConfig, WindowPrior};
+use super::hmm::Hmm;
+use super::learner::ObservationGraph;
+use super::pose::{Move, Observation, Pose, scale_translation};
+use super::scale;
+
+/// Per-prediction settings (a cell's configuration, possibly overridden per request).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictOptions {
+    pub horizon: usize,
+    pub phi_min: f64,
+    pub max_misfit: Option<f64>,
+    pub max_spread: Option<f64>,
+    pub max_end_prob: Option<f64>,
+    pub match_radius: Option<f64>,
+    pub window_prior: WindowPrior,
+    pub scale: ScaleConfig,
+}
+
+impl PredictOptions {
+    pub fn from_config(c: &EngineConfig) -> PredictOptions {
+        PredictOptions {
+            horizon: c.horizon,
+            phi_min: c.phi_min,
+            max_misfit: c.max_misfit,
+            max_spread: c.max_spread,
+            max_end_prob: c.max_end_prob,
+            match_radius: c.match_radius,
+            window_prior: c.window_prior,
+            scale: c.scale,
+        }
+    }
+}
+
+/// Why a prediction was not offered.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum Withheld {
+    /// The routine has no waypoint yet: there is no pose to predict from.
+    NothingTaught,
+    /// Nothing has been learned in this cell yet.
+    EmptyModel,
+    /// φ is undefined with fewer than two states.
+    TooFewStates { states: usize },
+    /// No learned sequence of states can produce the window (or, with a match radius, no state
+    /// is near one of its moves).
+    NoMatch,
+    /// The matched states usually end the routine.
+    LikelyEnd { end_probability: f64 },
+    /// The window does not look like anything learned.
+    PoorMatch { misfit: f64 },
+    /// The next state is ambiguous.
+    LowConfidence { phi: f64 },
+    /// The moves that followed the matched states disagree with each other.
+    WideSpread { spread: f64 },
+}
+
+impl Withheld {
+    /// A short stable code for APIs and metrics.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Withheld::NothingTaught => "nothing_taught",
+            Withheld::EmptyModel => "empty_model",
+            Withheld::TooFewStates { .. } => "too_few_states",
+            Withheld::NoMatch => "no_match",
+            Withheld::LikelyEnd { .. } => "likely_end",
+            Withheld::PoorMatch { .. } => "poor_match",
+            Withheld::LowConfidence { .. } => "low_confidence",
+            Withheld::WideSpread { .. } => "wide_spread",
+        }
+    }
+}
+
+/// A prediction of the next waypoint, offered or not, with every figure that decided it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prediction {
+    /// The proposed next pose (None when nothing could be proposed at all).
+    pub pose: Option<Pose>,
+    /// The proposed move from the last waypoint (SRHCT 7-vector, canonical sign).
+    pub relative: Option<Observation>,
+    /// The seed's confidence φ ∈ [0, 1].
+    pub phi: f64,
+    /// ψ: maps the taught window onto the model (a 2× copy of a pattern gives 0.5).
+    pub psi: f64,
+    /// Probability that the routine ends here (or that nothing is known about what follows).
+    pub end_probability: f64,
+    /// Match quality: mean squared Mahalanobis misfit of the window (None without a window).
+    pub misfit: Option<f64>,
+    /// Expected squared Mahalanobis distance of the next move from the proposal.
+    pub spread: Option<f64>,
+    /// Number of states of the model asked.
+    pub states: usize,
+    /// Why the prediction is not offered; None when it is.
+    pub withheld: Option<Withheld>,
+}
+
+impl Prediction {
+    pub fn offered(&self) -> bool {
+        self.withheld.is_none()
+    }
+
+    /// Size of the taught routine relative to the learned pattern: `1/ψ`.
+    pub fn routine_scale(&self) -> f64 {
+        1.0 / self.psi
+    }
+
+    pub(crate) fn withheld(reason: Withheld, states: usize) -> Prediction {
+        Prediction {
+            pose: None,
+            relative: None,
+            phi: 0.0,
+            psi: 1.0,
+            end_probability: 0.0,
+            misfit: None,
+            spread: None,
+            states,
+            withheld: Some(reason),
+        }
+    }
+
+    /// Composes the proposed move onto the last taught pose.
+    pub(crate) fn place(mut self, last: &Pose) -> Prediction {
+        if let Some(x) = &self.relative {
+            match Move::from_observation(x) {
+                Ok(m) => self.pose = Some(last.then(&m)),
+                Err(_) => {
+                    self.relative = None;
+                    self.withheld = Some(Withheld::NoMatch);
+                }
+            }
+        }
+        self
+    }
+}
+
+/// Where the forward recursion starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Prior {
+    Initial,
+    Occupancy,
+    Uniform,
+}
+
+/// Forward variables after the last window move, sparse and sorted by state.
+#[derive(Debug, Clone)]
+struct Forward {
+    /// (state, log α)
+    last: Vec<(usize, f64)>,
+    log_likelihood: f64,
+    misfit: f64,
+}
+
+/// Predicts the next move of a routine whose moves so far are `moves` (possibly none).
+pub fn predict_move(
+    graph: &ObservationGraph,
+    moves: &[Observation],
+    opts: &PredictOptions,
+) -> Prediction {
+    let hmm = Hmm::new(graph);
+    let states = hmm.states();
+    if states == 0 {
+        return Prediction::withheld(Withheld::EmptyModel, 0);
+    }
+    if states < 2 {
+        return Prediction::withheld(Withheld::TooFewStates { states }, states);
+    }
+
+    let (nu, psi, misfit, end_probability) = if moves.is_empty() {
+        // First move of a routine: ν = π.
+        let nu: Vec<(usize, f64)> = (0..states)
+            .map(|i| (i, hmm.initial(i)))
+            .filter(|(_, p)| *p > 0.0)
+            .collect();
+        (nu, 1.0, None, 0.0)
+    } else {
+        let window = &moves[moves.len() - opts.horizon.min(moves.len())..];
+        let prior = if window.len() == moves.len() {
+            Prior::Initial
+        } else {
+            match opts.window_prior {
+                WindowPrior::Occupancy => Prior::Occupancy,
+                WindowPrior::Uniform => Prior::Uniform,
+            }
+        };
+        let Some((fwd, psi)) = forward_with_scale(&hmm, window, prior, opts) else {
+            return Prediction::withheld(Withheld::NoMatch, states);
+        };
+        let (nu, cont) = next_state(&hmm, &fwd.last);
+        (nu, psi, Some(fwd.misfit), (1.0 - cont).clamp(0.0, 1.0))
+    };
+
+    let total: f64 = nu.iter().map(|(_, p)| p).sum();
+    if total.is_nan() || total <= 0.0 {
+        let mut p = Prediction::withheld(
+            Withheld::LikelyEnd {
+                end_probability: 1.0,
+            },
+            states,
+        );
+        p.end_probability = 1.0;
+        p.psi = psi;
+        p.misfit = misfit;
+        return p;
+    }
+    let nu: Vec<(usize, f64)> = nu.into_iter().map(|(j, p)| (j, p / total)).collect();
+    let entropy_bits: f64 = nu
+        .iter()
+        .filter(|(_, p)| *p > 0.0)
+        .map(|(_, p)| -p * p.log2())
+        .sum();
+    let phi = (1.0 - entropy_bits / (states as f64).log2()).clamp(0.0, 1.0);
+
+    let mode = mixture_mode(&hmm, &nu);
+    let spread: f64 = nu
+        .iter()
+        .map(|&(j, p)| {
+            let n = hmm.node(j);
+            p * ((n.mean() - mode).norm_squared() + n.scatter() / f64::from(n.count()))
+        })
+        .sum();
+    // Back to raw units in the taught routine's scale; canonical quaternion.
+    let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
+    let relative = Move::from_observation(&relative)
+        .map(|m| m.observation())
+        .ok();
+
+    let withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
+        Some(Withheld::LikelyEnd { end_probability })
+    } else if let (Some(m), Some(v)) = (opts.max_misfit, misfit)
+        && v > m
+    {
+        Some(Withheld::PoorMatch { misfit: v })
+    } else if phi < opts.phi_min {
+        Some(Withheld::LowConfidence { phi })
+    } else if opts.max_spread.is_some_and(|m| spread > m) {
+        Some(Withheld::WideSpread { spread })
+    } else if relative.is_none() {
+        Some(Withheld::NoMatch)
+    } else {
+        None
+    };
+    Prediction {
+        pose: None,
+        relative,
+        phi,
+        psi,
+        end_probability,
+        misfit,
+        spread: Some(spread),
+        states,
+        withheld,
+    }
+}
+
+/// Runs the forward pass on the window at ψ = 1 and, when scale estimation is on and ψ = 1 does
+/// not already fit, at the best ψ; returns the pass to predict from and its ψ.
+fn forward_with_scale(
+    hmm: &Hmm,
+    window: &[Observation],
+    prior: Prior,
+    opts: &PredictOptions,
+) -> Option<(Forward, f64)> {
+    let metric = hmm.graph().metric();
+    let whitened = |psi: f64| -> Vec<Observation> {
+        window
+            .iter()
+            .map(|x| metric.whiten(&scale_translation(x, psi)))
+            .collect()
+    };
+    let radius_sq = opts.match_radius.map(|r| r * r);
+    let unscaled = forward(hmm, &whitened(1.0), prior, radius_sq);
+    let sc = &opts.scale;
+    let has_translation = window.iter().any(|x| x.fixed_rows::<3>(0).norm() > 1e-9);
+    if !sc.enabled || !has_translation {
+        return unscaled.map(|f| (f, 1.0));
+    }
+    // A window that already fits the model at ψ = 1 is not searched (the common case, and it
+    // keeps prediction cheap); the seed profile has no fit limit and always searches.
+    if let (Some(limit), Some(f)) = (opts.max_misfit, &unscaled)
+        && f.misfit <= limit
+    {
+        return unscaled.map(|f| (f, 1.0));
+    }
+    let estimate = scale::maximise(sc.psi_min, sc.psi_max, |psi| {
+        forward(hmm, &whitened(psi), prior, radius_sq)
+            .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
+    });
+    let base = unscaled
+        .as_ref()
+        .map_or(f64::NEG_INFINITY, |f| f.log_likelihood);
+    if let Some(est) = estimate
+        && est.objective - base >= sc.min_gain
+        && let Some(scaled) = forward(hmm, &whitened(est.psi), prior, radius_sq)
+        && scaled.misfit <= opts.max_misfit.unwrap_or(SCALED_FIT_LIMIT)
+    {
+        return Some((scaled, est.psi));
+    }
+    unscaled.map(|f| (f, 1.0))
+}
+
+/// Log-likelihood of a whole routine's moves from the routine start (used by Learn-Scaled-HMM);
+/// −∞ when the model cannot produce them.
+pub(crate) fn window_log_likelihood(
+    hmm: &Hmm,
+    moves: &[Observation],
+    opts: &PredictOptions,
+) -> f64 {
+    let metric = hmm.graph().metric();
+    let whitened: Vec<Observation> = moves.iter().map(|x| metric.whiten(x)).collect();
+    forward(
+        hmm,
+        &whitened,
+        Prior::Initial,
+        opts.match_radius.map(|r| r * r),
+    )
+    .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
+}
+
+/// Mean misfit per move a scaled window must reach when no match gate is configured:
+/// the 99 % quantile of χ²(7). A likelihood gain alone accepts wrong ψ when the window holds a
+/// move that does not scale.
+const SCALED_FIT_LIMIT: f64 = 18.475_306_906_582_357;
+
+/// The log-space forward recursion `α_0(j) = b_j(x_0)·prior_j`,
+/// `α_k(j) = b_j(x_k) Σ_i a(j|i) α_{k−1}(i)`, sparse over states with non-zero α.
+fn forward(
+    hmm: &Hmm,
+    window: &[Observation],
+    prior: Prior,
+    radius_sq: Option<f64>,
+) -> Option<Forward> {
+    let graph = hmm.graph();
+    let metric = graph.metric();
+    let (first, rest) = window.split_first()?;
+    let uniform = 1.0 / hmm.states() as f64;
+    let prior_of = |i: usize| match prior {
+        Prior::Initial => hmm.initial(i),
+        Prior::Occupancy => hmm.occupancy(i),
+        Prior::Uniform => uniform,
+    };
+
+    // (state, log α, squared distance to the window move)
+    let mut current: Vec<(usize, f64, f64)> = Vec::new();
+    let mut candidates = Vec::new();
+    match radius_sq {
+        Some(r2) => graph.candidates(first, r2, &mut candidates),
+        None => candidates.extend(0..hmm.states()),
+    }
+    candidates.sort_unstable();
+    for j in candidates {
+        let d2 = (first - hmm.node(j).mean()).norm_squared();
+        let p = prior_of(j);
+        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) {
+            current.push((j, p.ln() + metric.log_density(d2), d2));
+        }
+    }
+    let mut misfit_sum = expected_misfit(&current)?;
+
+    let mut acc: HashMap<usize, f64> = HashMap::new();
+    for z in rest {
+        let max = current
+            .iter()
+            .map(|e| e.1)
+            .fold(f64::NEG_INFINITY, f64::max);
+        acc.clear();
+        for &(i, log_alpha, _) in &current {
+            let w = (log_alpha - max).exp();
+            for (j, a) in hmm.transitions(i) {
+                *acc.entry(j).or_insert(0.0) += a * w;
+            }
+        }
+        let mut next: Vec<(usize, f64, f64)> = acc
+            .iter()
+            .filter(|(_, s)| **s > 0.0)
+            .filter_map(|(&j, &s)| {
+                let d2 = (z - hmm.node(j).mean()).norm_squared();
+                radius_sq
+                    .is_none_or(|r2| d2 <= r2)
+                    .then(|| (j, max + s.ln() + metric.log_density(d2), d2))
+            })
+            .collect();
+        next.sort_unstable_by_key(|e| e.0);
+        misfit_sum += expected_misfit(&next)?;
+        current = next;
+    }
+    let log_likelihood = log_sum_exp(current.iter().map(|e| e.1));
+    Some(Forward {
+        last: current.iter().map(|&(j, a, _)| (j, a)).collect(),
+        log_likelihood,
+        misfit: misfit_sum / window.len() as f64,
+    })
+}
+
+/// Posterior-expected squared distance of one window move to its states; None when no state
+/// explains it (the window cannot be produced by the model).
+fn expected_misfit(step: &[(usize, f64, f64)]) -> Option<f64> {
+    let max = step.iter().map(|e| e.1).fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() {
+        return None;
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for &(_, a, d2) in step {
+        let w = (a - max).exp();
+        num += w * d2;
+        den += w;
+    }
+    Some(num / den)
+}
+
+/// ν(j) ∝ Σ_i γ(i) a(j|i) (unnormalised, sorted by state) and the continuation mass Σ_i γ(i) Σ_j a(j|i).
+fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
+    let log_total = log_sum_exp(last.iter().map(|e| e.1));
+    let mut nu: HashMap<usize, f64> = HashMap::new();
+    let mut cont = 0.0;
+    for &(i, a) in last {
+        let gamma = (a - log_total).exp();
+        cont += gamma * hmm.continue_probability(i);
+        for (j, p) in hmm.transitions(i) {
+            *nu.entry(j).or_insert(0.0) += gamma * p;
+        }
+    }
+    let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
+    nu.sort_unstable_by_key(|e| e.0);
+    (nu, cont)
+}
+
+/// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
+const MODE_STARTS: usize = 16;
+
+/// `argmax_z Σ_j ν_j N(z; mean_j, I)` in whitened space by mean-shift fixed-point iterations
+/// started from each heavy component's mean.
+fn mixture_mode(hmm: &Hmm, nu: &[(usize, f64)]) -> Observation {
+    let mut comps: Vec<(f64, Observation)> = nu
+        .iter()
+        .filter(|(_, p)| *p > 0.0)
+        .map(|&(j, p)| (p, *hmm.node(j).mean()))
+        .collect();
+    comps.sort_by(|a, b| b.0.total_cmp(&a.0));
+    if comps.len() == 1 {
+        return comps[0].1;
+    }
+    let log_density = |z: &Observation| {
+        log_sum_exp(
+            comps
+                .iter()
+                .map(|(p, m)| p.ln() - 0.5 * (z - m).norm_squared()),
+        )
+    };
+    let mut best: Option<(f64, Observation)> = None;
+    for (_, start) in comps.iter().take(MODE_STARTS) {
+        let mut z = *start;
+        for _ in 0..100 {
+            let logs: Vec<f64> = comps
+                .iter()
+                .map(|(p, m)| p.ln() - 0.5 * (z - m).norm_squared())
+                .collect();
+            let max = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let (mut num, mut den) = (Observation::zeros(), 0.0);
+            for ((_, m), l) in comps.iter().zip(&logs) {
+                let w = (l - max).exp();
+                num += m * w;
+                den += w;
+            }
+            let next = num / den;
+            let step = (next - z).norm_squared();
+            z = next;
+            if step < 1e-20 {
+                break;
+            }
+        }
+        let d = log_density(&z);
+        if best.as_ref().is_none_or(|(b, _)| d > *b) {
+            best = Some((d, z));
+        }
+    }
+    best.map_or(comps[0].1, |(_, z)| z)
+}
+
+fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
+    let max = values.clone().fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() {
+        return max;
+    }
+    max + values.map(|v| (v - max).exp()).sum::<f64>().ln()
+}
