@@ -13,6 +13,7 @@
 //! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
 
+pub mod baselines;
 pub mod corpus;
 pub mod engine_method;
 pub mod method;
