@@ -17,6 +17,12 @@ pub mod baselines;
 pub mod corpus;
 pub mod engine_method;
 pub mod method;
+pub mod metrics;
+pub mod report;
+pub mod sweep;
 
 pub use corpus::{CorpusError, Program, Routine, load_paths};
 pub use method::{Guess, Method, ModelSummary};
+pub use metrics::{Metrics, ProgramRecord, WaypointRecord, replay_program};
+pub use report::{Report, RunConfig, replay_all};
+pub use sweep::{SweepRow, sweep};
