@@ -1,1 +1,346 @@
-pub fn main_placeholder() {}
+//! The `nextpose` command line.
+//!
+//! - `nextpose replay <PATHS>...` replays corpus programs through the engine and the baselines
+//!   and prints the scoreboard (optionally writes it as JSON).
+//! - `nextpose sweep <PATHS>...` replays the engine over a grid of δ, φ_min and h.
+//!
+//! Engine settings start from a named profile; each flag overrides one field, and the result is
+//! validated before anything runs, so a bad value is a one-line error, not a panic.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use serde::Serialize;
+
+use crate::engine::config::MergeRule;
+use crate::engine::{EngineConfig, Profile};
+use crate::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
+use crate::replay::engine_method::EngineMethod;
+use crate::replay::report::{RunConfig, replay_all};
+use crate::replay::sweep::{sweep, sweep_table};
+use crate::replay::{Method, load_paths};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "nextpose",
+    version,
+    about = "Teach-pendant next-waypoint prediction for industrial robot arms"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Replay corpus programs through the engine and the baselines; print the scoreboard.
+    Replay(ReplayArgs),
+    /// Replay the engine over a grid of delta, phi_min and horizon; print one line per setting.
+    Sweep(SweepArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// Corpus JSON files, or directories of them (all *.json, sorted by name).
+    #[arg(required = true)]
+    pub paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub engine: EngineArgs,
+    /// Gate of the gated nearest-sequence baselines: mean squared Mahalanobis distance per
+    /// window move.
+    #[arg(long, default_value_t = DEFAULT_NEAREST_SEQ_GATE)]
+    pub gate: f64,
+    /// Also write the full report (every program, every method) as JSON to this file.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+    /// Print only the totals table (no per-program table).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Corpus JSON files, or directories of them (all *.json, sorted by name).
+    #[arg(required = true)]
+    pub paths: Vec<PathBuf>,
+    /// Base engine settings; --delta, --phi-min and --horizon are replaced by the grid.
+    #[command(flatten)]
+    pub engine: EngineArgs,
+    #[arg(long, value_delimiter = ',', default_value = "0.3,0.5,0.7,0.9")]
+    pub deltas: Vec<f64>,
+    #[arg(long, value_delimiter = ',', default_value = "0.5,0.7,0.9")]
+    pub phi_mins: Vec<f64>,
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3,4")]
+    pub horizons: Vec<usize>,
+    /// Also write the rows as JSON to this file.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+}
+
+/// Engine settings on the command line: a profile, then per-field overrides.
+#[derive(Debug, Clone, Args)]
+pub struct EngineArgs {
+    /// Settings to start from.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Default)]
+    pub profile: ProfileArg,
+    /// Complexity δ in (0, 1]: larger = stricter merging, more states.
+    #[arg(long)]
+    pub delta: Option<f64>,
+    /// Minimum confidence φ for a guess to be offered.
+    #[arg(long)]
+    pub phi_min: Option<f64>,
+    /// Number of most recent moves a guess conditions on (h).
+    #[arg(long)]
+    pub horizon: Option<usize>,
+    /// Estimate the scale ψ at prediction time.
+    #[arg(long, value_enum)]
+    pub scale: Option<Switch>,
+    /// Merge test of the learner.
+    #[arg(long, value_enum)]
+    pub merge: Option<MergeArg>,
+    /// Learn each move as it is taught (on) or only finished routines (off).
+    #[arg(long, value_enum)]
+    pub within: Option<Switch>,
+    /// Misfit gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_misfit: Option<Limit>,
+    /// Spread gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_spread: Option<Limit>,
+    /// End-of-routine probability gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_end_prob: Option<Limit>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ProfileArg {
+    Seed,
+    Default,
+}
+
+impl From<ProfileArg> for Profile {
+    fn from(p: ProfileArg) -> Profile {
+        match p {
+            ProfileArg::Seed => Profile::Seed,
+            ProfileArg::Default => Profile::Default,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
+impl Switch {
+    fn on(self) -> bool {
+        self == Switch::On
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MergeArg {
+    Total,
+    Incremental,
+}
+
+/// A gate threshold, `None` meaning "no gate".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limit(pub Option<f64>);
+
+fn parse_limit(s: &str) -> Result<Limit, String> {
+    if s.eq_ignore_ascii_case("none") {
+        return Ok(Limit(None));
+    }
+    s.parse::<f64>()
+        .map(|v| Limit(Some(v)))
+        .map_err(|_| format!("expected a number or \"none\", got {s:?}"))
+}
+
+impl EngineArgs {
+    /// The profile's settings with the given overrides, validated.
+    pub fn config(&self) -> Result<EngineConfig> {
+        let mut c = EngineConfig::profile(self.profile.into());
+        if let Some(v) = self.delta {
+            c.delta = v;
+        }
+        if let Some(v) = self.phi_min {
+            c.phi_min = v;
+        }
+        if let Some(v) = self.horizon {
+            c.horizon = v;
+        }
+        if let Some(v) = self.scale {
+            c.scale.enabled = v.on();
+        }
+        if let Some(v) = self.merge {
+            c.merge = match v {
+                MergeArg::Total => MergeRule::Total,
+                MergeArg::Incremental => MergeRule::Incremental,
+            };
+        }
+        if let Some(v) = self.within {
+            c.learn_within_routine = v.on();
+        }
+        if let Some(Limit(v)) = self.max_misfit {
+            c.max_misfit = v;
+        }
+        if let Some(Limit(v)) = self.max_spread {
+            c.max_spread = v;
+        }
+        if let Some(Limit(v)) = self.max_end_prob {
+            c.max_end_prob = v;
+        }
+        c.validate().context("invalid engine settings")?;
+        Ok(c)
+    }
+
+    fn profile_name(&self) -> &'static str {
+        Profile::from(self.profile).name()
+    }
+}
+
+/// Parses the process arguments and runs the command.
+pub fn run() -> Result<()> {
+    run_cli(Cli::parse())
+}
+
+/// Runs a parsed command line (separate from [`run`] so tests can drive it).
+pub fn run_cli(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Replay(args) => run_replay(&args),
+        Command::Sweep(args) => run_sweep(&args),
+    }
+}
+
+fn run_replay(args: &ReplayArgs) -> Result<()> {
+    let config = args.engine.config()?;
+    if !(args.gate.is_finite() && args.gate >= 0.0) {
+        bail!("--gate must be finite and non-negative, got {}", args.gate);
+    }
+    let programs = load_paths(&args.paths)?;
+    let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
+        EngineMethod::new(config.clone()).context("invalid engine settings")?,
+    )];
+    methods.extend(baselines::all(&config, args.gate));
+    let run_config = RunConfig::new(args.engine.profile_name(), config, args.gate);
+    let report = replay_all(&programs, &mut methods, run_config);
+
+    let mut out = std::io::stdout().lock();
+    if !args.quiet {
+        writeln!(out, "{}", report.program_table("engine"))?;
+    }
+    write!(out, "{}", report.totals_table())?;
+    if let Some(path) = &args.json {
+        write_json(path, &report)?;
+    }
+    Ok(())
+}
+
+/// The sweep's JSON file: the base settings and one row per combination.
+#[derive(Serialize)]
+struct SweepReport<'a> {
+    profile: &'a str,
+    base: &'a EngineConfig,
+    rows: &'a [crate::replay::SweepRow],
+}
+
+fn run_sweep(args: &SweepArgs) -> Result<()> {
+    let base = args.engine.config()?;
+    for (name, empty) in [
+        ("--deltas", args.deltas.is_empty()),
+        ("--phi-mins", args.phi_mins.is_empty()),
+        ("--horizons", args.horizons.is_empty()),
+    ] {
+        if empty {
+            bail!("{name} needs at least one value");
+        }
+    }
+    let programs = load_paths(&args.paths)?;
+    let rows = sweep(
+        &programs,
+        &base,
+        &args.deltas,
+        &args.phi_mins,
+        &args.horizons,
+    )
+    .context("invalid sweep settings")?;
+    write!(std::io::stdout().lock(), "{}", sweep_table(&rows))?;
+    if let Some(path) = &args.json {
+        let report = SweepReport {
+            profile: args.engine.profile_name(),
+            base: &base,
+            rows: &rows,
+        };
+        write_json(path, &report)?;
+    }
+    Ok(())
+}
+
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let file = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
+    let mut w = BufWriter::new(file);
+    serde_json::to_writer_pretty(&mut w, value)
+        .with_context(|| format!("{}: cannot write JSON", path.display()))?;
+    writeln!(w)
+        .and_then(|()| w.flush())
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &[&str]) -> Cli {
+        Cli::try_parse_from(args).unwrap()
+    }
+
+    #[test]
+    fn overrides_apply_on_top_of_the_profile() {
+        let cli = parse(&[
+            "nextpose",
+            "replay",
+            "x.json",
+            "--profile",
+            "seed",
+            "--delta",
+            "0.5",
+            "--within",
+            "on",
+            "--max-misfit",
+            "2.5",
+            "--max-end-prob",
+            "none",
+            "--scale",
+            "off",
+        ]);
+        let Command::Replay(args) = cli.command else {
+            panic!("not replay")
+        };
+        let c = args.engine.config().unwrap();
+        assert_eq!(c.delta, 0.5);
+        assert!(c.learn_within_routine);
+        assert_eq!(c.max_misfit, Some(2.5));
+        assert_eq!(c.max_end_prob, None);
+        assert!(!c.scale.enabled);
+        assert_eq!(c.merge, MergeRule::Total);
+    }
+
+    #[test]
+    fn invalid_values_are_errors_not_panics() {
+        let cli = parse(&["nextpose", "replay", "x.json", "--delta", "1.5"]);
+        let err = run_cli(cli).unwrap_err();
+        assert!(format!("{err:#}").contains("delta"), "{err:#}");
+        assert!(
+            Cli::try_parse_from(["nextpose", "replay", "x.json", "--max-spread", "lots"]).is_err()
+        );
+        let cli = parse(&["nextpose", "sweep", "x.json", "--horizons", "1,0"]);
+        let err = run_cli(cli).unwrap_err();
+        assert!(format!("{err:#}").contains("x.json"), "{err:#}");
+    }
+}

@@ -1,3 +1,28 @@
-//! Replay recorded programs through the engine and baselines (ALGORITHM §5).
+//! Replay: the product's scoreboard (ALGORITHM §5, seed §4.3.1).
+//!
+//! Recorded programs are played back waypoint by waypoint, as an operator would have taught
+//! them, through the engine and through baselines that any learned model must beat. Every method
+//! implements the same [`Method`] trait and is measured by the same harness on the same
+//! waypoints, so the figures are comparable.
+//!
+//! - [`corpus`]: reads the shared corpus's JSON programs into [`Program`]s.
+//! - [`method`]: the [`Method`] trait every predictor implements.
+//! - [`engine_method`]: the engine behind that trait.
+//! - [`baselines`]: repeat-last-move and nearest-sequence.
+//! - [`metrics`]: the replay loop ([`replay_program`]) and the figures computed from it.
+//! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
+//! - [`sweep`]: the engine over a grid of settings.
+
+pub mod baselines;
+pub mod corpus;
 pub mod engine_method;
 pub mod method;
+pub mod metrics;
+pub mod report;
+pub mod sweep;
+
+pub use corpus::{CorpusError, Program, Routine, load_paths};
+pub use method::{Guess, Method, ModelSummary};
+pub use metrics::{Metrics, ProgramRecord, WaypointRecord, replay_program};
+pub use report::{Report, RunConfig, replay_all};
+pub use sweep::{SweepRow, sweep};

@@ -1,0 +1,279 @@
+//! Loading recorded programs from the shared corpus's JSON reading (`corpus/README.md`).
+//!
+//! Replay needs real programs as ordered waypoint lists. The corpus ships each program as one
+//! JSON file (`source`, `language`, `routines[].waypoints[]` with `x y z qw qx qy qz`); this module
+//! reads exactly that and turns every waypoint into a validated [`Pose`]. Fields the harness does
+//! not use (`role`, `motion`, `line`, `stats`, `units`, ...) are ignored, so the corpus may grow
+//! fields without breaking replay.
+//!
+//! Raw robot source (RAPID, KRL, FANUC TP) is not parsed here: that belongs to the importer, a
+//! later piece of work. Handing such a file to the loader is a clear error, not a guess.
+//!
+//! Every failure names the file it came from, and a bad waypoint also names its routine and
+//! index, because the person reading the message has 36 files and 3,587 waypoints to look at.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use thiserror::Error;
+
+use crate::engine::{Pose, PoseError};
+
+/// One recorded program: the routines of one corpus file, in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    /// The file stem (`ravenorb__abb-robot-welder__RAPID__PROGMOD__ProgSide1.mod`).
+    pub name: String,
+    /// Where the program was read from.
+    pub source: PathBuf,
+    /// Source language as recorded in the corpus: `rapid`, `krl` or `fanuc`.
+    pub language: String,
+    pub routines: Vec<Routine>,
+}
+
+/// One routine (RAPID `PROC`, KRL `DEF`, a FANUC TP file): waypoints in the order visited.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Routine {
+    pub name: String,
+    pub waypoints: Vec<Pose>,
+}
+
+impl Program {
+    /// Number of waypoints over all routines.
+    pub fn waypoint_count(&self) -> usize {
+        self.routines.iter().map(|r| r.waypoints.len()).sum()
+    }
+}
+
+/// Why a corpus file could not be loaded. Every variant names the file; the underlying cause
+/// (I/O error, pose error) is the error's `source()`, so print the chain (`{:#}` with anyhow).
+#[derive(Debug, Error)]
+pub enum CorpusError {
+    #[error("{}: cannot read", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}:{line}:{column}: not a corpus program: {message}", path.display())]
+    Json {
+        path: PathBuf,
+        /// 1-based line of the error, as reported by serde_json (0 when unknown).
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{}: routine {routine:?}, waypoint {index}: invalid pose", path.display())]
+    InvalidPose {
+        path: PathBuf,
+        routine: String,
+        /// 0-based index of the waypoint in its routine.
+        index: usize,
+        #[source]
+        source: PoseError,
+    },
+    #[error(
+        "{}: only corpus JSON files (*.json, see corpus/README.md) are supported for now; \
+         raw RAPID/KRL/FANUC source is not parsed yet",
+        path.display()
+    )]
+    Unsupported { path: PathBuf },
+    #[error(
+        "{}: directory holds no *.json corpus files (only corpus JSON is supported for now; \
+         raw RAPID/KRL/FANUC source is not parsed yet)",
+        path.display()
+    )]
+    EmptyDirectory { path: PathBuf },
+}
+
+/// The corpus file format, as far as replay needs it (unknown fields are ignored).
+#[derive(Deserialize)]
+struct RawProgram {
+    language: String,
+    routines: Vec<RawRoutine>,
+}
+
+#[derive(Deserialize)]
+struct RawRoutine {
+    name: String,
+    waypoints: Vec<RawWaypoint>,
+}
+
+#[derive(Deserialize)]
+struct RawWaypoint {
+    x: f64,
+    y: f64,
+    z: f64,
+    qw: f64,
+    qx: f64,
+    qy: f64,
+    qz: f64,
+}
+
+/// Loads programs from files and directories, in the order given; a directory contributes all
+/// its `*.json` files sorted by file name (not recursive), so replay order is reproducible.
+pub fn load_paths<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<Program>, CorpusError> {
+    let mut programs = Vec::new();
+    for path in paths {
+        let path = path.as_ref();
+        if path.is_dir() {
+            programs.extend(load_dir(path)?);
+        } else {
+            programs.push(load_file(path)?);
+        }
+    }
+    Ok(programs)
+}
+
+/// Loads every `*.json` file of a directory, sorted by file name.
+pub fn load_dir(dir: &Path) -> Result<Vec<Program>, CorpusError> {
+    let io_error = |source| CorpusError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut files = Vec::new();
+    for entry in fs::read_dir(dir).map_err(io_error)? {
+        let path = entry.map_err(io_error)?.path();
+        if path.is_file() && has_json_extension(&path) {
+            files.push(path);
+        }
+    }
+    if files.is_empty() {
+        return Err(CorpusError::EmptyDirectory {
+            path: dir.to_path_buf(),
+        });
+    }
+    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    files.iter().map(|f| load_file(f)).collect()
+}
+
+/// Loads one corpus JSON file.
+pub fn load_file(path: &Path) -> Result<Program, CorpusError> {
+    // A missing file is reported as missing, whatever its extension.
+    fs::metadata(path).map_err(|source| CorpusError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if !has_json_extension(path) {
+        return Err(CorpusError::Unsupported {
+            path: path.to_path_buf(),
+        });
+    }
+    let text = fs::read_to_string(path).map_err(|source| CorpusError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_program(path, &text)
+}
+
+/// Parses the text of a corpus file; `path` names the program and appears in errors.
+pub fn parse_program(path: &Path, text: &str) -> Result<Program, CorpusError> {
+    let raw: RawProgram = serde_json::from_str(text).map_err(|e| CorpusError::Json {
+        path: path.to_path_buf(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })?;
+    let mut routines = Vec::with_capacity(raw.routines.len());
+    for r in raw.routines {
+        let mut waypoints = Vec::with_capacity(r.waypoints.len());
+        for (index, w) in r.waypoints.iter().enumerate() {
+            let pose = Pose::new([w.x, w.y, w.z], [w.qw, w.qx, w.qy, w.qz]).map_err(|source| {
+                CorpusError::InvalidPose {
+                    path: path.to_path_buf(),
+                    routine: r.name.clone(),
+                    index,
+                    source,
+                }
+            })?;
+            waypoints.push(pose);
+        }
+        routines.push(Routine {
+            name: r.name,
+            waypoints,
+        });
+    }
+    Ok(Program {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        source: path.to_path_buf(),
+        language: raw.language,
+        routines,
+    })
+}
+
+fn has_json_extension(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ONE: &str = r#"{"source": {"repo": "r"}, "language": "rapid", "stats": {"waypoints": 2},
+        "routines": [{"name": "main", "kind": "PROC", "waypoints": [
+          {"name": "p10", "x": 0, "y": 0, "z": 0, "qw": 1, "qx": 0, "qy": 0, "qz": 0, "motion": "MoveL"},
+          {"name": "p20", "x": 10, "y": 0, "z": 0, "qw": 1, "qx": 0, "qy": 0, "qz": 0, "role": "via"}]}]}"#;
+
+    #[test]
+    fn parses_and_ignores_unknown_fields() {
+        let p = parse_program(Path::new("dir/prog.mod.json"), ONE).unwrap();
+        assert_eq!(p.name, "prog.mod");
+        assert_eq!(p.language, "rapid");
+        assert_eq!(p.routines.len(), 1);
+        assert_eq!(p.routines[0].name, "main");
+        assert_eq!(p.waypoint_count(), 2);
+        assert!((p.routines[0].waypoints[1].position().x - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_quaternion_names_routine_and_index() {
+        let text = ONE.replace(
+            r#""x": 10, "y": 0, "z": 0, "qw": 1"#,
+            r#""x": 10, "y": 0, "z": 0, "qw": 2"#,
+        );
+        let err = parse_program(Path::new("prog.json"), &text).unwrap_err();
+        match &err {
+            CorpusError::InvalidPose { routine, index, .. } => {
+                assert_eq!(routine, "main");
+                assert_eq!(*index, 1);
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+        let msg = err.to_string();
+        assert!(
+            msg.contains("prog.json") && msg.contains("\"main\"") && msg.contains("waypoint 1"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn json_error_has_line_and_column() {
+        let err = parse_program(
+            Path::new("broken.json"),
+            "{\n  \"language\": \"rapid\",\n  \"routines\": [\n",
+        )
+        .unwrap_err();
+        match err {
+            CorpusError::Json { line, .. } => assert!(line >= 3),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    #[test]
+    fn non_json_file_is_refused_clearly_and_missing_file_is_missing() {
+        let err = load_file(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/Cargo.toml"
+        )))
+        .unwrap_err();
+        assert!(matches!(err, CorpusError::Unsupported { .. }));
+        assert!(err.to_string().contains("only corpus JSON"));
+        let err = load_file(Path::new("no/such/MainModule.mod")).unwrap_err();
+        assert!(matches!(err, CorpusError::Io { .. }));
+    }
+}

@@ -1,0 +1,409 @@
+//! What replay measures, and the figures computed from it (ALGORITHM §5, seed §4.3.1).
+//!
+//! [`replay_program`] plays one recorded program through a [`Method`] exactly as an operator
+//! would have taught it, and keeps one [`WaypointRecord`] per waypoint that had a predecessor.
+//! [`Metrics`] turns a set of records into the scoreboard figures. Records are kept raw so that
+//! totals are pooled over waypoints (not averaged over programs): a 6-waypoint program does not
+//! weigh as much as the 836-waypoint welding cell.
+//!
+//! Two populations are reported. The headline one is waypoints with at least two predecessors
+//! (`n ≥ 2`): every method, including repeat-last, has a move to go on there, so the comparison is
+//! fair. The `*_n1` figures add the second waypoint of each routine (`n = 1`), where only a
+//! learned model (or the nearest-sequence fallback) can guess the first move.
+//!
+//! *Useful* means the operator could accept the guess as taught: within 1 mm and 0.1 rad
+//! (arc-welding tolerance). *Saved* is a rough share of teaching effort saved: each useful guess
+//! saves ~90 % of teaching a waypoint, each offered-but-wrong guess costs ~10 % (reading and
+//! rejecting it).
+
+use std::time::Instant;
+
+use serde::Serialize;
+use statrs::statistics::{Data, Median};
+
+use super::corpus::Program;
+use super::method::{Method, ModelSummary};
+
+/// A guess is useful when its position error is at most this (mm)...
+pub const USEFUL_MAX_MM: f64 = 1.0;
+/// ...and its orientation error at most this (rad).
+pub const USEFUL_MAX_RAD: f64 = 0.1;
+
+/// One predicted waypoint `w[n]` (`n ≥ 1`) of one routine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WaypointRecord {
+    /// Routine index in the program.
+    pub routine: usize,
+    /// Number of waypoints taught before this one in its routine (`n`).
+    pub predecessors: usize,
+    /// Whether the method offered a guess.
+    pub offered: bool,
+    /// Position error of the guess, mm (offered only).
+    pub cart_mm: Option<f64>,
+    /// Geodesic orientation error of the guess, rad (offered only).
+    pub angle_rad: Option<f64>,
+    /// Distance actually travelled from `w[n-1]` to `w[n]`, mm.
+    pub travel_mm: f64,
+    /// Angle actually turned from `w[n-1]` to `w[n]`, rad.
+    pub travel_rad: f64,
+    /// The method's own confidence figure (higher = more sure), when it has one.
+    pub confidence: Option<f64>,
+    /// Engine only: φ.
+    pub phi: Option<f64>,
+    /// Engine only: ψ̂.
+    pub psi: Option<f64>,
+    /// Wall-clock time of `predict` + `observe` for this waypoint, µs. Measured, never asserted.
+    pub micros: f64,
+}
+
+impl WaypointRecord {
+    /// Offered, within [`USEFUL_MAX_MM`] and [`USEFUL_MAX_RAD`].
+    pub fn useful(&self) -> bool {
+        self.offered
+            && self.cart_mm.is_some_and(|e| e <= USEFUL_MAX_MM)
+            && self.angle_rad.is_some_and(|e| e <= USEFUL_MAX_RAD)
+    }
+}
+
+/// Everything one method did on one program.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramRecord {
+    pub program: String,
+    pub language: String,
+    pub method: String,
+    pub waypoints: Vec<WaypointRecord>,
+    /// The method's model size after the whole program.
+    pub summary: Option<ModelSummary>,
+}
+
+/// Replays one program through `method` (ALGORITHM §5), in the call order documented on
+/// [`Method`]: `reset`; per routine, for each `n ≥ 1` `predict(&w[..n])` then `observe(&w[..=n])`
+/// (and `observe(&w[..1])` for the first waypoint); `finish_routine(&w)` at the end.
+pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramRecord {
+    method.reset();
+    let mut waypoints = Vec::new();
+    for (routine_index, routine) in program.routines.iter().enumerate() {
+        let w = &routine.waypoints;
+        for n in 0..w.len() {
+            if n == 0 {
+                method.observe(&w[..1]);
+                continue;
+            }
+            let start = Instant::now();
+            let guess = method.predict(&w[..n]);
+            method.observe(&w[..=n]);
+            let micros = start.elapsed().as_secs_f64() * 1e6;
+            let (prev, truth) = (&w[n - 1], &w[n]);
+            waypoints.push(WaypointRecord {
+                routine: routine_index,
+                predecessors: n,
+                offered: guess.is_some(),
+                cart_mm: guess.as_ref().map(|g| g.pose.distance_to(truth)),
+                angle_rad: guess.as_ref().map(|g| g.pose.angle_to(truth)),
+                travel_mm: prev.distance_to(truth),
+                travel_rad: prev.angle_to(truth),
+                confidence: guess.as_ref().and_then(|g| g.confidence),
+                phi: guess.as_ref().and_then(|g| g.phi),
+                psi: guess.as_ref().and_then(|g| g.psi),
+                micros,
+            });
+        }
+        method.finish_routine(w);
+    }
+    ProgramRecord {
+        program: program.name.clone(),
+        language: program.language.clone(),
+        method: method.name().to_string(),
+        waypoints,
+        summary: method.summary(),
+    }
+}
+
+/// Accuracy figures of one population of waypoints (see the module doc).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Accuracy {
+    pub predictable: usize,
+    pub offered: usize,
+    pub useful: usize,
+    /// Offered / predictable, %.
+    pub offered_pct: Option<f64>,
+    /// Useful / predictable, %.
+    pub useful_pct: Option<f64>,
+    /// Useful / offered, % (`None` when nothing was offered).
+    pub precision_pct: Option<f64>,
+    /// `0.9 · useful_pct − 0.1 · (offered_pct − useful_pct)`.
+    pub saved_pct: Option<f64>,
+    /// Medians over offered guesses.
+    pub median_cart_mm: Option<f64>,
+    pub median_angle_rad: Option<f64>,
+    /// Median of error / travel × 100 over offered guesses with non-zero travel.
+    pub median_cart_pct_travel: Option<f64>,
+    pub median_angle_pct_travel: Option<f64>,
+    /// Rank correlation of confidence with Cartesian error over offered guesses (a useful
+    /// confidence is strongly negative).
+    pub spearman_conf_err: Option<f64>,
+    pub pearson_conf_err: Option<f64>,
+    /// Rank correlation of φ with Cartesian error (engine only).
+    pub spearman_phi_err: Option<f64>,
+}
+
+impl Accuracy {
+    /// Figures over `records` (already restricted to the population).
+    pub fn of<'a>(records: impl IntoIterator<Item = &'a WaypointRecord>) -> Accuracy {
+        let records: Vec<&WaypointRecord> = records.into_iter().collect();
+        let offered: Vec<&WaypointRecord> = records.iter().copied().filter(|r| r.offered).collect();
+        let predictable = records.len();
+        let useful = records.iter().filter(|r| r.useful()).count();
+        let pct = |k: usize, of: usize| (of > 0).then(|| 100.0 * k as f64 / of as f64);
+        let offered_pct = pct(offered.len(), predictable);
+        let useful_pct = pct(useful, predictable);
+        let saved_pct = match (offered_pct, useful_pct) {
+            (Some(o), Some(u)) => Some(saved_pct(o, u)),
+            _ => None,
+        };
+
+        let cart: Vec<f64> = offered.iter().filter_map(|r| r.cart_mm).collect();
+        let angle: Vec<f64> = offered.iter().filter_map(|r| r.angle_rad).collect();
+        let cart_pct: Vec<f64> = offered
+            .iter()
+            .filter(|r| r.travel_mm > 0.0)
+            .filter_map(|r| r.cart_mm.map(|e| 100.0 * e / r.travel_mm))
+            .collect();
+        let angle_pct: Vec<f64> = offered
+            .iter()
+            .filter(|r| r.travel_rad > 0.0)
+            .filter_map(|r| r.angle_rad.map(|e| 100.0 * e / r.travel_rad))
+            .collect();
+        let pairs = |key: fn(&WaypointRecord) -> Option<f64>| -> (Vec<f64>, Vec<f64>) {
+            offered
+                .iter()
+                .filter_map(|r| Some((key(r)?, r.cart_mm?)))
+                .filter(|(a, b)| a.is_finite() && b.is_finite())
+                .unzip()
+        };
+        let (conf, conf_err) = pairs(|r| r.confidence);
+        let (phi, phi_err) = pairs(|r| r.phi);
+
+        Accuracy {
+            predictable,
+            offered: offered.len(),
+            useful,
+            offered_pct,
+            useful_pct,
+            precision_pct: pct(useful, offered.len()),
+            saved_pct,
+            median_cart_mm: median(&cart),
+            median_angle_rad: median(&angle),
+            median_cart_pct_travel: median(&cart_pct),
+            median_angle_pct_travel: median(&angle_pct),
+            spearman_conf_err: spearman(&conf, &conf_err),
+            pearson_conf_err: pearson(&conf, &conf_err),
+            spearman_phi_err: spearman(&phi, &phi_err),
+        }
+    }
+}
+
+/// Share of teaching effort saved, %: a useful guess saves 90 % of a waypoint, a wrong one that
+/// was offered costs 10 % (the operator reads and rejects it).
+pub fn saved_pct(offered_pct: f64, useful_pct: f64) -> f64 {
+    0.9 * useful_pct - 0.1 * (offered_pct - useful_pct)
+}
+
+/// The scoreboard line of one method on one program or on the whole corpus. Serialised as-is in
+/// the JSON report (a stable interface: add fields, do not rename them). Figures that cannot be
+/// computed (nothing offered, too few points) are `null`, never NaN.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Waypoints with at least two predecessors.
+    pub predictable: usize,
+    pub offered: usize,
+    pub useful: usize,
+    pub offered_pct: Option<f64>,
+    pub useful_pct: Option<f64>,
+    pub precision_pct: Option<f64>,
+    pub saved_pct: Option<f64>,
+    pub median_cart_mm: Option<f64>,
+    pub median_angle_rad: Option<f64>,
+    pub median_cart_pct_travel: Option<f64>,
+    pub median_angle_pct_travel: Option<f64>,
+    pub spearman_conf_err: Option<f64>,
+    pub pearson_conf_err: Option<f64>,
+    pub spearman_phi_err: Option<f64>,
+    /// The same with the routines' second waypoints added (at least one predecessor).
+    pub predictable_n1: usize,
+    pub offered_n1: usize,
+    pub useful_n1: usize,
+    pub offered_pct_n1: Option<f64>,
+    pub useful_pct_n1: Option<f64>,
+    pub precision_pct_n1: Option<f64>,
+    pub saved_pct_n1: Option<f64>,
+    pub median_cart_mm_n1: Option<f64>,
+    pub median_angle_rad_n1: Option<f64>,
+    pub spearman_conf_err_n1: Option<f64>,
+    /// Model size after the program (totals: summed over programs).
+    pub states: Option<usize>,
+    pub edges: Option<usize>,
+    /// Mean out-degree (totals: mean over programs).
+    pub perplexity: Option<f64>,
+    /// Mean wall-clock time of predict + observe per predicted waypoint (n ≥ 1), µs.
+    pub us_per_waypoint: Option<f64>,
+}
+
+impl Metrics {
+    /// Figures of one method on one program.
+    pub fn of_program(record: &ProgramRecord) -> Metrics {
+        Metrics::of_programs(std::slice::from_ref(record))
+    }
+
+    /// Figures pooled over the programs' waypoints; model sizes summed, perplexity averaged.
+    pub fn of_programs<'a>(records: impl IntoIterator<Item = &'a ProgramRecord>) -> Metrics {
+        let records: Vec<&ProgramRecord> = records.into_iter().collect();
+        let all = || records.iter().flat_map(|p| p.waypoints.iter());
+        let n2 = Accuracy::of(all().filter(|r| r.predecessors >= 2));
+        let n1 = Accuracy::of(all().filter(|r| r.predecessors >= 1));
+        let summaries: Vec<&ModelSummary> =
+            records.iter().filter_map(|p| p.summary.as_ref()).collect();
+        let (states, edges, perplexity) = if summaries.is_empty() {
+            (None, None, None)
+        } else {
+            let perplexities: Vec<f64> = summaries.iter().map(|s| s.perplexity).collect();
+            (
+                Some(summaries.iter().map(|s| s.states).sum()),
+                Some(summaries.iter().map(|s| s.edges).sum()),
+                mean(&perplexities),
+            )
+        };
+        let times: Vec<f64> = all().map(|r| r.micros).collect();
+        Metrics {
+            predictable: n2.predictable,
+            offered: n2.offered,
+            useful: n2.useful,
+            offered_pct: n2.offered_pct,
+            useful_pct: n2.useful_pct,
+            precision_pct: n2.precision_pct,
+            saved_pct: n2.saved_pct,
+            median_cart_mm: n2.median_cart_mm,
+            median_angle_rad: n2.median_angle_rad,
+            median_cart_pct_travel: n2.median_cart_pct_travel,
+            median_angle_pct_travel: n2.median_angle_pct_travel,
+            spearman_conf_err: n2.spearman_conf_err,
+            pearson_conf_err: n2.pearson_conf_err,
+            spearman_phi_err: n2.spearman_phi_err,
+            predictable_n1: n1.predictable,
+            offered_n1: n1.offered,
+            useful_n1: n1.useful,
+            offered_pct_n1: n1.offered_pct,
+            useful_pct_n1: n1.useful_pct,
+            precision_pct_n1: n1.precision_pct,
+            saved_pct_n1: n1.saved_pct,
+            median_cart_mm_n1: n1.median_cart_mm,
+            median_angle_rad_n1: n1.median_angle_rad,
+            spearman_conf_err_n1: n1.spearman_conf_err,
+            states,
+            edges,
+            perplexity,
+            us_per_waypoint: mean(&times),
+        }
+    }
+}
+
+/// `Some(x)` when `x` is finite: JSON has no NaN, and a NaN figure means "not computable".
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// Median of finite values; `None` for an empty slice.
+pub fn median(values: &[f64]) -> Option<f64> {
+    let values: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if values.is_empty() {
+        return None;
+    }
+    finite(Data::new(values).median())
+}
+
+fn mean(values: &[f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    finite(values.iter().sum::<f64>() / values.len() as f64)
+}
+
+/// Pearson correlation; `None` with fewer than 3 pairs, unequal lengths or zero variance.
+pub fn pearson(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || a.len() < 3 {
+        return None;
+    }
+    let ma = mean(a)?;
+    let mb = mean(b)?;
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        let (dx, dy) = (x - ma, y - mb);
+        sab += dx * dy;
+        saa += dx * dx;
+        sbb += dy * dy;
+    }
+    if saa <= 0.0 || sbb <= 0.0 {
+        return None;
+    }
+    finite((sab / (saa.sqrt() * sbb.sqrt())).clamp(-1.0, 1.0))
+}
+
+/// Spearman rank correlation: Pearson of the ranks, tied values sharing their average rank.
+pub fn spearman(a: &[f64], b: &[f64]) -> Option<f64> {
+    if a.len() != b.len() || a.len() < 3 {
+        return None;
+    }
+    pearson(&average_ranks(a), &average_ranks(b))
+}
+
+/// 1-based ranks; a run of equal values gets the mean of the ranks it spans.
+pub fn average_ranks(values: &[f64]) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..values.len()).collect();
+    order.sort_by(|&i, &j| values[i].total_cmp(&values[j]));
+    let mut ranks = vec![0.0; values.len()];
+    let mut start = 0;
+    while start < order.len() {
+        let mut end = start + 1;
+        while end < order.len() && values[order[end]] == values[order[start]] {
+            end += 1;
+        }
+        // Positions start..end hold ranks start+1 ..= end; their mean:
+        let rank = (start + 1 + end) as f64 / 2.0;
+        for &i in &order[start..end] {
+            ranks[i] = rank;
+        }
+        start = end;
+    }
+    ranks
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranks_average_ties() {
+        assert_eq!(
+            average_ranks(&[10.0, 20.0, 10.0, 30.0]),
+            [1.5, 3.0, 1.5, 4.0]
+        );
+        assert_eq!(average_ranks(&[]), Vec::<f64>::new());
+    }
+
+    #[test]
+    fn correlations_need_three_points_and_variance() {
+        assert_eq!(pearson(&[1.0, 2.0], &[1.0, 2.0]), None);
+        assert_eq!(pearson(&[1.0, 1.0, 1.0], &[1.0, 2.0, 3.0]), None);
+        let r = pearson(&[1.0, 2.0, 3.0], &[2.0, 4.0, 6.0]).unwrap();
+        assert!((r - 1.0).abs() < 1e-12);
+        let s = spearman(&[1.0, 2.0, 3.0, 4.0], &[1.0, 8.0, 27.0, 64.0]).unwrap();
+        assert!((s - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn median_skips_non_finite_and_empty() {
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[3.0, f64::NAN, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), Some(2.5));
+    }
+}

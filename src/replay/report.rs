@@ -1,0 +1,285 @@
+//! The replay report: every method on every program, as JSON (a stable interface for scripts
+//! and for comparing runs) and as plain text tables (for people).
+//!
+//! JSON shape:
+//!
+//! ```text
+//! { "config":   { ...EngineConfig fields..., "profile", "nearest_seq_gate", "useful_max_mm", ... },
+//!   "totals":   { "<method>": { ...Metrics... }, ... },
+//!   "programs": [ { "program": name, "language": ..., "methods": { "<method>": { ...Metrics... } } } ] }
+//! ```
+//!
+//! Methods appear in the order they were run (engine first), in JSON objects and tables alike.
+
+use std::fmt::Write as _;
+
+use serde::ser::SerializeMap;
+use serde::{Serialize, Serializer};
+
+use crate::engine::EngineConfig;
+
+use super::corpus::Program;
+use super::method::Method;
+use super::metrics::{Metrics, ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+
+/// The settings a report was produced with.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunConfig {
+    /// Profile the engine configuration started from (before command-line overrides).
+    pub profile: String,
+    #[serde(flatten)]
+    pub engine: EngineConfig,
+    /// Gate of the gated nearest-sequence baselines (mean squared Mahalanobis distance per move).
+    pub nearest_seq_gate: f64,
+    pub useful_max_mm: f64,
+    pub useful_max_rad: f64,
+}
+
+impl RunConfig {
+    pub fn new(profile: &str, engine: EngineConfig, nearest_seq_gate: f64) -> RunConfig {
+        RunConfig {
+            profile: profile.to_string(),
+            engine,
+            nearest_seq_gate,
+            useful_max_mm: USEFUL_MAX_MM,
+            useful_max_rad: USEFUL_MAX_RAD,
+        }
+    }
+}
+
+/// Metrics by method name, kept in run order (serialised as a JSON object in that order).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MethodMetrics(pub Vec<(String, Metrics)>);
+
+impl MethodMetrics {
+    pub fn get(&self, method: &str) -> Option<&Metrics> {
+        self.0.iter().find(|(m, _)| m == method).map(|(_, x)| x)
+    }
+}
+
+impl Serialize for MethodMetrics {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (name, metrics) in &self.0 {
+            map.serialize_entry(name, metrics)?;
+        }
+        map.end()
+    }
+}
+
+/// One program's line in the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProgramReport {
+    pub program: String,
+    pub language: String,
+    pub methods: MethodMetrics,
+}
+
+/// Result of replaying a set of programs through a set of methods.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    pub config: RunConfig,
+    pub totals: MethodMetrics,
+    pub programs: Vec<ProgramReport>,
+}
+
+/// Replays every program through every method and computes per-program and pooled figures.
+/// Each method sees each program from an empty model (`reset`).
+pub fn replay_all(
+    programs: &[Program],
+    methods: &mut [Box<dyn Method>],
+    config: RunConfig,
+) -> Report {
+    // records[m][p]: method m on program p.
+    let records: Vec<Vec<ProgramRecord>> = methods
+        .iter_mut()
+        .map(|m| {
+            programs
+                .iter()
+                .map(|p| replay_program(p, m.as_mut()))
+                .collect()
+        })
+        .collect();
+    let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
+    let totals = MethodMetrics(
+        names
+            .iter()
+            .zip(&records)
+            .map(|(name, recs)| (name.clone(), Metrics::of_programs(recs)))
+            .collect(),
+    );
+    let programs = programs
+        .iter()
+        .enumerate()
+        .map(|(p, program)| ProgramReport {
+            program: program.name.clone(),
+            language: program.language.clone(),
+            methods: MethodMetrics(
+                names
+                    .iter()
+                    .zip(&records)
+                    .map(|(name, recs)| (name.clone(), Metrics::of_program(&recs[p])))
+                    .collect(),
+            ),
+        })
+        .collect();
+    Report {
+        config,
+        totals,
+        programs,
+    }
+}
+
+impl Report {
+    /// Per-program table of one method (the engine in the CLI).
+    pub fn program_table(&self, method: &str) -> String {
+        let mut t = Table::new(&[
+            "program",
+            "lang",
+            "pred n≥2",
+            "offered %",
+            "useful %",
+            "precision %",
+            "saved %",
+            "median mm",
+            "states",
+        ]);
+        for p in &self.programs {
+            let Some(m) = p.methods.get(method) else {
+                continue;
+            };
+            t.row(vec![
+                p.program.clone(),
+                p.language.clone(),
+                m.predictable.to_string(),
+                fmt(m.offered_pct, 1),
+                fmt(m.useful_pct, 1),
+                fmt(m.precision_pct, 1),
+                fmt(m.saved_pct, 1),
+                fmt(m.median_cart_mm, 3),
+                m.states.map_or_else(|| "-".to_string(), |s| s.to_string()),
+            ]);
+        }
+        format!("{method}, per program:\n{}", t.render())
+    }
+
+    /// Totals, one row per method.
+    pub fn totals_table(&self) -> String {
+        let mut t = Table::new(&[
+            "method",
+            "pred n≥2",
+            "pred n≥1",
+            "offered %",
+            "useful %",
+            "precision %",
+            "saved %",
+            "median mm",
+            "median rad",
+            "Spearman",
+            "µs/waypoint",
+        ]);
+        for (name, m) in &self.totals.0 {
+            t.row(vec![
+                name.clone(),
+                m.predictable.to_string(),
+                m.predictable_n1.to_string(),
+                fmt(m.offered_pct, 1),
+                fmt(m.useful_pct, 1),
+                fmt(m.precision_pct, 1),
+                fmt(m.saved_pct, 1),
+                fmt(m.median_cart_mm, 3),
+                fmt(m.median_angle_rad, 4),
+                fmt(m.spearman_conf_err, 2),
+                fmt(m.us_per_waypoint, 1),
+            ]);
+        }
+        let programs = self.programs.len();
+        format!(
+            "Totals over {programs} program(s), waypoints with ≥ 2 predecessors \
+             (useful: ≤ {} mm and ≤ {} rad):\n{}",
+            self.config.useful_max_mm,
+            self.config.useful_max_rad,
+            t.render()
+        )
+    }
+}
+
+/// A figure with `digits` decimals, `-` when not computable.
+pub fn fmt(value: Option<f64>, digits: usize) -> String {
+    value.map_or_else(|| "-".to_string(), |v| format!("{v:.digits$}"))
+}
+
+/// A plain text table: first column left-aligned, the others right-aligned (they are numbers),
+/// columns separated by two spaces. Width is counted in characters, so `µ` and `≥` align.
+#[derive(Debug, Clone)]
+pub struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    pub fn new(header: &[&str]) -> Table {
+        Table {
+            header: header.iter().map(|h| h.to_string()).collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Adds a row; missing cells are blank, extra cells are dropped.
+    pub fn row(&mut self, mut cells: Vec<String>) {
+        cells.resize(self.header.len(), String::new());
+        self.rows.push(cells);
+    }
+
+    pub fn render(&self) -> String {
+        let width = |s: &str| s.chars().count();
+        let mut widths: Vec<usize> = self.header.iter().map(|h| width(h)).collect();
+        for row in &self.rows {
+            for (w, cell) in widths.iter_mut().zip(row) {
+                *w = (*w).max(width(cell));
+            }
+        }
+        let mut out = String::new();
+        let mut line = |cells: &[String]| {
+            let mut text = String::new();
+            for (i, (cell, w)) in cells.iter().zip(&widths).enumerate() {
+                let pad = " ".repeat(w - width(cell));
+                if i > 0 {
+                    text.push_str("  ");
+                }
+                if i == 0 {
+                    text.push_str(cell);
+                    text.push_str(&pad);
+                } else {
+                    text.push_str(&pad);
+                    text.push_str(cell);
+                }
+            }
+            let _ = writeln!(out, "{}", text.trim_end());
+        };
+        line(&self.header);
+        let rule: Vec<String> = widths.iter().map(|w| "-".repeat(*w)).collect();
+        line(&rule);
+        for row in &self.rows {
+            line(row);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_aligns_by_characters() {
+        let mut t = Table::new(&["name", "µs"]);
+        t.row(vec!["a".into(), "1.5".into()]);
+        t.row(vec!["long name".into(), "12.25".into()]);
+        let text = t.render();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "name          µs");
+        assert_eq!(lines[2], "a            1.5");
+        assert_eq!(lines[3], "long name  12.25");
+    }
+}
