@@ -78,6 +78,11 @@ pub struct EngineConfig {
     /// treated as not explaining it, which bounds the forward pass to nearby states (found with a
     /// k-d tree). None: every state takes part (the seed).
     pub match_radius: Option<f64>,
+    /// When the window matches nothing learned, retry with its last `h − 1` moves, down to one.
+    pub backoff: bool,
+    /// A backed-off window's proposal is offered only when the shortened context was followed by
+    /// it at least this many times (`support`); one repetition of a one-move context is a guess.
+    pub backoff_min_support: f64,
     pub scale: ScaleConfig,
 }
 
@@ -133,6 +138,8 @@ impl EngineConfig {
             max_spread: None,
             max_end_prob: None,
             match_radius: None,
+            backoff: false,
+            backoff_min_support: 2.0,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -150,6 +157,7 @@ impl EngineConfig {
                 max_spread: Some(0.5),
                 max_end_prob: Some(0.5),
                 match_radius: Some(6.0),
+                backoff: true,
                 ..seed
             },
         }
@@ -188,6 +196,7 @@ impl EngineConfig {
             ("max_spread", self.max_spread),
             ("max_end_prob", self.max_end_prob),
             ("match_radius", self.match_radius),
+            ("backoff_min_support", Some(self.backoff_min_support)),
             ("scale.min_gain", Some(sc.min_gain)),
         ];
         for (name, value) in thresholds {

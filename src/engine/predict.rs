@@ -41,6 +41,8 @@ pub struct PredictOptions {
     pub max_spread: Option<f64>,
     pub max_end_prob: Option<f64>,
     pub match_radius: Option<f64>,
+    pub backoff: bool,
+    pub backoff_min_support: f64,
     pub window_prior: WindowPrior,
     pub scale: ScaleConfig,
 }
@@ -54,6 +56,8 @@ impl PredictOptions {
             max_spread: c.max_spread,
             max_end_prob: c.max_end_prob,
             match_radius: c.match_radius,
+            backoff: c.backoff,
+            backoff_min_support: c.backoff_min_support,
             window_prior: c.window_prior,
             scale: c.scale,
         }
@@ -81,6 +85,8 @@ pub enum Withheld {
     LowConfidence { phi: f64 },
     /// The moves that followed the matched states disagree with each other.
     WideSpread { spread: f64 },
+    /// A shortened (backed-off) window was followed by the proposed move too few times.
+    LittleEvidence { support: f64 },
 }
 
 impl Withheld {
@@ -95,6 +101,7 @@ impl Withheld {
             Withheld::PoorMatch { .. } => "poor_match",
             Withheld::LowConfidence { .. } => "low_confidence",
             Withheld::WideSpread { .. } => "wide_spread",
+            Withheld::LittleEvidence { .. } => "little_evidence",
         }
     }
 }
@@ -116,8 +123,14 @@ pub struct Prediction {
     pub misfit: Option<f64>,
     /// Expected squared Mahalanobis distance of the next move from the proposal.
     pub spread: Option<f64>,
+    /// Evidence: the expected number of earlier continuations of the matched states that agree
+    /// with the proposal (within one σ).
+    pub support: f64,
     /// Number of states of the model asked.
     pub states: usize,
+    /// Number of most recent moves the prediction conditioned on (less than the horizon when
+    /// the routine is shorter, or after backing off).
+    pub window: usize,
     /// Why the prediction is not offered; None when it is.
     pub withheld: Option<Withheld>,
 }
@@ -141,7 +154,9 @@ impl Prediction {
             end_probability: 0.0,
             misfit: None,
             spread: None,
+            support: 0.0,
             states,
+            window: 0,
             withheld: Some(reason),
         }
     }
@@ -179,11 +194,27 @@ struct Forward {
 }
 
 /// Predicts the next move of a routine whose moves so far are `moves` (possibly none).
-pub fn predict_move(
-    graph: &ObservationGraph,
-    moves: &[Observation],
-    opts: &PredictOptions,
-) -> Prediction {
+///
+/// With `backoff`, a window of `h` moves that matches nothing learned (no match, or a misfit
+/// above the gate) is shortened to its last `h − 1` moves, and so on down to one move, like a
+/// variable-order Markov model: a long context is preferred when it was seen, a shorter one is
+/// used when it was not.
+pub fn predict_move(graph: &ObservationGraph, moves: &[Observation], opts: &PredictOptions) -> Prediction {
+    let longest = opts.horizon.min(moves.len()).max(1);
+    let shortest = if opts.backoff { 1 } else { longest };
+    let mut h = longest;
+    loop {
+        let p = predict_window(graph, moves, h, opts);
+        let unmatched = matches!(p.withheld, Some(Withheld::NoMatch | Withheld::PoorMatch { .. }));
+        if !unmatched || h <= shortest {
+            return p;
+        }
+        h -= 1;
+    }
+}
+
+/// Prediction conditioned on the last `h` moves.
+fn predict_window(graph: &ObservationGraph, moves: &[Observation], h: usize, opts: &PredictOptions) -> Prediction {
     let hmm = Hmm::new(graph);
     let states = hmm.states();
     if states == 0 {
@@ -193,15 +224,12 @@ pub fn predict_move(
         return Prediction::withheld(Withheld::TooFewStates { states }, states);
     }
 
-    let (nu, psi, misfit, end_probability) = if moves.is_empty() {
+    let (nu, psi, misfit, end_probability, matched) = if moves.is_empty() {
         // First move of a routine: ν = π.
-        let nu: Vec<(usize, f64)> = (0..states)
-            .map(|i| (i, hmm.initial(i)))
-            .filter(|(_, p)| *p > 0.0)
-            .collect();
-        (nu, 1.0, None, 0.0)
+        let nu: Vec<(usize, f64)> = (0..states).map(|i| (i, hmm.initial(i))).filter(|(_, p)| *p > 0.0).collect();
+        (nu, 1.0, None, 0.0, Vec::new())
     } else {
-        let window = &moves[moves.len() - opts.horizon.min(moves.len())..];
+        let window = &moves[moves.len() - h.min(moves.len())..];
         let prior = if window.len() == moves.len() {
             Prior::Initial
         } else {
@@ -214,8 +242,9 @@ pub fn predict_move(
             return Prediction::withheld(Withheld::NoMatch, states);
         };
         let (nu, cont) = next_state(&hmm, &fwd.last);
-        (nu, psi, Some(fwd.misfit), (1.0 - cont).clamp(0.0, 1.0))
+        (nu, psi, Some(fwd.misfit), (1.0 - cont).clamp(0.0, 1.0), fwd.last)
     };
+    let window_moves = h.min(moves.len());
 
     let total: f64 = nu.iter().map(|(_, p)| p).sum();
     if total.is_nan() || total <= 0.0 {
@@ -246,6 +275,11 @@ pub fn predict_move(
             p * ((n.mean() - mode).norm_squared() + n.scatter() / f64::from(n.count()))
         })
         .sum();
+    let support = if moves.is_empty() {
+        nu.iter().filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0).map(|(j, _)| f64::from(hmm.node(*j).initial())).sum()
+    } else {
+        agreeing_continuations(&hmm, &matched, &mode)
+    };
     // Back to raw units in the taught routine's scale; canonical quaternion.
     let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
     let relative = Move::from_observation(&relative)
@@ -262,6 +296,8 @@ pub fn predict_move(
         Some(Withheld::LowConfidence { phi })
     } else if opts.max_spread.is_some_and(|m| spread > m) {
         Some(Withheld::WideSpread { spread })
+    } else if window_moves < opts.horizon.min(moves.len()) && support < opts.backoff_min_support {
+        Some(Withheld::LittleEvidence { support })
     } else if relative.is_none() {
         Some(Withheld::NoMatch)
     } else {
@@ -275,7 +311,9 @@ pub fn predict_move(
         end_probability,
         misfit,
         spread: Some(spread),
+        support,
         states,
+        window: window_moves,
         withheld,
     }
 }
@@ -450,6 +488,24 @@ fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
     let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
     nu.sort_unstable_by_key(|e| e.0);
     (nu, cont)
+}
+
+/// Σ_i γ(i) Σ_j f(i→j)·[‖mean_j − ẑ‖ ≤ 1]: how many earlier continuations of the matched
+/// states, weighted by the posterior, led to (within one σ of) the proposal.
+fn agreeing_continuations(hmm: &Hmm, last: &[(usize, f64)], mode: &Observation) -> f64 {
+    let log_total = log_sum_exp(last.iter().map(|e| e.1));
+    last.iter()
+        .map(|&(i, a)| {
+            let gamma = (a - log_total).exp();
+            let agreeing: u32 = hmm
+                .node(i)
+                .successors()
+                .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
+                .map(|(_, f)| f)
+                .sum();
+            gamma * f64::from(agreeing)
+        })
+        .sum()
 }
 
 /// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
