@@ -83,6 +83,9 @@ pub struct EngineConfig {
     /// A backed-off window's proposal is offered only when the shortened context was followed by
     /// it at least this many times (`support`); one repetition of a one-move context is a guess.
     pub backoff_min_support: f64,
+    /// Recency weighting of transitions λ ∈ (0, 1]: each new outcome of a state multiplies the
+    /// weight of its older outcomes by λ. 1 = plain counts (the seed).
+    pub recency: f64,
     pub scale: ScaleConfig,
 }
 
@@ -140,6 +143,7 @@ impl EngineConfig {
             match_radius: None,
             backoff: false,
             backoff_min_support: 2.0,
+            recency: 1.0,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -170,6 +174,12 @@ impl EngineConfig {
         }
         if !(0.0..=1.0).contains(&self.phi_min) {
             return Err(ConfigError::PhiMin(self.phi_min));
+        }
+        if !(self.recency > 0.0 && self.recency <= 1.0) {
+            return Err(ConfigError::Threshold {
+                name: "recency",
+                value: self.recency,
+            });
         }
         if self.horizon == 0 {
             return Err(ConfigError::Horizon(self.horizon));

@@ -63,31 +63,23 @@ impl<'g> Hmm<'g> {
         }
     }
 
-    /// ξ'_i: members whose successor (or the routine's end) is known.
-    fn evidence(&self, i: usize) -> u32 {
-        let n = self.node(i).count();
-        if self.graph.pending() == Some(i) {
-            n - 1
-        } else {
-            n
-        }
-    }
-
-    /// a(j|i) for each successor j of i.
+    /// a(j|i) for each successor j of i: the successor's share of the state's known outcomes
+    /// (successors and routine ends; the pending move has none yet). With recency λ = 1 this is
+    /// `f(i→j) / ξ'_i`; with λ < 1 recent outcomes weigh more.
     pub fn transitions(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + 'g {
-        let evidence = f64::from(self.evidence(i));
-        self.node(i)
-            .successors()
-            .map(move |(j, f)| (j, f64::from(f) / evidence))
+        let node = self.node(i);
+        let total = node.outcome_weight();
+        node.weighted_successors().map(move |(j, w)| (j, w / total))
     }
 
     /// Σ_j a(j|i): probability that a routine in state i continues (0 when nothing is known).
     pub fn continue_probability(&self, i: usize) -> f64 {
-        let evidence = self.evidence(i);
-        if evidence == 0 {
-            0.0
+        let node = self.node(i);
+        let total = node.outcome_weight();
+        if total > 0.0 {
+            node.weighted_successors().map(|(_, w)| w).sum::<f64>() / total
         } else {
-            f64::from(self.node(i).out_total()) / f64::from(evidence)
+            0.0
         }
     }
 
@@ -152,5 +144,32 @@ mod tests {
         g.end_routine();
         let h = Hmm::new(&g);
         assert!((h.continue_probability(0) - 2.0 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn recency_weights_recent_outcomes_and_one_is_plain_counts() {
+        let (a, b, c) = (
+            obs([10.0, 0.0, 0.0]),
+            obs([0.0, 10.0, 0.0]),
+            obs([0.0, 0.0, 10.0]),
+        );
+        for (lambda, expect_c) in [(1.0, 0.5), (0.25, 1.0 / 1.25)] {
+            let mut g =
+                ObservationGraph::new(Metric::diagonal(1.0, 0.01).unwrap(), 0.7, MergeRule::Total)
+                    .unwrap()
+                    .with_recency(lambda)
+                    .unwrap();
+            g.assimilate_routine(&[a, b, a, c]);
+            let h = Hmm::new(&g);
+            let to_c = h
+                .transitions(0)
+                .find(|(j, _)| *j == 2)
+                .map(|(_, p)| p)
+                .unwrap();
+            assert!((to_c - expect_c).abs() < 1e-12, "λ = {lambda}: {to_c}");
+        }
+        let g = ObservationGraph::new(Metric::diagonal(1.0, 0.01).unwrap(), 0.7, MergeRule::Total)
+            .unwrap();
+        assert!(g.with_recency(0.0).is_err());
     }
 }

@@ -53,6 +53,12 @@ pub struct Node {
     out: Vec<(u32, u32)>,
     /// Σ_j f(i → j).
     out_total: u32,
+    /// Recency-weighted outcome weights, parallel to `out`: at each new outcome (a successor or
+    /// the routine's end) the older weights are multiplied by the graph's `recency` λ and the new
+    /// outcome gets 1. With λ = 1 they equal the counts.
+    weights: Vec<f64>,
+    /// Recency-weighted weight of "the routine ended after this move".
+    end_weight: f64,
 }
 
 impl Node {
@@ -64,6 +70,8 @@ impl Node {
             initial: 0,
             out: Vec::new(),
             out_total: 0,
+            weights: Vec::new(),
+            end_weight: 0.0,
         }
     }
 
@@ -107,13 +115,45 @@ impl Node {
         self.scatter += increase;
     }
 
-    fn count_edge(&mut self, to: usize) {
+    /// Recency-weighted successors: (j, weight) and the end weight.
+    pub fn weighted_successors(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.out
+            .iter()
+            .zip(&self.weights)
+            .map(|(&(j, _), &w)| (j as usize, w))
+    }
+
+    /// Total recency-weighted outcome mass (successors and end).
+    pub fn outcome_weight(&self) -> f64 {
+        self.weights.iter().sum::<f64>() + self.end_weight
+    }
+
+    fn decay(&mut self, recency: f64) {
+        if recency != 1.0 {
+            self.weights.iter_mut().for_each(|w| *w *= recency);
+            self.end_weight *= recency;
+        }
+    }
+
+    fn count_edge(&mut self, to: usize, recency: f64) {
+        self.decay(recency);
         self.out_total += 1;
         let to = to as u32;
-        match self.out.iter_mut().find(|(j, _)| *j == to) {
-            Some((_, f)) => *f += 1,
-            None => self.out.push((to, 1)),
+        match self.out.iter().position(|(j, _)| *j == to) {
+            Some(k) => {
+                self.out[k].1 += 1;
+                self.weights[k] += 1.0;
+            }
+            None => {
+                self.out.push((to, 1));
+                self.weights.push(1.0);
+            }
         }
+    }
+
+    fn count_end(&mut self, recency: f64) {
+        self.decay(recency);
+        self.end_weight += 1.0;
     }
 }
 
@@ -146,6 +186,7 @@ pub struct ObservationGraph {
     metric: Metric,
     epsilon: f64,
     merge: MergeRule,
+    recency: f64,
     nodes: Vec<Node>,
     index: NodeIndex,
     edges: usize,
@@ -165,6 +206,7 @@ impl ObservationGraph {
             metric,
             epsilon: epsilon_for_delta(delta)?,
             merge,
+            recency: 1.0,
             nodes: Vec::new(),
             index: NodeIndex::default(),
             edges: 0,
@@ -173,6 +215,18 @@ impl ObservationGraph {
             observations: 0,
             open: None,
         })
+    }
+
+    /// Recency weighting of transitions: λ ∈ (0, 1], 1 = plain counts (the seed).
+    pub fn with_recency(mut self, recency: f64) -> Result<ObservationGraph, ConfigError> {
+        if !(recency > 0.0 && recency <= 1.0) {
+            return Err(ConfigError::Threshold {
+                name: "recency",
+                value: recency,
+            });
+        }
+        self.recency = recency;
+        Ok(self)
     }
 
     pub fn metric(&self) -> &Metric {
@@ -217,7 +271,8 @@ impl ObservationGraph {
         match self.open {
             Some(OpenRoutine { last, len }) => {
                 let before = self.nodes[last].out.len();
-                self.nodes[last].count_edge(node);
+                let recency = self.recency;
+                self.nodes[last].count_edge(node, recency);
                 self.edges += self.nodes[last].out.len() - before;
                 self.open = Some(OpenRoutine {
                     last: node,
@@ -237,6 +292,8 @@ impl ObservationGraph {
     /// Does nothing when no routine is open (a routine without moves teaches nothing).
     pub fn end_routine(&mut self) {
         if let Some(open) = self.open.take() {
+            let recency = self.recency;
+            self.nodes[open.last].count_end(recency);
             self.routines += 1;
             self.depth = self.depth.max(open.len);
         }

@@ -199,13 +199,20 @@ struct Forward {
 /// above the gate) is shortened to its last `h − 1` moves, and so on down to one move, like a
 /// variable-order Markov model: a long context is preferred when it was seen, a shorter one is
 /// used when it was not.
-pub fn predict_move(graph: &ObservationGraph, moves: &[Observation], opts: &PredictOptions) -> Prediction {
+pub fn predict_move(
+    graph: &ObservationGraph,
+    moves: &[Observation],
+    opts: &PredictOptions,
+) -> Prediction {
     let longest = opts.horizon.min(moves.len()).max(1);
     let shortest = if opts.backoff { 1 } else { longest };
     let mut h = longest;
     loop {
         let p = predict_window(graph, moves, h, opts);
-        let unmatched = matches!(p.withheld, Some(Withheld::NoMatch | Withheld::PoorMatch { .. }));
+        let unmatched = matches!(
+            p.withheld,
+            Some(Withheld::NoMatch | Withheld::PoorMatch { .. })
+        );
         if !unmatched || h <= shortest {
             return p;
         }
@@ -214,7 +221,12 @@ pub fn predict_move(graph: &ObservationGraph, moves: &[Observation], opts: &Pred
 }
 
 /// Prediction conditioned on the last `h` moves.
-fn predict_window(graph: &ObservationGraph, moves: &[Observation], h: usize, opts: &PredictOptions) -> Prediction {
+fn predict_window(
+    graph: &ObservationGraph,
+    moves: &[Observation],
+    h: usize,
+    opts: &PredictOptions,
+) -> Prediction {
     let hmm = Hmm::new(graph);
     let states = hmm.states();
     if states == 0 {
@@ -226,7 +238,10 @@ fn predict_window(graph: &ObservationGraph, moves: &[Observation], h: usize, opt
 
     let (nu, psi, misfit, end_probability, matched) = if moves.is_empty() {
         // First move of a routine: ν = π.
-        let nu: Vec<(usize, f64)> = (0..states).map(|i| (i, hmm.initial(i))).filter(|(_, p)| *p > 0.0).collect();
+        let nu: Vec<(usize, f64)> = (0..states)
+            .map(|i| (i, hmm.initial(i)))
+            .filter(|(_, p)| *p > 0.0)
+            .collect();
         (nu, 1.0, None, 0.0, Vec::new())
     } else {
         let window = &moves[moves.len() - h.min(moves.len())..];
@@ -242,7 +257,13 @@ fn predict_window(graph: &ObservationGraph, moves: &[Observation], h: usize, opt
             return Prediction::withheld(Withheld::NoMatch, states);
         };
         let (nu, cont) = next_state(&hmm, &fwd.last);
-        (nu, psi, Some(fwd.misfit), (1.0 - cont).clamp(0.0, 1.0), fwd.last)
+        (
+            nu,
+            psi,
+            Some(fwd.misfit),
+            (1.0 - cont).clamp(0.0, 1.0),
+            fwd.last,
+        )
     };
     let window_moves = h.min(moves.len());
 
@@ -276,7 +297,10 @@ fn predict_window(graph: &ObservationGraph, moves: &[Observation], h: usize, opt
         })
         .sum();
     let support = if moves.is_empty() {
-        nu.iter().filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0).map(|(j, _)| f64::from(hmm.node(*j).initial())).sum()
+        nu.iter()
+            .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
+            .map(|(j, _)| f64::from(hmm.node(*j).initial()))
+            .sum()
     } else {
         agreeing_continuations(&hmm, &matched, &mode)
     };

@@ -35,7 +35,8 @@ impl Teacher {
     pub fn new(config: EngineConfig) -> Result<Teacher, ConfigError> {
         config.validate()?;
         let metric = Metric::diagonal(config.sigma_t, config.sigma_q)?;
-        let graph = ObservationGraph::new(metric, config.delta, config.merge)?;
+        let graph = ObservationGraph::new(metric, config.delta, config.merge)?
+            .with_recency(config.recency)?;
         Ok(Teacher {
             config,
             graph,
