@@ -256,9 +256,8 @@ impl ObservationGraph {
         let z = self.metric.whiten(x);
         let node = match self.best_node(&z) {
             Some(i) => {
-                let old = self.nodes[i].mean;
                 self.nodes[i].absorb(&z);
-                self.index.moved(i, &old, &self.nodes[i].mean);
+                self.index.moved(i, &self.nodes[i].mean);
                 i
             }
             None => {
@@ -400,7 +399,7 @@ impl NodeIndex {
         }
     }
 
-    fn moved(&mut self, id: usize, _old: &Observation, new: &Observation) {
+    fn moved(&mut self, id: usize, new: &Observation) {
         if let Some(p) = self.stored.get(id).copied().flatten() {
             self.tree.remove(&p, id as u32);
             self.insert(id, new);

@@ -204,11 +204,19 @@ pub fn predict_move(
     moves: &[Observation],
     opts: &PredictOptions,
 ) -> Prediction {
+    let hmm = Hmm::new(graph);
+    let states = hmm.states();
+    if states == 0 {
+        return Prediction::withheld(Withheld::EmptyModel, 0);
+    }
+    if states < 2 {
+        return Prediction::withheld(Withheld::TooFewStates { states }, states);
+    }
     let longest = opts.horizon.min(moves.len()).max(1);
     let shortest = if opts.backoff { 1 } else { longest };
     let mut h = longest;
     loop {
-        let p = predict_window(graph, moves, h, opts);
+        let p = predict_window(&hmm, moves, h, opts);
         let unmatched = matches!(
             p.withheld,
             Some(Withheld::NoMatch | Withheld::PoorMatch { .. })
@@ -220,21 +228,10 @@ pub fn predict_move(
     }
 }
 
-/// Prediction conditioned on the last `h` moves.
-fn predict_window(
-    graph: &ObservationGraph,
-    moves: &[Observation],
-    h: usize,
-    opts: &PredictOptions,
-) -> Prediction {
-    let hmm = Hmm::new(graph);
+/// Prediction conditioned on the last `h` moves, from a model of at least two states.
+fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOptions) -> Prediction {
+    let graph = hmm.graph();
     let states = hmm.states();
-    if states == 0 {
-        return Prediction::withheld(Withheld::EmptyModel, 0);
-    }
-    if states < 2 {
-        return Prediction::withheld(Withheld::TooFewStates { states }, states);
-    }
 
     let (nu, psi, misfit, end_probability, matched) = if moves.is_empty() {
         // First move of a routine: ν = π.
@@ -253,10 +250,10 @@ fn predict_window(
                 WindowPrior::Uniform => Prior::Uniform,
             }
         };
-        let Some((fwd, psi)) = forward_with_scale(&hmm, window, prior, opts) else {
+        let Some((fwd, psi)) = forward_with_scale(hmm, window, prior, opts) else {
             return Prediction::withheld(Withheld::NoMatch, states);
         };
-        let (nu, cont) = next_state(&hmm, &fwd.last);
+        let (nu, cont) = next_state(hmm, &fwd.last);
         (
             nu,
             psi,
@@ -288,7 +285,7 @@ fn predict_window(
         .sum();
     let phi = (1.0 - entropy_bits / (states as f64).log2()).clamp(0.0, 1.0);
 
-    let mode = mixture_mode(&hmm, &nu);
+    let mode = mixture_mode(hmm, &nu);
     let spread: f64 = nu
         .iter()
         .map(|&(j, p)| {
@@ -302,7 +299,7 @@ fn predict_window(
             .map(|(j, _)| f64::from(hmm.node(*j).initial()))
             .sum()
     } else {
-        agreeing_continuations(&hmm, &matched, &mode)
+        agreeing_continuations(hmm, &matched, &mode)
     };
     // Back to raw units in the taught routine's scale; canonical quaternion.
     let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
