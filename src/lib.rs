@@ -3,8 +3,23 @@
 //! - [`engine`]: the pure prediction engine (poses, learner, HMM, predictor, scale). No I/O.
 //! - [`replay`]: replays recorded programs through the engine and baselines and reports accuracy
 //!   (the product's scoreboard). Reads corpus files; everything else it does is computation.
+//! - [`app`]: the application service both adapters call: cells, programs, routines, teaching,
+//!   predictions, feedback; one model per cell in memory, kept in step with the database.
+//! - [`storage`]: SQLite via sqlx (migrations in `migrations/`); the source of truth.
+//! - [`http`]: the REST adapter (axum): extraction, routing, error mapping, OpenAPI.
+//! - [`server`]: start-up and graceful shutdown of the service.
+//! - [`telemetry`]: Prometheus metrics.
 //! - [`cli`]: the `nextpose` command line.
+//!
+//! A taught waypoint enters through [`http`], is checked and stored by [`app`] through
+//! [`storage`], learned and predicted by [`engine`], and the prediction leaves through [`http`].
+//! The engine never imports the web or the database.
 
+pub mod app;
 pub mod cli;
 pub mod engine;
+pub mod http;
 pub mod replay;
+pub mod server;
+pub mod storage;
+pub mod telemetry;

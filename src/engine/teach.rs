@@ -10,6 +10,12 @@
 //! *pending*: what follows it is not known yet, which is not the same as the routine ending
 //! there. When the routine finishes, the remaining moves are assimilated and the routine is
 //! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
+//!
+//! **Undo.** The operator may delete the last waypoint of the routine being taught. When that
+//! takes back a move that was already assimilated, the model is restored from a snapshot taken
+//! when the routine's first move was assimilated and the remaining settled moves are learned
+//! again, so the model after an undo is exactly the model a rebuild from the stored waypoints
+//! gives.
 
 use super::config::EngineConfig;
 use super::error::ConfigError;
@@ -29,6 +35,9 @@ pub struct Teacher {
     moves: Vec<Observation>,
     /// Moves of the current routine already assimilated (within-routine learning only).
     assimilated: usize,
+    /// The model before the current routine's first move was assimilated (within-routine
+    /// learning only), for undo.
+    before_routine: Option<Box<ObservationGraph>>,
 }
 
 impl Teacher {
@@ -43,6 +52,7 @@ impl Teacher {
             routine: Vec::new(),
             moves: Vec::new(),
             assimilated: 0,
+            before_routine: None,
         })
     }
 
@@ -69,13 +79,49 @@ impl Teacher {
             self.moves.push(Move::between(last, &pose).observation());
         }
         self.routine.push(pose);
-        if self.config.learn_within_routine {
-            let settled = self.moves.len().saturating_sub(self.config.horizon);
-            while self.assimilated < settled {
-                self.graph.push(&self.moves[self.assimilated]);
-                self.assimilated += 1;
-            }
+        self.settle();
+    }
+
+    /// Within-routine learning: assimilates the moves that are older than the horizon.
+    fn settle(&mut self) {
+        if !self.config.learn_within_routine {
+            return;
         }
+        let settled = self.moves.len().saturating_sub(self.config.horizon);
+        if self.assimilated < settled && self.before_routine.is_none() {
+            self.before_routine = Some(Box::new(self.graph.clone()));
+        }
+        while self.assimilated < settled {
+            self.graph.push(&self.moves[self.assimilated]);
+            self.assimilated += 1;
+        }
+    }
+
+    /// Removes the last waypoint of the current routine and returns it (None when the routine
+    /// is empty). The model goes back to what it was before that waypoint was taught.
+    pub fn undo(&mut self) -> Option<Pose> {
+        let pose = self.routine.pop()?;
+        self.moves.truncate(self.routine.len().saturating_sub(1));
+        let settled = self.moves.len().saturating_sub(self.config.horizon);
+        if self.config.learn_within_routine && settled < self.assimilated {
+            self.restore_routine_start();
+            self.settle();
+        }
+        Some(pose)
+    }
+
+    /// Drops the current routine without learning it; the model is as it was before.
+    pub fn abandon_routine(&mut self) {
+        self.routine.clear();
+        self.moves.clear();
+        self.restore_routine_start();
+    }
+
+    fn restore_routine_start(&mut self) {
+        if let Some(graph) = self.before_routine.take() {
+            self.graph = *graph;
+        }
+        self.assimilated = 0;
     }
 
     /// Predicts the next waypoint of the current routine with the cell's settings.
@@ -89,6 +135,36 @@ impl Teacher {
             return Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
         };
         predict_move(&self.graph, &self.moves, opts).place(last)
+    }
+
+    /// Open-loop completion: predicts the next waypoint, assumes it is taught as predicted,
+    /// predicts again, and so on, up to `k` predictions. Stops after the first prediction that
+    /// is not offered (it is included, so the caller sees why the completion stopped). The
+    /// model is not changed: proposed moves are conditioned on, never learned.
+    pub fn complete(&self, k: usize, opts: &PredictOptions) -> Vec<Prediction> {
+        let mut out = Vec::with_capacity(k.min(64));
+        let Some(mut last) = self.routine.last().copied() else {
+            if k > 0 {
+                out.push(Prediction::withheld(
+                    Withheld::NothingTaught,
+                    self.graph.nodes().len(),
+                ));
+            }
+            return out;
+        };
+        let mut moves = self.moves.clone();
+        for _ in 0..k {
+            let p = predict_move(&self.graph, &moves, opts).place(&last);
+            let next = match (&p.pose, &p.relative) {
+                (Some(pose), Some(x)) if p.offered() => Some((*pose, *x)),
+                _ => None,
+            };
+            out.push(p);
+            let Some((pose, x)) = next else { break };
+            moves.push(x);
+            last = pose;
+        }
+        out
     }
 
     /// Finishes the current routine and learns it. A routine of fewer than two waypoints has no
@@ -112,6 +188,7 @@ impl Teacher {
         self.routine.clear();
         self.moves.clear();
         self.assimilated = 0;
+        self.before_routine = None;
     }
 
     /// Learn-Scaled-HMM: ψ of the finished routine against the current model, when the routine is
@@ -140,5 +217,116 @@ impl Teacher {
             Some(est) if est.objective - base >= sc.min_gain => est.psi,
             _ => 1.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::Profile;
+    use nalgebra::UnitQuaternion;
+
+    fn pose(p: [f64; 3], yaw: f64) -> Pose {
+        let q = UnitQuaternion::from_euler_angles(0.0, 0.0, yaw);
+        Pose::new(p, [q.w, q.i, q.j, q.k]).unwrap()
+    }
+
+    /// A stitch pattern repeated along x: the same three moves again and again.
+    fn stitches(n: usize, at: f64) -> Vec<Pose> {
+        (0..n)
+            .map(|i| {
+                let k = (i / 3) as f64;
+                match i % 3 {
+                    0 => pose([at + 50.0 * k, 0.0, 0.0], 0.0),
+                    1 => pose([at + 50.0 * k + 20.0, 10.0, 0.0], 0.3),
+                    _ => pose([at + 50.0 * k + 30.0, 0.0, 15.0], 0.1),
+                }
+            })
+            .collect()
+    }
+
+    fn same_model(a: &Teacher, b: &Teacher) {
+        assert_eq!(a.graph().nodes(), b.graph().nodes());
+        assert_eq!(a.graph().pending(), b.graph().pending());
+        assert_eq!(a.stats(), b.stats());
+        assert_eq!(a.routine(), b.routine());
+        assert_eq!(a.predict(), b.predict());
+    }
+
+    #[test]
+    fn undo_gives_the_model_of_the_shorter_routine() {
+        for profile in [Profile::Default, Profile::Seed] {
+            let config = EngineConfig::profile(profile);
+            let first = stitches(12, 0.0);
+            let second = stitches(14, 1000.0);
+            let mut a = Teacher::new(config.clone()).unwrap();
+            let mut b = Teacher::new(config).unwrap();
+            for t in [&mut a, &mut b] {
+                first.iter().for_each(|w| t.teach(*w));
+                t.finish_routine();
+            }
+            second.iter().for_each(|w| a.teach(*w));
+            for _ in 0..5 {
+                assert!(a.undo().is_some());
+            }
+            second[..9].iter().for_each(|w| b.teach(*w));
+            same_model(&a, &b);
+            // Teaching on after the undo keeps them identical.
+            second[9..].iter().for_each(|w| {
+                a.teach(*w);
+                b.teach(*w);
+            });
+            same_model(&a, &b);
+            a.finish_routine();
+            b.finish_routine();
+            same_model(&a, &b);
+        }
+    }
+
+    #[test]
+    fn undo_of_an_empty_routine_is_none_and_abandon_restores_the_model() {
+        let mut t = Teacher::new(EngineConfig::default()).unwrap();
+        assert!(t.undo().is_none());
+        stitches(12, 0.0).iter().for_each(|w| t.teach(*w));
+        t.finish_routine();
+        let before = t.clone();
+        stitches(15, 500.0).iter().for_each(|w| t.teach(*w));
+        assert_ne!(t.graph().nodes(), before.graph().nodes());
+        t.abandon_routine();
+        same_model(&t, &before);
+        while t.undo().is_some() {}
+        same_model(&t, &before);
+    }
+
+    #[test]
+    fn completion_continues_a_known_pattern_without_learning() {
+        let mut t = Teacher::new(EngineConfig::default()).unwrap();
+        let routine = stitches(15, 0.0);
+        routine.iter().for_each(|w| t.teach(*w));
+        t.finish_routine();
+        let copy = stitches(15, 2000.0);
+        copy[..5].iter().for_each(|w| t.teach(*w));
+        let nodes = t.graph().nodes().to_vec();
+        let opts = PredictOptions::from_config(t.config());
+        let completion = t.complete(4, &opts);
+        assert_eq!(t.graph().nodes(), &nodes[..]);
+        assert!(!completion.is_empty());
+        assert_eq!(completion[0], t.predict());
+        for (i, p) in completion.iter().enumerate().filter(|(_, p)| p.offered()) {
+            let got = p.pose.unwrap();
+            let want = &copy[5 + i];
+            assert!(
+                got.distance_to(want) < 1e-6,
+                "step {i}: {} mm",
+                got.distance_to(want)
+            );
+        }
+        assert!(completion[0].offered(), "{:?}", completion[0].withheld);
+        // Nothing taught: one prediction saying why.
+        let empty = Teacher::new(EngineConfig::default()).unwrap();
+        let c = empty.complete(3, &opts);
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].withheld, Some(Withheld::NothingTaught));
+        assert!(t.complete(0, &opts).is_empty());
     }
 }

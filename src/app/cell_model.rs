@@ -1,0 +1,76 @@
+//! One cell's model in memory: the engine's [`Teacher`], rebuilt from the database and then
+//! kept in step with every write.
+
+use super::error::AppError;
+use super::resources::ModelInfo;
+use super::settings::CellSettings;
+use crate::engine::{Pose, Teacher};
+use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
+
+#[derive(Debug)]
+pub(crate) struct CellModel {
+    pub teacher: Teacher,
+    /// The routine being taught (its waypoints are in the teacher).
+    pub open: Option<i64>,
+    /// Finished routines assimilated.
+    pub version: i64,
+}
+
+/// The pose of a stored waypoint. Stored poses were validated when taught, so a failure here
+/// means the database was edited behind our back.
+pub(crate) fn stored_pose(w: &WaypointRow) -> Result<Pose, AppError> {
+    stored_pose_columns(&w.pose)
+        .map_err(|e| AppError::Internal(format!("stored waypoint {}: {e}", w.id)))
+}
+
+/// A pose read back from the database.
+pub(crate) fn stored_pose_columns(p: &PoseColumns) -> Result<Pose, AppError> {
+    Pose::new([p.x, p.y, p.z], [p.qw, p.qx, p.qy, p.qz])
+        .map_err(|e| AppError::Internal(format!("stored pose is invalid: {e}")))
+}
+
+pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
+    serde_json::from_str(&cell.settings)
+        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
+}
+
+impl CellModel {
+    /// Learns the cell's finished routines in the order they were finished, then takes up the
+    /// routine being taught, exactly as incremental teaching did.
+    pub async fn load(store: &Store, cell: &CellRow) -> Result<CellModel, AppError> {
+        let settings = parse_settings(cell)?;
+        let mut teacher = Teacher::new(settings.engine_config())?;
+        let mut version = 0;
+        for r in store.finished_routines(cell.id).await? {
+            for w in store.waypoints(r.id).await? {
+                teacher.teach(stored_pose(&w)?);
+            }
+            teacher.finish_routine();
+            version += 1;
+        }
+        let open = store.open_routine(cell.id).await?;
+        if let Some(r) = &open {
+            for w in store.waypoints(r.id).await? {
+                teacher.teach(stored_pose(&w)?);
+            }
+        }
+        Ok(CellModel {
+            teacher,
+            open: open.map(|r| r.id),
+            version,
+        })
+    }
+
+    pub fn info(&self) -> ModelInfo {
+        let s = self.teacher.stats();
+        ModelInfo {
+            states: s.states,
+            edges: s.edges,
+            perplexity: s.perplexity,
+            routines: s.routines,
+            depth: s.depth,
+            observations: s.observations,
+            version: self.version,
+        }
+    }
+}

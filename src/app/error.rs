@@ -1,0 +1,53 @@
+//! The application's errors. Adapters (HTTP, gRPC) map them to their status codes once, at the
+//! edge; nothing here knows about either.
+
+use crate::engine::{ConfigError, PoseError};
+use crate::storage::StorageError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// A resource that does not exist.
+    #[error("{what} {id} does not exist")]
+    NotFound { what: &'static str, id: i64 },
+    /// The request conflicts with the resource's state (a finished routine, a name taken).
+    #[error("{0}")]
+    Conflict(String),
+    /// Input that is well-formed but not acceptable.
+    #[error("{0}")]
+    Invalid(String),
+    #[error("invalid pose: {0}")]
+    Pose(#[from] PoseError),
+    #[error("invalid settings: {0}")]
+    Config(#[from] ConfigError),
+    /// A failure of ours (database, corrupted stored data).
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+impl AppError {
+    /// A short stable code for API clients.
+    pub fn code(&self) -> &'static str {
+        match self {
+            AppError::NotFound { .. } => "not_found",
+            AppError::Conflict(_) => "conflict",
+            AppError::Invalid(_) => "invalid",
+            AppError::Pose(_) => "invalid_pose",
+            AppError::Config(_) => "invalid_settings",
+            AppError::Internal(_) => "internal",
+        }
+    }
+
+    pub(crate) fn not_found(what: &'static str, id: i64) -> AppError {
+        AppError::NotFound { what, id }
+    }
+}
+
+impl From<StorageError> for AppError {
+    fn from(e: StorageError) -> AppError {
+        match e {
+            StorageError::Conflict(m) => AppError::Conflict(m),
+            StorageError::NotFound => AppError::Internal("a stored row vanished".into()),
+            other => AppError::Internal(other.to_string()),
+        }
+    }
+}

@@ -1,0 +1,695 @@
+//! The application service: what a pendant can ask of nextpose, independent of the wire.
+//!
+//! Both adapters (HTTP now, gRPC next) call these operations and nothing else. Each operation
+//! checks its input, writes to the database in one transaction, and keeps the cell's model in
+//! memory in step. The database is the source of truth: a cell's model is rebuilt from it on
+//! first use after start-up (and on request), and that rebuild gives the same model as the
+//! incremental updates.
+//!
+//! **Concurrency.** Requests on one cell are serialised by the cell's lock, held from the first
+//! read of the routine's state to the last write, so the model and the database never diverge;
+//! different cells proceed in parallel. A cell has at most one routine being taught (one arm,
+//! one operator); the database enforces it too.
+
+mod cell_model;
+pub mod error;
+pub mod resources;
+pub mod settings;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use tokio::sync::{Mutex as AsyncMutex, OwnedMutexGuard};
+
+use crate::engine::{PredictOptions, Prediction, Withheld};
+use crate::storage::{
+    CellRow, NewFeedback, NewPrediction, NewWaypoint, PoseColumns, ProgramRow, RoutineRow, Store,
+    WaypointRow,
+};
+use crate::telemetry::Metrics;
+use cell_model::{CellModel, parse_settings};
+pub use error::AppError;
+use resources::*;
+use settings::MAX_HORIZON;
+
+/// Longest open-loop completion a request may ask for.
+pub const MAX_COMPLETION: usize = 100;
+/// Longest name accepted for cells, programs, routines and waypoints.
+pub const MAX_NAME: usize = 200;
+
+type Result<T> = std::result::Result<T, AppError>;
+type Slot = Arc<AsyncMutex<Option<CellModel>>>;
+
+/// The application: storage, the cells' models and the metrics.
+#[derive(Debug)]
+pub struct App {
+    store: Store,
+    models: Mutex<HashMap<i64, Slot>>,
+    metrics: Arc<Metrics>,
+}
+
+/// A locked, loaded cell model.
+struct Locked(OwnedMutexGuard<Option<CellModel>>);
+
+impl Locked {
+    fn model(&mut self) -> Result<&mut CellModel> {
+        self.0
+            .as_mut()
+            .ok_or_else(|| AppError::Internal("cell model not loaded".into()))
+    }
+}
+
+fn check_name(what: &str, name: &str) -> Result<()> {
+    if name.trim().is_empty() {
+        return Err(AppError::Invalid(format!("{what} must not be empty")));
+    }
+    if name.chars().count() > MAX_NAME {
+        return Err(AppError::Invalid(format!(
+            "{what} is longer than {MAX_NAME} characters"
+        )));
+    }
+    Ok(())
+}
+
+fn pose_columns(p: &PoseDto) -> PoseColumns {
+    PoseColumns {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+        qw: p.qw,
+        qx: p.qx,
+        qy: p.qy,
+        qz: p.qz,
+    }
+}
+
+fn pose_dto(p: &PoseColumns) -> PoseDto {
+    PoseDto {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+        qw: p.qw,
+        qx: p.qx,
+        qy: p.qy,
+        qz: p.qz,
+    }
+}
+
+fn waypoint(w: WaypointRow) -> Waypoint {
+    Waypoint {
+        id: w.id,
+        routine_id: w.routine_id,
+        seq: w.seq,
+        pose: pose_dto(&w.pose),
+        joints: w
+            .joints
+            .as_deref()
+            .and_then(|j| serde_json::from_str(j).ok()),
+        motion: w.motion.as_deref().and_then(MotionType::parse),
+        name: w.name,
+        created_at: w.created_at,
+    }
+}
+
+fn routine(r: RoutineRow) -> Routine {
+    Routine {
+        id: r.id,
+        program_id: r.program_id,
+        cell_id: r.cell_id,
+        position: r.position,
+        finished: r.finished(),
+        name: r.name,
+        finish_seq: r.finish_seq,
+        finished_at: r.finished_at,
+        waypoint_count: r.waypoints,
+        created_at: r.created_at,
+    }
+}
+
+fn program(p: ProgramRow) -> Program {
+    Program {
+        id: p.id,
+        cell_id: p.cell_id,
+        name: p.name,
+        created_at: p.created_at,
+    }
+}
+
+/// A human-readable account of why a prediction is withheld.
+fn describe(w: &Withheld, opts: &PredictOptions) -> String {
+    match w {
+        Withheld::NothingTaught => "the routine has no waypoint yet".into(),
+        Withheld::EmptyModel => "nothing has been learned in this cell yet".into(),
+        Withheld::TooFewStates { states } => {
+            format!("the model has {states} state(s); at least 2 are needed")
+        }
+        Withheld::NoMatch => "the last moves match nothing learned".into(),
+        Withheld::LikelyEnd { end_probability } => format!(
+            "the routine probably ends here (p = {end_probability:.2}); taught routines like \
+             this one usually stop at this point"
+        ),
+        Withheld::PoorMatch { misfit } => format!(
+            "the last moves resemble learned ones only loosely (misfit {misfit:.2} above {:.2})",
+            opts.max_misfit.unwrap_or(f64::INFINITY)
+        ),
+        Withheld::LowConfidence { phi } => {
+            format!(
+                "confidence φ = {phi:.2} is below φ_min = {:.2}",
+                opts.phi_min
+            )
+        }
+        Withheld::WideSpread { spread } => {
+            format!("the moves that followed this pattern before disagree (spread {spread:.2})")
+        }
+        Withheld::LittleEvidence { support } => {
+            format!("the pattern was followed by this move only {support:.1} time(s) before")
+        }
+    }
+}
+
+impl App {
+    pub fn new(store: Store, metrics: Arc<Metrics>) -> App {
+        App {
+            store,
+            models: Mutex::new(HashMap::new()),
+            metrics,
+        }
+    }
+
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    pub fn metrics(&self) -> &Arc<Metrics> {
+        &self.metrics
+    }
+
+    /// Health: the database answers.
+    pub async fn health(&self) -> Result<()> {
+        Ok(self.store.ping().await?)
+    }
+
+    // ---- locking ----------------------------------------------------------------------------
+
+    fn slot(&self, cell_id: i64) -> Slot {
+        let mut map = match self.models.lock() {
+            Ok(m) => m,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        map.entry(cell_id).or_default().clone()
+    }
+
+    /// Locks a cell's model, loading it from the database on first use.
+    async fn lock(&self, cell: &CellRow) -> Result<Locked> {
+        let mut guard = self.slot(cell.id).lock_owned().await;
+        if guard.is_none() {
+            *guard = Some(CellModel::load(&self.store, cell).await?);
+        }
+        Ok(Locked(guard))
+    }
+
+    async fn cell_row(&self, id: i64) -> Result<CellRow> {
+        self.store
+            .cell(id)
+            .await?
+            .ok_or_else(|| AppError::not_found("cell", id))
+    }
+
+    async fn program_row(&self, id: i64) -> Result<ProgramRow> {
+        self.store
+            .program(id)
+            .await?
+            .ok_or_else(|| AppError::not_found("program", id))
+    }
+
+    async fn routine_row(&self, id: i64) -> Result<RoutineRow> {
+        self.store
+            .routine(id)
+            .await?
+            .ok_or_else(|| AppError::not_found("routine", id))
+    }
+
+    /// Locks the routine's cell and re-reads the routine under the lock; refuses a finished
+    /// routine when `open_only`.
+    async fn lock_routine(&self, id: i64, open_only: bool) -> Result<(Locked, RoutineRow)> {
+        let r = self.routine_row(id).await?;
+        let cell = self.cell_row(r.cell_id).await?;
+        let mut locked = self.lock(&cell).await?;
+        let r = self.routine_row(id).await?;
+        if open_only && r.finished() {
+            return Err(AppError::Conflict(format!(
+                "routine {id} is finished; a finished routine cannot change"
+            )));
+        }
+        if !r.finished() && locked.model()?.open != Some(r.id) {
+            return Err(AppError::Internal(format!(
+                "routine {id} is open in the database but not in the cell's model"
+            )));
+        }
+        Ok((locked, r))
+    }
+
+    // ---- cells ------------------------------------------------------------------------------
+
+    fn cell(&self, row: CellRow) -> Result<Cell> {
+        Ok(Cell {
+            settings: parse_settings(&row)?,
+            id: row.id,
+            name: row.name,
+            created_at: row.created_at,
+        })
+    }
+
+    pub async fn create_cell(&self, input: CreateCell) -> Result<Cell> {
+        check_name("cell name", &input.name)?;
+        let settings = input.settings.resolve()?;
+        let json = serde_json::to_string(&settings)
+            .map_err(|e| AppError::Internal(format!("settings: {e}")))?;
+        let row = self
+            .store
+            .insert_cell(input.name.trim(), &json)
+            .await
+            .map_err(|e| match AppError::from(e) {
+                AppError::Conflict(_) => {
+                    AppError::Conflict(format!("a cell named {:?} exists", input.name.trim()))
+                }
+                other => other,
+            })?;
+        self.cell(row)
+    }
+
+    pub async fn cells(&self) -> Result<Vec<Cell>> {
+        self.store
+            .cells()
+            .await?
+            .into_iter()
+            .map(|r| self.cell(r))
+            .collect()
+    }
+
+    pub async fn get_cell(&self, id: i64) -> Result<Cell> {
+        let row = self.cell_row(id).await?;
+        self.cell(row)
+    }
+
+    pub async fn cell_stats(&self, id: i64) -> Result<CellStats> {
+        let cell = self.cell_row(id).await?;
+        let model = {
+            let mut locked = self.lock(&cell).await?;
+            locked.model()?.info()
+        };
+        let counts = self.store.feedback_counts(id).await?;
+        let judged = counts.accepted + counts.adjusted + counts.rejected;
+        let mut adj = counts.adjustments_mm.clone();
+        adj.sort_by(f64::total_cmp);
+        let median = match adj.len() {
+            0 => None,
+            n if n % 2 == 1 => Some(adj[n / 2]),
+            n => Some(0.5 * (adj[n / 2 - 1] + adj[n / 2])),
+        };
+        Ok(CellStats {
+            cell_id: id,
+            model,
+            feedback: FeedbackStats {
+                offered: counts.offered,
+                accepted: counts.accepted,
+                adjusted: counts.adjusted,
+                rejected: counts.rejected,
+                pending: counts.offered - judged,
+                acceptance: (judged > 0)
+                    .then(|| (counts.accepted + counts.adjusted) as f64 / judged as f64),
+                median_adjustment_mm: median,
+            },
+        })
+    }
+
+    /// Re-learns the cell's model from the stored routines, in the order they were finished.
+    pub async fn rebuild(&self, id: i64) -> Result<ModelInfo> {
+        let cell = self.cell_row(id).await?;
+        let mut guard = self.slot(id).lock_owned().await;
+        let model = CellModel::load(&self.store, &cell).await?;
+        let info = model.info();
+        *guard = Some(model);
+        Ok(info)
+    }
+
+    // ---- programs ---------------------------------------------------------------------------
+
+    pub async fn create_program(&self, cell_id: i64, input: CreateProgram) -> Result<Program> {
+        check_name("program name", &input.name)?;
+        self.cell_row(cell_id).await?;
+        let row = self
+            .store
+            .insert_program(cell_id, input.name.trim())
+            .await
+            .map_err(|e| match AppError::from(e) {
+                AppError::Conflict(_) => AppError::Conflict(format!(
+                    "cell {cell_id} already has a program named {:?}",
+                    input.name.trim()
+                )),
+                other => other,
+            })?;
+        Ok(program(row))
+    }
+
+    pub async fn programs(&self, cell_id: i64) -> Result<Vec<Program>> {
+        self.cell_row(cell_id).await?;
+        Ok(self
+            .store
+            .programs(cell_id)
+            .await?
+            .into_iter()
+            .map(program)
+            .collect())
+    }
+
+    pub async fn get_program(&self, id: i64) -> Result<Program> {
+        Ok(program(self.program_row(id).await?))
+    }
+
+    // ---- routines ---------------------------------------------------------------------------
+
+    /// Starts a routine at the end of a program. The cell must not have another routine
+    /// being taught.
+    pub async fn create_routine(&self, program_id: i64, input: CreateRoutine) -> Result<Routine> {
+        if let Some(n) = &input.name {
+            check_name("routine name", n)?;
+        }
+        let p = self.program_row(program_id).await?;
+        let cell = self.cell_row(p.cell_id).await?;
+        let mut locked = self.lock(&cell).await?;
+        if let Some(open) = self.store.open_routine(cell.id).await? {
+            return Err(AppError::Conflict(format!(
+                "routine {} of cell {} is still being taught; finish or delete it first",
+                open.id, cell.id
+            )));
+        }
+        let id = self
+            .store
+            .insert_routine(&p, input.name.as_deref().map(str::trim))
+            .await?;
+        locked.model()?.open = Some(id);
+        Ok(routine(self.routine_row(id).await?))
+    }
+
+    pub async fn routines(&self, program_id: i64) -> Result<Vec<Routine>> {
+        self.program_row(program_id).await?;
+        Ok(self
+            .store
+            .routines(program_id)
+            .await?
+            .into_iter()
+            .map(routine)
+            .collect())
+    }
+
+    pub async fn get_routine(&self, id: i64) -> Result<RoutineDetail> {
+        let r = self.routine_row(id).await?;
+        let waypoints = self.store.waypoints(id).await?;
+        Ok(RoutineDetail {
+            routine: routine(r),
+            waypoints: waypoints.into_iter().map(waypoint).collect(),
+        })
+    }
+
+    /// Deletes a routine that is being taught, with its waypoints; the model forgets it.
+    pub async fn delete_routine(&self, id: i64) -> Result<()> {
+        let (mut locked, r) = self.lock_routine(id, true).await?;
+        self.store.delete_open_routine(r.id).await?;
+        let model = locked.model()?;
+        model.teacher.abandon_routine();
+        model.open = None;
+        Ok(())
+    }
+
+    /// Finishes a routine: it becomes immutable and the cell's model assimilates it.
+    pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
+        let (mut locked, r) = self.lock_routine(id, true).await?;
+        self.store.finish_routine(&r).await?;
+        let model = locked.model()?;
+        model.teacher.finish_routine();
+        model.open = None;
+        model.version += 1;
+        let info = model.info();
+        Ok(Finished {
+            routine: routine(self.routine_row(id).await?),
+            model: info,
+        })
+    }
+
+    // ---- teaching ---------------------------------------------------------------------------
+
+    fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
+        if let Some(n) = &input.name {
+            check_name("waypoint name", n)?;
+        }
+        match &input.joints {
+            None => Ok(None),
+            Some(j) if j.is_empty() || j.len() > 12 => Err(AppError::Invalid(format!(
+                "joints must hold 1 to 12 values, not {}",
+                j.len()
+            ))),
+            Some(j) if j.iter().any(|v| !v.is_finite()) => {
+                Err(AppError::Invalid("joint values must be finite".into()))
+            }
+            Some(j) => serde_json::to_string(j)
+                .map(Some)
+                .map_err(|e| AppError::Internal(e.to_string())),
+        }
+    }
+
+    /// Appends a taught waypoint to an open routine and predicts the next one.
+    pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+        // Everything the client can get wrong is checked before anything changes.
+        let joints = Self::validate_waypoint(&input)?;
+        let pose = input.pose.to_pose()?;
+        let stored = PoseDto::from(&pose);
+        // The model learns the pose as it will be read back from the database, so a rebuild
+        // gives bit-identical results.
+        let pose = stored.to_pose()?;
+        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let model = locked.model()?;
+        model.teacher.teach(pose);
+        let opts = PredictOptions::from_config(model.teacher.config());
+        let prediction = model.teacher.predict_with(&opts);
+        let after = r.waypoints + 1;
+        let record = self.new_prediction(&r, after, model.version, &prediction);
+        let wp = NewWaypoint {
+            routine_id,
+            seq: after,
+            pose: pose_columns(&stored),
+            joints,
+            motion: input.motion.map(|m| m.as_str().to_string()),
+            name: input.name.map(|n| n.trim().to_string()),
+        };
+        let (row, id) = match self.store.append_waypoint(&wp, record.as_ref()).await {
+            Ok(done) => done,
+            Err(e) => {
+                model.teacher.undo();
+                return Err(e.into());
+            }
+        };
+        let version = model.version;
+        self.metrics
+            .record_prediction(prediction.withheld.as_ref().map(Withheld::code));
+        Ok(Taught {
+            waypoint: waypoint(row),
+            prediction: self.dto(&prediction, &opts, id, after, version),
+        })
+    }
+
+    /// Removes the last waypoint of an open routine; the prediction rolls back with it.
+    pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
+        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let Some(removed) = self.store.delete_last_waypoint(r.id).await? else {
+            return Err(AppError::Conflict(format!(
+                "routine {routine_id} has no waypoint to undo"
+            )));
+        };
+        let model = locked.model()?;
+        model.teacher.undo();
+        let opts = PredictOptions::from_config(model.teacher.config());
+        let prediction = model.teacher.predict_with(&opts);
+        let after = r.waypoints - 1;
+        let version = model.version;
+        let id = match self.new_prediction(&r, after, version, &prediction) {
+            Some(np) => Some(self.store.record_prediction(&np).await?),
+            None => None,
+        };
+        Ok(Undone {
+            removed: waypoint(removed),
+            prediction: self.dto(&prediction, &opts, id, after, version),
+        })
+    }
+
+    /// The prediction for an open routine as it stands, with per-request overrides; `k > 1`
+    /// asks for an open-loop completion of up to k waypoints.
+    pub async fn predict(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
+        let k = q.k.unwrap_or(1);
+        if !(1..=MAX_COMPLETION).contains(&k) {
+            return Err(AppError::Invalid(format!(
+                "k must be between 1 and {MAX_COMPLETION}"
+            )));
+        }
+        if let Some(h) = q.horizon
+            && !(1..=MAX_HORIZON).contains(&h)
+        {
+            return Err(AppError::Invalid(format!(
+                "horizon must be between 1 and {MAX_HORIZON}"
+            )));
+        }
+        if let Some(phi) = q.phi_min
+            && !(0.0..=1.0).contains(&phi)
+        {
+            return Err(AppError::Invalid("phi_min must be between 0 and 1".into()));
+        }
+        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let model = locked.model()?;
+        let mut opts = PredictOptions::from_config(model.teacher.config());
+        if let Some(h) = q.horizon {
+            opts.horizon = h;
+        }
+        if let Some(phi) = q.phi_min {
+            opts.phi_min = phi;
+        }
+        if let Some(s) = q.scale {
+            opts.scale.enabled = s;
+        }
+        let version = model.version;
+        let predictions = model.teacher.complete(k, &opts);
+        drop(locked);
+        let mut out = Vec::with_capacity(predictions.len());
+        for (i, p) in predictions.iter().enumerate() {
+            let after = r.waypoints + i as i64;
+            // The first prediction is recorded (once) so that feedback can refer to it.
+            let id = match (i, self.new_prediction(&r, after, version, p)) {
+                (0, Some(np)) => Some(self.store.record_prediction(&np).await?),
+                _ => None,
+            };
+            out.push(self.dto(p, &opts, id, after, version));
+        }
+        Ok(PredictionSet {
+            routine_id,
+            predictions: out,
+        })
+    }
+
+    fn new_prediction(
+        &self,
+        r: &RoutineRow,
+        after: i64,
+        version: i64,
+        p: &Prediction,
+    ) -> Option<NewPrediction> {
+        let pose = p.pose.as_ref().filter(|_| p.offered())?;
+        Some(NewPrediction {
+            cell_id: r.cell_id,
+            routine_id: r.id,
+            after_seq: after,
+            pose: pose_columns(&pose.into()),
+            phi: p.phi,
+            psi: p.psi,
+            misfit: p.misfit,
+            end_probability: p.end_probability,
+            model_version: version,
+        })
+    }
+
+    fn dto(
+        &self,
+        p: &Prediction,
+        opts: &PredictOptions,
+        id: Option<i64>,
+        after: i64,
+        version: i64,
+    ) -> PredictionDto {
+        PredictionDto {
+            id,
+            offered: p.offered(),
+            withheld: p.withheld.as_ref().map(|w| WithheldDto {
+                reason: w.code().to_string(),
+                message: describe(w, opts),
+            }),
+            pose: p.pose.as_ref().map(PoseDto::from),
+            relative: p.relative.as_ref().map(|x| RelativeMove {
+                x: x[0],
+                y: x[1],
+                z: x[2],
+                qw: x[3],
+                qx: x[4],
+                qy: x[5],
+                qz: x[6],
+            }),
+            phi: p.phi,
+            psi: p.psi,
+            routine_scale: p.routine_scale(),
+            end_probability: p.end_probability,
+            misfit: p.misfit,
+            spread: p.spread,
+            support: p.support,
+            window: p.window,
+            states: p.states,
+            after_waypoints: after,
+            model_version: version,
+        }
+    }
+
+    // ---- feedback ---------------------------------------------------------------------------
+
+    pub async fn feedback(
+        &self,
+        prediction_id: i64,
+        input: FeedbackDto,
+    ) -> Result<FeedbackRecorded> {
+        let final_pose = match (input.verdict, &input.pose) {
+            (Verdict::Adjusted, Some(p)) => Some(p.to_pose()?),
+            (Verdict::Adjusted, None) => {
+                return Err(AppError::Invalid(
+                    "an adjusted prediction needs the pose finally taught".into(),
+                ));
+            }
+            (_, Some(_)) => {
+                return Err(AppError::Invalid(format!(
+                    "a pose is only given with the verdict \"adjusted\", not {:?}",
+                    input.verdict.as_str()
+                )));
+            }
+            (_, None) => None,
+        };
+        let pr = self
+            .store
+            .prediction(prediction_id)
+            .await?
+            .ok_or_else(|| AppError::not_found("prediction", prediction_id))?;
+        if let Some(v) = &pr.verdict {
+            return Err(AppError::Conflict(format!(
+                "prediction {prediction_id} already has feedback ({v})"
+            )));
+        }
+        let predicted = cell_model::stored_pose_columns(&pr.pose)?;
+        let adjustment_mm = match (input.verdict, &final_pose) {
+            (Verdict::Accepted, _) => Some(0.0),
+            (Verdict::Adjusted, Some(f)) => Some(predicted.distance_to(f)),
+            _ => None,
+        };
+        self.store
+            .insert_feedback(&NewFeedback {
+                prediction_id,
+                verdict: input.verdict.as_str(),
+                pose: final_pose.as_ref().map(|p| pose_columns(&p.into())),
+                adjustment_mm,
+            })
+            .await
+            .map_err(|e| match AppError::from(e) {
+                AppError::Conflict(_) => {
+                    AppError::Conflict(format!("prediction {prediction_id} already has feedback"))
+                }
+                other => other,
+            })?;
+        Ok(FeedbackRecorded {
+            prediction_id,
+            verdict: input.verdict,
+            adjustment_mm,
+        })
+    }
+}

@@ -1,0 +1,360 @@
+//! The resources the service exposes, as both adapters send and receive them.
+//!
+//! Inputs refuse unknown fields (a misspelt setting must not be silently ignored). Poses are
+//! position in mm and a unit quaternion `w, x, y, z` in the cell's work frame; a quaternion
+//! within 1e-3 of unit norm is normalised, anything farther is refused.
+
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+use super::settings::{CellSettings, CellSettingsInput};
+use crate::engine::{Pose, PoseValues};
+
+/// A pose: position in mm, orientation as a unit quaternion `w, x, y, z`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PoseDto {
+    /// mm
+    pub x: f64,
+    /// mm
+    pub y: f64,
+    /// mm
+    pub z: f64,
+    pub qw: f64,
+    pub qx: f64,
+    pub qy: f64,
+    pub qz: f64,
+}
+
+impl PoseDto {
+    /// The engine pose (typed error for non-finite numbers or a quaternion far from unit).
+    pub fn to_pose(&self) -> Result<Pose, crate::engine::PoseError> {
+        Pose::new(
+            [self.x, self.y, self.z],
+            [self.qw, self.qx, self.qy, self.qz],
+        )
+    }
+}
+
+impl From<PoseValues> for PoseDto {
+    fn from(v: PoseValues) -> PoseDto {
+        PoseDto {
+            x: v.x,
+            y: v.y,
+            z: v.z,
+            qw: v.qw,
+            qx: v.qx,
+            qy: v.qy,
+            qz: v.qz,
+        }
+    }
+}
+
+impl From<&Pose> for PoseDto {
+    fn from(p: &Pose) -> PoseDto {
+        p.values().into()
+    }
+}
+
+// ---- cells ------------------------------------------------------------------------------------
+
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateCell {
+    /// Unique name of the work cell.
+    pub name: String,
+    /// Engine, robot and frame settings; anything left out takes the profile's default.
+    #[serde(default)]
+    pub settings: CellSettingsInput,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Cell {
+    pub id: i64,
+    pub name: String,
+    pub settings: CellSettings,
+    pub created_at: String,
+}
+
+/// The learned model of a cell.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct ModelInfo {
+    pub states: usize,
+    /// Distinct transitions between states.
+    pub edges: usize,
+    /// Mean out-degree (edges / states).
+    pub perplexity: f64,
+    /// Finished routines assimilated.
+    pub routines: u32,
+    /// Longest routine assimilated, in moves.
+    pub depth: usize,
+    /// Moves assimilated.
+    pub observations: u64,
+    /// Increases by one with every finished routine; predictions record it.
+    pub version: i64,
+}
+
+/// What operators did with the offered predictions.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct FeedbackStats {
+    /// Predictions offered (recorded).
+    pub offered: i64,
+    pub accepted: i64,
+    pub adjusted: i64,
+    pub rejected: i64,
+    /// Offered predictions without feedback yet.
+    pub pending: i64,
+    /// (accepted + adjusted) / predictions with feedback; null without feedback.
+    pub acceptance: Option<f64>,
+    /// Median distance (mm) between adjusted predictions and the pose finally taught.
+    pub median_adjustment_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct CellStats {
+    pub cell_id: i64,
+    pub model: ModelInfo,
+    pub feedback: FeedbackStats,
+}
+
+// ---- programs and routines --------------------------------------------------------------------
+
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateProgram {
+    /// Name, unique within the cell.
+    pub name: String,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Program {
+    pub id: i64,
+    pub cell_id: i64,
+    pub name: String,
+    pub created_at: String,
+}
+
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateRoutine {
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Routine {
+    pub id: i64,
+    pub program_id: i64,
+    pub cell_id: i64,
+    /// Order within the program (1, 2, ...).
+    pub position: i64,
+    pub name: Option<String>,
+    /// A finished routine is immutable and part of the cell's model.
+    pub finished: bool,
+    /// Order in which the cell's model assimilated it (finished routines only).
+    pub finish_seq: Option<i64>,
+    pub finished_at: Option<String>,
+    pub waypoint_count: i64,
+    pub created_at: String,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct RoutineDetail {
+    #[serde(flatten)]
+    pub routine: Routine,
+    pub waypoints: Vec<Waypoint>,
+}
+
+// ---- waypoints --------------------------------------------------------------------------------
+
+/// How the arm moves to a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MotionType {
+    Joint,
+    Linear,
+    Circular,
+}
+
+impl MotionType {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MotionType::Joint => "joint",
+            MotionType::Linear => "linear",
+            MotionType::Circular => "circular",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<MotionType> {
+        match s {
+            "joint" => Some(MotionType::Joint),
+            "linear" => Some(MotionType::Linear),
+            "circular" => Some(MotionType::Circular),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewWaypointDto {
+    pub pose: PoseDto,
+    /// Taught joint values (rad), when the pendant sends them (1 to 12 values).
+    pub joints: Option<Vec<f64>>,
+    pub motion: Option<MotionType>,
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct Waypoint {
+    pub id: i64,
+    pub routine_id: i64,
+    /// Teaching order within the routine (1, 2, ...).
+    pub seq: i64,
+    pub pose: PoseDto,
+    pub joints: Option<Vec<f64>>,
+    pub motion: Option<MotionType>,
+    pub name: Option<String>,
+    pub created_at: String,
+}
+
+// ---- predictions ------------------------------------------------------------------------------
+
+/// Why no prediction is offered.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct WithheldDto {
+    /// One of `nothing_taught`, `empty_model`, `too_few_states`, `no_match`, `likely_end`,
+    /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence` (and, once predictions
+    /// are checked against the arm, `unreachable`).
+    pub reason: String,
+    pub message: String,
+}
+
+/// The relative move from the last waypoint to the proposal (SRHCT 7-vector, mm and
+/// quaternion with `qw ≥ 0`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, ToSchema)]
+pub struct RelativeMove {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub qw: f64,
+    pub qx: f64,
+    pub qy: f64,
+    pub qz: f64,
+}
+
+/// A prediction of the next waypoint, offered or not, with every figure that decided it.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct PredictionDto {
+    /// Id of the recorded prediction, for feedback (offered predictions only).
+    pub id: Option<i64>,
+    pub offered: bool,
+    /// Why it is withheld; null when offered.
+    pub withheld: Option<WithheldDto>,
+    /// The proposed next pose (null when nothing could be proposed).
+    pub pose: Option<PoseDto>,
+    pub relative: Option<RelativeMove>,
+    /// Confidence φ ∈ [0, 1] (entropy of the next-state distribution).
+    pub phi: f64,
+    /// ψ: the factor mapping the taught window onto the learned pattern.
+    pub psi: f64,
+    /// Size of the routine relative to the learned pattern (1/ψ: 2 for a 2× copy).
+    pub routine_scale: f64,
+    /// Probability that the routine ends here.
+    pub end_probability: f64,
+    /// Match quality: mean squared Mahalanobis misfit of the window to its likeliest states
+    /// (null without a window).
+    pub misfit: Option<f64>,
+    /// Expected squared Mahalanobis distance of the next move from the proposal.
+    pub spread: Option<f64>,
+    /// Earlier continuations of the matched states that agree with the proposal.
+    pub support: f64,
+    /// Moves the prediction conditioned on.
+    pub window: usize,
+    /// States of the model.
+    pub states: usize,
+    /// Waypoints of the routine when the prediction was made.
+    pub after_waypoints: i64,
+    pub model_version: i64,
+}
+
+/// A taught waypoint and the prediction for the next one.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Taught {
+    pub waypoint: Waypoint,
+    pub prediction: PredictionDto,
+}
+
+/// The waypoint an undo removed and the prediction for the routine as it is now.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Undone {
+    pub removed: Waypoint,
+    pub prediction: PredictionDto,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Finished {
+    pub routine: Routine,
+    pub model: ModelInfo,
+}
+
+/// Per-request overrides of the cell's settings for `GET .../prediction`.
+#[derive(Debug, Clone, Default, Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct PredictQuery {
+    /// Moves to condition on (1–50).
+    pub horizon: Option<usize>,
+    /// Minimum confidence φ (0–1).
+    pub phi_min: Option<f64>,
+    /// Estimate the routine's scale.
+    pub scale: Option<bool>,
+    /// Number of next waypoints to predict (open-loop completion, 1–100; stops at the first
+    /// prediction that is not offered).
+    pub k: Option<usize>,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct PredictionSet {
+    pub routine_id: i64,
+    /// The predictions in order; the last one says why the completion stopped when it is not
+    /// offered.
+    pub predictions: Vec<PredictionDto>,
+}
+
+// ---- feedback ---------------------------------------------------------------------------------
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Accepted as is.
+    Accepted,
+    /// Accepted, then adjusted to the given pose.
+    Adjusted,
+    Rejected,
+}
+
+impl Verdict {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Accepted => "accepted",
+            Verdict::Adjusted => "adjusted",
+            Verdict::Rejected => "rejected",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FeedbackDto {
+    pub verdict: Verdict,
+    /// The pose finally taught; required when `adjusted`, refused otherwise.
+    pub pose: Option<PoseDto>,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct FeedbackRecorded {
+    pub prediction_id: i64,
+    pub verdict: Verdict,
+    /// Distance (mm) from the prediction to the final pose (0 when accepted as is).
+    pub adjustment_mm: Option<f64>,
+}

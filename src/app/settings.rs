@@ -1,0 +1,195 @@
+//! A cell's settings: the engine's (from a named profile, with overrides), the robot model and
+//! the frames. Stored resolved, so a cell's behaviour does not change when a default does.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::error::AppError;
+use super::resources::PoseDto;
+use crate::engine::{EngineConfig, Pose, Profile};
+
+/// Robot model a new cell uses when none is named.
+pub const DEFAULT_ROBOT: &str = "abb_irb140";
+
+/// Scale estimation settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ScaleSettings {
+    pub enabled: bool,
+    /// Bracket for ψ (0 < psi_min < 1 < psi_max).
+    pub psi_min: f64,
+    pub psi_max: f64,
+}
+
+/// Engine profile names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ProfileName {
+    /// The dissertation's engine as specified.
+    Seed,
+    /// The best combination measured on the shared corpus.
+    Default,
+}
+
+impl From<ProfileName> for Profile {
+    fn from(p: ProfileName) -> Profile {
+        match p {
+            ProfileName::Seed => Profile::Seed,
+            ProfileName::Default => Profile::Default,
+        }
+    }
+}
+
+/// A cell's settings, resolved.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CellSettings {
+    pub profile: ProfileName,
+    /// Complexity δ ∈ (0, 1]: larger → stricter merging, more states.
+    pub delta: f64,
+    /// Minimum confidence φ ∈ [0, 1] for a prediction to be offered.
+    pub phi_min: f64,
+    /// Moves a prediction conditions on (h, 1–50).
+    pub horizon: usize,
+    /// Translation repeatability σ_t (mm) of the precision matrix.
+    pub sigma_t_mm: f64,
+    /// Quaternion-component repeatability σ_q of the precision matrix.
+    pub sigma_q: f64,
+    pub scale: ScaleSettings,
+    /// Robot model (a URDF in `robots/`).
+    pub robot: String,
+    /// The robot base in the cell's work frame.
+    pub base: PoseDto,
+    /// The tool centre point in the flange frame.
+    pub tool: PoseDto,
+}
+
+/// Settings given when a cell is created; anything left out takes the profile's value.
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CellSettingsInput {
+    pub profile: Option<ProfileName>,
+    pub delta: Option<f64>,
+    pub phi_min: Option<f64>,
+    pub horizon: Option<usize>,
+    pub sigma_t_mm: Option<f64>,
+    pub sigma_q: Option<f64>,
+    pub scale: Option<ScaleSettings>,
+    pub robot: Option<String>,
+    pub base: Option<PoseDto>,
+    pub tool: Option<PoseDto>,
+}
+
+/// Largest horizon a cell or a request may ask for.
+pub const MAX_HORIZON: usize = 50;
+
+fn identity() -> PoseDto {
+    (&Pose::identity()).into()
+}
+
+impl CellSettingsInput {
+    /// Fills in defaults and checks everything.
+    pub fn resolve(self) -> Result<CellSettings, AppError> {
+        let profile = self.profile.unwrap_or(ProfileName::Default);
+        let base = EngineConfig::profile(profile.into());
+        let settings = CellSettings {
+            profile,
+            delta: self.delta.unwrap_or(base.delta),
+            phi_min: self.phi_min.unwrap_or(base.phi_min),
+            horizon: self.horizon.unwrap_or(base.horizon),
+            sigma_t_mm: self.sigma_t_mm.unwrap_or(base.sigma_t),
+            sigma_q: self.sigma_q.unwrap_or(base.sigma_q),
+            scale: self.scale.unwrap_or(ScaleSettings {
+                enabled: base.scale.enabled,
+                psi_min: base.scale.psi_min,
+                psi_max: base.scale.psi_max,
+            }),
+            robot: self.robot.unwrap_or_else(|| DEFAULT_ROBOT.to_string()),
+            base: self.base.unwrap_or_else(identity),
+            tool: self.tool.unwrap_or_else(identity),
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+}
+
+impl CellSettings {
+    /// The engine configuration these settings describe.
+    pub fn engine_config(&self) -> EngineConfig {
+        let mut c = EngineConfig::profile(self.profile.into());
+        c.delta = self.delta;
+        c.phi_min = self.phi_min;
+        c.horizon = self.horizon;
+        c.sigma_t = self.sigma_t_mm;
+        c.sigma_q = self.sigma_q;
+        c.scale.enabled = self.scale.enabled;
+        c.scale.psi_min = self.scale.psi_min;
+        c.scale.psi_max = self.scale.psi_max;
+        c
+    }
+
+    pub fn validate(&self) -> Result<(), AppError> {
+        self.engine_config().validate()?;
+        if self.horizon > MAX_HORIZON {
+            return Err(AppError::Invalid(format!(
+                "horizon {} is above the maximum of {MAX_HORIZON}",
+                self.horizon
+            )));
+        }
+        if self.robot.trim().is_empty() {
+            return Err(AppError::Invalid("robot must not be empty".into()));
+        }
+        self.base.to_pose()?;
+        self.tool.to_pose()?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_come_from_the_profile_and_overrides_apply() {
+        let s = CellSettingsInput::default().resolve().unwrap();
+        assert_eq!(s.engine_config(), EngineConfig::profile(Profile::Default));
+        let seed = CellSettingsInput {
+            profile: Some(ProfileName::Seed),
+            horizon: Some(2),
+            ..Default::default()
+        }
+        .resolve()
+        .unwrap();
+        let mut want = EngineConfig::profile(Profile::Seed);
+        want.horizon = 2;
+        assert_eq!(seed.engine_config(), want);
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        for input in [
+            CellSettingsInput {
+                delta: Some(1.5),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                horizon: Some(0),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                horizon: Some(500),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                sigma_t_mm: Some(-1.0),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                robot: Some(" ".into()),
+                ..Default::default()
+            },
+        ] {
+            assert!(input.resolve().is_err());
+        }
+    }
+}

@@ -1,0 +1,93 @@
+//! `/v1/cells`: work cells, their statistics and model rebuilds.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::error::extract::{Json, Path};
+use super::error::{ApiError, ErrorBody};
+use crate::app::App;
+use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo};
+
+pub fn router() -> OpenApiRouter<Arc<App>> {
+    OpenApiRouter::new()
+        .routes(routes!(create_cell, list_cells))
+        .routes(routes!(get_cell))
+        .routes(routes!(cell_stats))
+        .routes(routes!(rebuild_model))
+}
+
+/// Create a work cell with its own model and settings.
+#[utoipa::path(post, path = "/v1/cells", tag = "cells",
+    request_body = CreateCell,
+    responses(
+        (status = 201, description = "Created", body = Cell),
+        (status = 400, description = "Malformed JSON", body = ErrorBody),
+        (status = 409, description = "Name taken", body = ErrorBody),
+        (status = 422, description = "Invalid settings or unknown fields", body = ErrorBody),
+    ))]
+async fn create_cell(
+    State(app): State<Arc<App>>,
+    Json(body): Json<CreateCell>,
+) -> Result<(StatusCode, axum::Json<Cell>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.create_cell(body).await?),
+    ))
+}
+
+/// List the work cells.
+#[utoipa::path(get, path = "/v1/cells", tag = "cells",
+    responses((status = 200, description = "All cells", body = [Cell])))]
+async fn list_cells(State(app): State<Arc<App>>) -> Result<axum::Json<Vec<Cell>>, ApiError> {
+    Ok(axum::Json(app.cells().await?))
+}
+
+/// One work cell.
+#[utoipa::path(get, path = "/v1/cells/{cell_id}", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    responses(
+        (status = 200, description = "The cell", body = Cell),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+    ))]
+async fn get_cell(
+    State(app): State<Arc<App>>,
+    Path(cell_id): Path<i64>,
+) -> Result<axum::Json<Cell>, ApiError> {
+    Ok(axum::Json(app.get_cell(cell_id).await?))
+}
+
+/// Model statistics and the feedback operators gave on the cell's predictions.
+#[utoipa::path(get, path = "/v1/cells/{cell_id}/stats", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    responses(
+        (status = 200, description = "Statistics", body = CellStats),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+    ))]
+async fn cell_stats(
+    State(app): State<Arc<App>>,
+    Path(cell_id): Path<i64>,
+) -> Result<axum::Json<CellStats>, ApiError> {
+    Ok(axum::Json(app.cell_stats(cell_id).await?))
+}
+
+/// Re-learn the cell's model from its stored finished routines, in the order they were
+/// finished (and take up the routine being taught).
+#[utoipa::path(post, path = "/v1/cells/{cell_id}/rebuild", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    responses(
+        (status = 200, description = "The rebuilt model", body = ModelInfo),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+    ))]
+async fn rebuild_model(
+    State(app): State<Arc<App>>,
+    Path(cell_id): Path<i64>,
+) -> Result<axum::Json<ModelInfo>, ApiError> {
+    Ok(axum::Json(app.rebuild(cell_id).await?))
+}

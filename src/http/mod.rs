@@ -1,0 +1,155 @@
+//! The REST adapter: extracts requests, calls the application service ([`crate::app`]) and
+//! maps its errors to HTTP once ([`error`]). No business logic lives here.
+//!
+//! The router and the OpenAPI description come from the same annotations (utoipa), so a route
+//! cannot exist without being described; `openapi.yaml` at the repository root is the
+//! generated description, committed, and a test fails when it and the code drift apart
+//! (regenerate with `nextpose openapi > openapi.yaml`).
+
+mod cells;
+pub mod error;
+mod middleware;
+mod programs;
+mod routines;
+mod system;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::Router;
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderName, Method, Request, StatusCode, header};
+use tower::ServiceBuilder;
+use tower_http::cors::{Any, CorsLayer};
+use tower_http::limit::RequestBodyLimitLayer;
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::timeout::TimeoutLayer;
+use tower_http::trace::TraceLayer;
+use utoipa::openapi::security::{Http, HttpAuthScheme, SecurityScheme};
+use utoipa::openapi::{OpenApi as OpenApiDoc, SecurityRequirement};
+use utoipa::{Modify, OpenApi};
+use utoipa_axum::router::OpenApiRouter;
+
+use crate::app::App;
+
+/// Limits and options of the HTTP adapter.
+#[derive(Debug, Clone)]
+pub struct HttpOptions {
+    /// Largest request body accepted (bytes).
+    pub body_limit: usize,
+    /// Requests taking longer are answered 408.
+    pub request_timeout: Duration,
+    /// When set, every route but `/healthz` requires `Authorization: Bearer <token>`.
+    pub token: Option<String>,
+}
+
+impl Default for HttpOptions {
+    fn default() -> Self {
+        HttpOptions {
+            body_limit: 2 * 1024 * 1024,
+            request_timeout: Duration::from_secs(30),
+            token: None,
+        }
+    }
+}
+
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "nextpose",
+        description = "Teach-pendant prediction service: suggests the next waypoint while an \
+                       operator teaches an industrial robot arm. Poses are in mm with unit \
+                       quaternions (w, x, y, z). Errors are `{\"error\": {\"code\", \"message\"}}`."
+    ),
+    modifiers(&BearerAuth),
+    tags(
+        (name = "cells", description = "Work cells, each with its own model"),
+        (name = "programs", description = "Programs of a cell"),
+        (name = "routines", description = "Ordered routines of a program"),
+        (name = "teaching", description = "Waypoints, predictions, undo, finish and feedback"),
+        (name = "system", description = "Health and metrics"),
+    )
+)]
+struct ApiDoc;
+
+/// Declares the optional bearer token.
+struct BearerAuth;
+
+impl Modify for BearerAuth {
+    fn modify(&self, openapi: &mut OpenApiDoc) {
+        let components = openapi.components.get_or_insert_with(Default::default);
+        components.add_security_scheme(
+            "bearer",
+            SecurityScheme::Http(Http::new(HttpAuthScheme::Bearer)),
+        );
+        openapi.security = Some(vec![
+            SecurityRequirement::default(),
+            SecurityRequirement::new("bearer", Vec::<String>::new()),
+        ]);
+    }
+}
+
+fn api() -> OpenApiRouter<Arc<App>> {
+    OpenApiRouter::with_openapi(ApiDoc::openapi())
+        .merge(system::router())
+        .merge(cells::router())
+        .merge(programs::router())
+        .merge(routines::router())
+}
+
+/// The OpenAPI description of every route.
+pub fn openapi() -> OpenApiDoc {
+    api().split_for_parts().1
+}
+
+/// The service's router with all its layers.
+pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
+    let (routes, _) = api().split_for_parts();
+    let request_id = HeaderName::from_static("x-request-id");
+    let mut routes = routes
+        .fallback(|| async { error::for_status(StatusCode::NOT_FOUND) })
+        .layer(axum::middleware::from_fn_with_state(
+            app.metrics().clone(),
+            middleware::track,
+        ));
+    if let Some(token) = options.token.as_deref().filter(|t| !t.is_empty()) {
+        routes = routes.layer(axum::middleware::from_fn_with_state(
+            Arc::<str>::from(token),
+            middleware::require_token,
+        ));
+    }
+    let cors = CorsLayer::new()
+        .allow_origin(Any)
+        .allow_methods([Method::GET, Method::POST, Method::DELETE, Method::OPTIONS])
+        .allow_headers([
+            header::CONTENT_TYPE,
+            header::AUTHORIZATION,
+            request_id.clone(),
+        ])
+        .expose_headers([request_id.clone()]);
+    routes
+        .layer(
+            ServiceBuilder::new()
+                .layer(SetRequestIdLayer::new(request_id.clone(), MakeRequestUuid))
+                .layer(
+                    TraceLayer::new_for_http().make_span_with(|req: &Request<_>| {
+                        let id = req
+                            .headers()
+                            .get("x-request-id")
+                            .and_then(|v| v.to_str().ok())
+                            .unwrap_or("-");
+                        tracing::info_span!("request", method = %req.method(), uri = %req.uri(), request_id = %id)
+                    }),
+                )
+                .layer(PropagateRequestIdLayer::new(request_id))
+                .layer(cors)
+                .layer(axum::middleware::from_fn(middleware::json_errors))
+                .layer(TimeoutLayer::with_status_code(
+                    StatusCode::REQUEST_TIMEOUT,
+                    options.request_timeout,
+                ))
+                .layer(RequestBodyLimitLayer::new(options.body_limit))
+                .layer(DefaultBodyLimit::max(options.body_limit)),
+        )
+        .with_state(app)
+}

@@ -1,0 +1,71 @@
+//! `/v1/cells/{cell_id}/programs` and `/v1/programs`: programs of a cell.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::error::extract::{Json, Path};
+use super::error::{ApiError, ErrorBody};
+use crate::app::App;
+use crate::app::resources::{CreateProgram, Program};
+
+pub fn router() -> OpenApiRouter<Arc<App>> {
+    OpenApiRouter::new()
+        .routes(routes!(create_program, list_programs))
+        .routes(routes!(get_program))
+}
+
+/// Create a program in a cell.
+#[utoipa::path(post, path = "/v1/cells/{cell_id}/programs", tag = "programs",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    request_body = CreateProgram,
+    responses(
+        (status = 201, description = "Created", body = Program),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 409, description = "Name taken in this cell", body = ErrorBody),
+        (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn create_program(
+    State(app): State<Arc<App>>,
+    Path(cell_id): Path<i64>,
+    Json(body): Json<CreateProgram>,
+) -> Result<(StatusCode, axum::Json<Program>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.create_program(cell_id, body).await?),
+    ))
+}
+
+/// List a cell's programs.
+#[utoipa::path(get, path = "/v1/cells/{cell_id}/programs", tag = "programs",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    responses(
+        (status = 200, description = "The cell's programs", body = [Program]),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+    ))]
+async fn list_programs(
+    State(app): State<Arc<App>>,
+    Path(cell_id): Path<i64>,
+) -> Result<axum::Json<Vec<Program>>, ApiError> {
+    Ok(axum::Json(app.programs(cell_id).await?))
+}
+
+/// One program.
+#[utoipa::path(get, path = "/v1/programs/{program_id}", tag = "programs",
+    params(("program_id" = i64, Path, description = "Program id")),
+    responses(
+        (status = 200, description = "The program", body = Program),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+    ))]
+async fn get_program(
+    State(app): State<Arc<App>>,
+    Path(program_id): Path<i64>,
+) -> Result<axum::Json<Program>, ApiError> {
+    Ok(axum::Json(app.get_program(program_id).await?))
+}

@@ -1,0 +1,197 @@
+//! Routines and teaching: `/v1/programs/{program_id}/routines`, `/v1/routines/...` (waypoints,
+//! undo, finish, predictions) and `/v1/predictions/{prediction_id}/feedback`.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::error::extract::{Json, Path, Query};
+use super::error::{ApiError, ErrorBody};
+use crate::app::App;
+use crate::app::resources::{
+    CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, NewWaypointDto, PredictQuery,
+    PredictionSet, Routine, RoutineDetail, Taught, Undone,
+};
+
+pub fn router() -> OpenApiRouter<Arc<App>> {
+    OpenApiRouter::new()
+        .routes(routes!(create_routine, list_routines))
+        .routes(routes!(get_routine, delete_routine))
+        .routes(routes!(append_waypoint))
+        .routes(routes!(undo_waypoint))
+        .routes(routes!(finish_routine))
+        .routes(routes!(predict))
+        .routes(routes!(feedback))
+}
+
+/// Start a routine at the end of a program. A cell teaches one routine at a time.
+#[utoipa::path(post, path = "/v1/programs/{program_id}/routines", tag = "routines",
+    params(("program_id" = i64, Path, description = "Program id")),
+    request_body(content = CreateRoutine, description = "Optional name; the body may be `{}`"),
+    responses(
+        (status = 201, description = "Created", body = Routine),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 409, description = "Another routine of the cell is being taught", body = ErrorBody),
+        (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn create_routine(
+    State(app): State<Arc<App>>,
+    Path(program_id): Path<i64>,
+    Json(body): Json<CreateRoutine>,
+) -> Result<(StatusCode, axum::Json<Routine>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.create_routine(program_id, body).await?),
+    ))
+}
+
+/// List a program's routines in order.
+#[utoipa::path(get, path = "/v1/programs/{program_id}/routines", tag = "routines",
+    params(("program_id" = i64, Path, description = "Program id")),
+    responses(
+        (status = 200, description = "The routines", body = [Routine]),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+    ))]
+async fn list_routines(
+    State(app): State<Arc<App>>,
+    Path(program_id): Path<i64>,
+) -> Result<axum::Json<Vec<Routine>>, ApiError> {
+    Ok(axum::Json(app.routines(program_id).await?))
+}
+
+/// A routine with its waypoints in teaching order.
+#[utoipa::path(get, path = "/v1/routines/{routine_id}", tag = "routines",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    responses(
+        (status = 200, description = "The routine", body = RoutineDetail),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+    ))]
+async fn get_routine(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+) -> Result<axum::Json<RoutineDetail>, ApiError> {
+    Ok(axum::Json(app.get_routine(routine_id).await?))
+}
+
+/// Delete a routine that is being taught (a finished routine is immutable).
+#[utoipa::path(delete, path = "/v1/routines/{routine_id}", tag = "routines",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    responses(
+        (status = 204, description = "Deleted"),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "The routine is finished", body = ErrorBody),
+    ))]
+async fn delete_routine(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+) -> Result<StatusCode, ApiError> {
+    app.delete_routine(routine_id).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+/// Append a taught waypoint; the response carries the prediction for the next one (or why
+/// there is none).
+#[utoipa::path(post, path = "/v1/routines/{routine_id}/waypoints", tag = "teaching",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    request_body = NewWaypointDto,
+    responses(
+        (status = 201, description = "Stored; the prediction for the next waypoint", body = Taught),
+        (status = 400, description = "Malformed JSON", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "The routine is finished", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 415, description = "Not JSON", body = ErrorBody),
+        (status = 422, description = "Invalid pose (non-finite, quaternion far from unit), joints or unknown fields", body = ErrorBody),
+    ))]
+async fn append_waypoint(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+    Json(body): Json<NewWaypointDto>,
+) -> Result<(StatusCode, axum::Json<Taught>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.append_waypoint(routine_id, body).await?),
+    ))
+}
+
+/// Undo: delete the last waypoint of a routine being taught; the prediction rolls back.
+#[utoipa::path(delete, path = "/v1/routines/{routine_id}/waypoints/last", tag = "teaching",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    responses(
+        (status = 200, description = "The removed waypoint and the prediction now", body = Undone),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "The routine is finished or empty", body = ErrorBody),
+    ))]
+async fn undo_waypoint(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+) -> Result<axum::Json<Undone>, ApiError> {
+    Ok(axum::Json(app.undo(routine_id).await?))
+}
+
+/// Finish a routine: it becomes immutable and the cell's model learns it.
+#[utoipa::path(post, path = "/v1/routines/{routine_id}/finish", tag = "teaching",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    responses(
+        (status = 200, description = "Finished; the model after learning it", body = Finished),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "Already finished", body = ErrorBody),
+    ))]
+async fn finish_routine(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+) -> Result<axum::Json<Finished>, ApiError> {
+    Ok(axum::Json(app.finish_routine(routine_id).await?))
+}
+
+/// The prediction for the next waypoint of a routine being taught, with per-request
+/// overrides; `k` > 1 asks for the next k waypoints (open-loop completion: each prediction is
+/// applied and the next one predicted, stopping at the first that is not offered).
+#[utoipa::path(get, path = "/v1/routines/{routine_id}/prediction", tag = "teaching",
+    params(("routine_id" = i64, Path, description = "Routine id"), PredictQuery),
+    responses(
+        (status = 200, description = "The predictions", body = PredictionSet),
+        (status = 400, description = "Malformed id or query", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "The routine is finished", body = ErrorBody),
+        (status = 422, description = "Override out of range", body = ErrorBody),
+    ))]
+async fn predict(
+    State(app): State<Arc<App>>,
+    Path(routine_id): Path<i64>,
+    Query(q): Query<PredictQuery>,
+) -> Result<axum::Json<PredictionSet>, ApiError> {
+    Ok(axum::Json(app.predict(routine_id, q).await?))
+}
+
+/// Feedback on an offered prediction: accepted as is, accepted after adjustment (with the
+/// pose finally taught), or rejected. Once per prediction.
+#[utoipa::path(post, path = "/v1/predictions/{prediction_id}/feedback", tag = "teaching",
+    params(("prediction_id" = i64, Path, description = "Prediction id (from a prediction's `id`)")),
+    request_body = FeedbackDto,
+    responses(
+        (status = 201, description = "Recorded", body = FeedbackRecorded),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such prediction", body = ErrorBody),
+        (status = 409, description = "Feedback already given", body = ErrorBody),
+        (status = 422, description = "Pose missing for `adjusted`, or invalid", body = ErrorBody),
+    ))]
+async fn feedback(
+    State(app): State<Arc<App>>,
+    Path(prediction_id): Path<i64>,
+    Json(body): Json<FeedbackDto>,
+) -> Result<(StatusCode, axum::Json<FeedbackRecorded>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.feedback(prediction_id, body).await?),
+    ))
+}

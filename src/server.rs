@@ -1,0 +1,117 @@
+//! Starting and stopping the service: [`Application::build`] opens the database, applies the
+//! migrations and binds the listener; [`Application::run_until_stopped`] serves until the
+//! shutdown future completes, then drains in-flight requests and closes the database.
+//! Tests start the real application on port 0 the same way `nextpose serve` does.
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::Context;
+use tokio::net::TcpListener;
+
+use crate::app::App;
+use crate::http::{self, HttpOptions};
+use crate::storage::{Durability, Store};
+use crate::telemetry::Metrics;
+
+/// Where the database lives.
+#[derive(Debug, Clone)]
+pub enum Database {
+    File(PathBuf),
+    /// In memory, gone when the process ends (tests and demos).
+    Memory,
+}
+
+#[derive(Debug, Clone)]
+pub struct ServerSettings {
+    pub database: Database,
+    pub durability: Durability,
+    /// `HOST:PORT`; port 0 picks a free one.
+    pub addr: String,
+    pub http: HttpOptions,
+}
+
+impl Default for ServerSettings {
+    fn default() -> Self {
+        ServerSettings {
+            database: Database::File(PathBuf::from("nextpose.db")),
+            durability: Durability::default(),
+            addr: "127.0.0.1:8080".into(),
+            http: HttpOptions::default(),
+        }
+    }
+}
+
+pub struct Application {
+    listener: TcpListener,
+    app: Arc<App>,
+    router: axum::Router,
+}
+
+impl Application {
+    pub async fn build(settings: ServerSettings) -> anyhow::Result<Application> {
+        let store = match &settings.database {
+            Database::File(path) => Store::open(path, settings.durability)
+                .await
+                .with_context(|| format!("opening database {}", path.display()))?,
+            Database::Memory => Store::in_memory().await?,
+        };
+        let app = Arc::new(App::new(store, Arc::new(Metrics::new())));
+        let router = http::router(app.clone(), &settings.http);
+        let listener = TcpListener::bind(&settings.addr)
+            .await
+            .with_context(|| format!("binding {}", settings.addr))?;
+        Ok(Application {
+            listener,
+            app,
+            router,
+        })
+    }
+
+    pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
+        self.listener.local_addr()
+    }
+
+    pub fn app(&self) -> &Arc<App> {
+        &self.app
+    }
+
+    /// Serves until `shutdown` completes, then lets in-flight requests finish.
+    pub async fn run_until_stopped(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> std::io::Result<()> {
+        let result = axum::serve(self.listener, self.router)
+            .with_graceful_shutdown(shutdown)
+            .await;
+        self.app.store().close().await;
+        result
+    }
+}
+
+/// Completes on SIGINT (Ctrl-C) or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        if tokio::signal::ctrl_c().await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+    tracing::info!("shutting down");
+}

@@ -1,0 +1,479 @@
+//! Storage: cells, programs, routines, waypoints, predictions and feedback in SQLite via sqlx.
+//!
+//! The database is the source of truth; the models in memory are rebuilt from it. Every
+//! write is one transaction. SQLite runs in WAL mode with `synchronous = NORMAL`: a committed
+//! transaction survives the process being killed (it is in the WAL, which the OS holds); only
+//! a power loss can take back the last commits (use `synchronous = FULL` via
+//! [`Durability::Full`] when that matters more than latency). Queries are checked at run time
+//! (`query_as` + `FromRow`), so building needs no live database.
+
+mod rows;
+
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Duration;
+
+use sqlx::sqlite::{
+    SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
+};
+
+pub use rows::{
+    CellRow, FeedbackCounts, NewFeedback, NewPrediction, NewWaypoint, PoseColumns, PredictionRow,
+    ProgramRow, RoutineRow, WaypointRow,
+};
+
+/// How hard commits try to reach the disk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Durability {
+    /// Survives a crash of the process (WAL, `synchronous = NORMAL`).
+    #[default]
+    Process,
+    /// Survives a power loss too (`synchronous = FULL`), at the cost of an fsync per commit.
+    Full,
+}
+
+/// Storage failures, as the application sees them.
+#[derive(Debug, thiserror::Error)]
+pub enum StorageError {
+    /// A uniqueness constraint was violated (e.g. a name already taken).
+    #[error("already exists: {0}")]
+    Conflict(String),
+    /// A referenced row does not exist.
+    #[error("not found")]
+    NotFound,
+    #[error("database error: {0}")]
+    Database(#[from] sqlx::Error),
+    #[error("migration failed: {0}")]
+    Migration(#[from] sqlx::migrate::MigrateError),
+}
+
+fn classify(e: sqlx::Error) -> StorageError {
+    if let sqlx::Error::Database(db) = &e
+        && db.is_unique_violation()
+    {
+        return StorageError::Conflict(db.message().to_string());
+    }
+    if let sqlx::Error::RowNotFound = e {
+        return StorageError::NotFound;
+    }
+    StorageError::Database(e)
+}
+
+type Result<T> = std::result::Result<T, StorageError>;
+
+/// The SQLite store.
+#[derive(Debug, Clone)]
+pub struct Store {
+    pool: SqlitePool,
+}
+
+impl Store {
+    /// Opens (creating if missing) the database file at `path` and applies the migrations.
+    pub async fn open(path: &Path, durability: Durability) -> Result<Store> {
+        let options = SqliteConnectOptions::new()
+            .filename(path)
+            .create_if_missing(true);
+        Store::connect(options, 8, durability).await
+    }
+
+    /// An in-memory database (one connection: each `:memory:` connection is its own database).
+    pub async fn in_memory() -> Result<Store> {
+        let options = SqliteConnectOptions::from_str("sqlite::memory:")?;
+        Store::connect(options, 1, Durability::Process).await
+    }
+
+    async fn connect(
+        options: SqliteConnectOptions,
+        max_connections: u32,
+        durability: Durability,
+    ) -> Result<Store> {
+        let options = options
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(match durability {
+                Durability::Process => SqliteSynchronous::Normal,
+                Durability::Full => SqliteSynchronous::Full,
+            })
+            .foreign_keys(true)
+            .busy_timeout(Duration::from_secs(5));
+        let pool = SqlitePoolOptions::new()
+            .max_connections(max_connections)
+            .min_connections(1)
+            .connect_with(options)
+            .await?;
+        sqlx::migrate!("./migrations").run(&pool).await?;
+        Ok(Store { pool })
+    }
+
+    /// A trivial query: is the database answering?
+    pub async fn ping(&self) -> Result<()> {
+        sqlx::query("SELECT 1").execute(&self.pool).await?;
+        Ok(())
+    }
+
+    pub async fn close(&self) {
+        self.pool.close().await;
+    }
+
+    // ---- cells ------------------------------------------------------------------------------
+
+    pub async fn insert_cell(&self, name: &str, settings_json: &str) -> Result<CellRow> {
+        sqlx::query_as::<_, CellRow>(
+            "INSERT INTO cells (name, settings) VALUES (?, ?) \
+             RETURNING id, name, settings, created_at",
+        )
+        .bind(name)
+        .bind(settings_json)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(classify)
+    }
+
+    pub async fn cell(&self, id: i64) -> Result<Option<CellRow>> {
+        Ok(sqlx::query_as::<_, CellRow>(
+            "SELECT id, name, settings, created_at FROM cells WHERE id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await?)
+    }
+
+    pub async fn cells(&self) -> Result<Vec<CellRow>> {
+        Ok(sqlx::query_as::<_, CellRow>(
+            "SELECT id, name, settings, created_at FROM cells ORDER BY id",
+        )
+        .fetch_all(&self.pool)
+        .await?)
+    }
+
+    // ---- programs ---------------------------------------------------------------------------
+
+    pub async fn insert_program(&self, cell_id: i64, name: &str) -> Result<ProgramRow> {
+        sqlx::query_as::<_, ProgramRow>(
+            "INSERT INTO programs (cell_id, name) VALUES (?, ?) \
+             RETURNING id, cell_id, name, created_at",
+        )
+        .bind(cell_id)
+        .bind(name)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(classify)
+    }
+
+    pub async fn program(&self, id: i64) -> Result<Option<ProgramRow>> {
+        Ok(sqlx::query_as::<_, ProgramRow>(
+            "SELECT id, cell_id, name, created_at FROM programs WHERE id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await?)
+    }
+
+    pub async fn programs(&self, cell_id: i64) -> Result<Vec<ProgramRow>> {
+        Ok(sqlx::query_as::<_, ProgramRow>(
+            "SELECT id, cell_id, name, created_at FROM programs WHERE cell_id = ? ORDER BY id",
+        )
+        .bind(cell_id)
+        .fetch_all(&self.pool)
+        .await?)
+    }
+
+    // ---- routines ---------------------------------------------------------------------------
+
+    const ROUTINE_COLUMNS: &'static str = "r.id, r.program_id, r.cell_id, r.position, r.name, \
+        r.finish_seq, r.finished_at, r.created_at, \
+        (SELECT COUNT(*) FROM waypoints w WHERE w.routine_id = r.id) AS waypoints";
+
+    /// Adds a routine at the end of a program. Fails with `Conflict` when the cell already has
+    /// a routine being taught.
+    pub async fn insert_routine(&self, program: &ProgramRow, name: Option<&str>) -> Result<i64> {
+        let row: (i64,) = sqlx::query_as(
+            "INSERT INTO routines (program_id, cell_id, position, name) \
+             VALUES (?1, ?2, (SELECT COALESCE(MAX(position), 0) + 1 FROM routines \
+                              WHERE program_id = ?1), ?3) \
+             RETURNING id",
+        )
+        .bind(program.id)
+        .bind(program.cell_id)
+        .bind(name)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(classify)?;
+        Ok(row.0)
+    }
+
+    pub async fn routine(&self, id: i64) -> Result<Option<RoutineRow>> {
+        let sql = match_routine_sql(Self::ROUTINE_COLUMNS, "WHERE r.id = ?");
+        Ok(sqlx::query_as::<_, RoutineRow>(sqlx::AssertSqlSafe(sql))
+            .bind(id)
+            .fetch_optional(&self.pool)
+            .await?)
+    }
+
+    pub async fn routines(&self, program_id: i64) -> Result<Vec<RoutineRow>> {
+        let sql = match_routine_sql(
+            Self::ROUTINE_COLUMNS,
+            "WHERE r.program_id = ? ORDER BY r.position",
+        );
+        Ok(sqlx::query_as::<_, RoutineRow>(sqlx::AssertSqlSafe(sql))
+            .bind(program_id)
+            .fetch_all(&self.pool)
+            .await?)
+    }
+
+    /// The routine of a cell that is being taught, if any.
+    pub async fn open_routine(&self, cell_id: i64) -> Result<Option<RoutineRow>> {
+        let sql = match_routine_sql(
+            Self::ROUTINE_COLUMNS,
+            "WHERE r.cell_id = ? AND r.finish_seq IS NULL",
+        );
+        Ok(sqlx::query_as::<_, RoutineRow>(sqlx::AssertSqlSafe(sql))
+            .bind(cell_id)
+            .fetch_optional(&self.pool)
+            .await?)
+    }
+
+    /// The finished routines of a cell in the order the model assimilated them.
+    pub async fn finished_routines(&self, cell_id: i64) -> Result<Vec<RoutineRow>> {
+        let sql = match_routine_sql(
+            Self::ROUTINE_COLUMNS,
+            "WHERE r.cell_id = ? AND r.finish_seq IS NOT NULL ORDER BY r.finish_seq",
+        );
+        Ok(sqlx::query_as::<_, RoutineRow>(sqlx::AssertSqlSafe(sql))
+            .bind(cell_id)
+            .fetch_all(&self.pool)
+            .await?)
+    }
+
+    /// Marks a routine finished; returns its place in the cell's assimilation order.
+    pub async fn finish_routine(&self, routine: &RoutineRow) -> Result<i64> {
+        let row: (i64,) = sqlx::query_as(
+            "UPDATE routines SET \
+               finish_seq = (SELECT COALESCE(MAX(finish_seq), 0) + 1 FROM routines \
+                             WHERE cell_id = ?1), \
+               finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') \
+             WHERE id = ?2 AND finish_seq IS NULL \
+             RETURNING finish_seq",
+        )
+        .bind(routine.cell_id)
+        .bind(routine.id)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(classify)?;
+        Ok(row.0)
+    }
+
+    /// Deletes a routine that is being taught (with its waypoints and predictions).
+    pub async fn delete_open_routine(&self, routine_id: i64) -> Result<()> {
+        let done = sqlx::query("DELETE FROM routines WHERE id = ? AND finish_seq IS NULL")
+            .bind(routine_id)
+            .execute(&self.pool)
+            .await?;
+        if done.rows_affected() == 0 {
+            return Err(StorageError::NotFound);
+        }
+        Ok(())
+    }
+
+    // ---- waypoints --------------------------------------------------------------------------
+
+    const WAYPOINT_COLUMNS: &'static str =
+        "id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, created_at";
+
+    pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
+        let sql = format!(
+            "SELECT {} FROM waypoints WHERE routine_id = ? ORDER BY seq",
+            Self::WAYPOINT_COLUMNS
+        );
+        Ok(sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(routine_id)
+            .fetch_all(&self.pool)
+            .await?)
+    }
+
+    /// Appends a waypoint and, when one is offered, the prediction made after it, in one
+    /// transaction. Returns the stored waypoint and the prediction's id.
+    pub async fn append_waypoint(
+        &self,
+        wp: &NewWaypoint,
+        prediction: Option<&NewPrediction>,
+    ) -> Result<(WaypointRow, Option<i64>)> {
+        let mut tx = self.pool.begin().await?;
+        let sql = format!(
+            "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name) \
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING {}",
+            Self::WAYPOINT_COLUMNS
+        );
+        let p = &wp.pose;
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(wp.routine_id)
+            .bind(wp.seq)
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(&wp.joints)
+            .bind(&wp.motion)
+            .bind(&wp.name)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(classify)?;
+        let pid = match prediction {
+            Some(pr) => Some(insert_prediction(&mut tx, pr).await?),
+            None => None,
+        };
+        tx.commit().await?;
+        Ok((row, pid))
+    }
+
+    /// Deletes the last waypoint of a routine; returns it. Predictions made after it stay
+    /// recorded: they were offered, and feedback may refer to them.
+    pub async fn delete_last_waypoint(&self, routine_id: i64) -> Result<Option<WaypointRow>> {
+        let mut tx = self.pool.begin().await?;
+        let sql = format!(
+            "DELETE FROM waypoints WHERE id = (SELECT id FROM waypoints WHERE routine_id = ? \
+             ORDER BY seq DESC LIMIT 1) RETURNING {}",
+            Self::WAYPOINT_COLUMNS
+        );
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(routine_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(row)
+    }
+
+    // ---- predictions and feedback -----------------------------------------------------------
+
+    /// Records an offered prediction unless the same one (same routine state, same pose) is
+    /// already recorded; returns its id either way.
+    pub async fn record_prediction(&self, pr: &NewPrediction) -> Result<i64> {
+        let mut tx = self.pool.begin().await?;
+        let existing: Option<(i64,)> = sqlx::query_as(
+            "SELECT id FROM predictions WHERE routine_id = ? AND after_seq = ? \
+             AND x = ? AND y = ? AND z = ? AND qw = ? AND qx = ? AND qy = ? AND qz = ? \
+             ORDER BY id LIMIT 1",
+        )
+        .bind(pr.routine_id)
+        .bind(pr.after_seq)
+        .bind(pr.pose.x)
+        .bind(pr.pose.y)
+        .bind(pr.pose.z)
+        .bind(pr.pose.qw)
+        .bind(pr.pose.qx)
+        .bind(pr.pose.qy)
+        .bind(pr.pose.qz)
+        .fetch_optional(&mut *tx)
+        .await?;
+        let id = match existing {
+            Some((id,)) => id,
+            None => insert_prediction(&mut tx, pr).await?,
+        };
+        tx.commit().await?;
+        Ok(id)
+    }
+
+    pub async fn prediction(&self, id: i64) -> Result<Option<PredictionRow>> {
+        Ok(sqlx::query_as::<_, PredictionRow>(
+            "SELECT p.id, p.cell_id, p.routine_id, p.after_seq, \
+               p.x, p.y, p.z, p.qw, p.qx, p.qy, p.qz, p.phi, p.psi, p.misfit, \
+               p.end_probability, p.model_version, p.created_at, f.verdict \
+             FROM predictions p LEFT JOIN feedback f ON f.prediction_id = p.id WHERE p.id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await?)
+    }
+
+    /// Stores feedback on a prediction; `Conflict` when it already has some.
+    pub async fn insert_feedback(&self, fb: &NewFeedback) -> Result<()> {
+        let p = fb.pose.as_ref();
+        sqlx::query(
+            "INSERT INTO feedback (prediction_id, verdict, x, y, z, qw, qx, qy, qz, adjustment_mm) \
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(fb.prediction_id)
+        .bind(fb.verdict)
+        .bind(p.map(|p| p.x))
+        .bind(p.map(|p| p.y))
+        .bind(p.map(|p| p.z))
+        .bind(p.map(|p| p.qw))
+        .bind(p.map(|p| p.qx))
+        .bind(p.map(|p| p.qy))
+        .bind(p.map(|p| p.qz))
+        .bind(fb.adjustment_mm)
+        .execute(&self.pool)
+        .await
+        .map_err(classify)?;
+        Ok(())
+    }
+
+    /// Offered/accepted/adjusted/rejected counts and the adjustment distances of a cell.
+    pub async fn feedback_counts(&self, cell_id: i64) -> Result<FeedbackCounts> {
+        let (offered,): (i64,) =
+            sqlx::query_as("SELECT COUNT(*) FROM predictions WHERE cell_id = ?")
+                .bind(cell_id)
+                .fetch_one(&self.pool)
+                .await?;
+        let verdicts: Vec<(String, Option<f64>)> = sqlx::query_as(
+            "SELECT f.verdict, f.adjustment_mm FROM feedback f \
+             JOIN predictions p ON p.id = f.prediction_id WHERE p.cell_id = ?",
+        )
+        .bind(cell_id)
+        .fetch_all(&self.pool)
+        .await?;
+        let mut counts = FeedbackCounts {
+            offered,
+            ..FeedbackCounts::default()
+        };
+        for (verdict, adjustment) in verdicts {
+            match verdict.as_str() {
+                "accepted" => counts.accepted += 1,
+                "adjusted" => {
+                    counts.adjusted += 1;
+                    if let Some(a) = adjustment {
+                        counts.adjustments_mm.push(a);
+                    }
+                }
+                _ => counts.rejected += 1,
+            }
+        }
+        Ok(counts)
+    }
+}
+
+fn match_routine_sql(columns: &str, tail: &str) -> String {
+    format!("SELECT {columns} FROM routines r {tail}")
+}
+
+async fn insert_prediction(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    pr: &NewPrediction,
+) -> Result<i64> {
+    let (id,): (i64,) = sqlx::query_as(
+        "INSERT INTO predictions (cell_id, routine_id, after_seq, x, y, z, qw, qx, qy, qz, \
+           phi, psi, misfit, end_probability, model_version) \
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+    )
+    .bind(pr.cell_id)
+    .bind(pr.routine_id)
+    .bind(pr.after_seq)
+    .bind(pr.pose.x)
+    .bind(pr.pose.y)
+    .bind(pr.pose.z)
+    .bind(pr.pose.qw)
+    .bind(pr.pose.qx)
+    .bind(pr.pose.qy)
+    .bind(pr.pose.qz)
+    .bind(pr.phi)
+    .bind(pr.psi)
+    .bind(pr.misfit)
+    .bind(pr.end_probability)
+    .bind(pr.model_version)
+    .fetch_one(&mut **tx)
+    .await
+    .map_err(classify)?;
+    Ok(id)
+}

@@ -1,0 +1,124 @@
+//! Rows as stored. Poses are flat columns: position in mm, quaternion `w, x, y, z`.
+
+use sqlx::FromRow;
+
+/// A pose as seven columns.
+#[derive(Debug, Clone, Copy, PartialEq, FromRow)]
+pub struct PoseColumns {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub qw: f64,
+    pub qx: f64,
+    pub qy: f64,
+    pub qz: f64,
+}
+
+#[derive(Debug, Clone, FromRow)]
+pub struct CellRow {
+    pub id: i64,
+    pub name: String,
+    pub settings: String,
+    pub created_at: String,
+}
+
+#[derive(Debug, Clone, FromRow)]
+pub struct ProgramRow {
+    pub id: i64,
+    pub cell_id: i64,
+    pub name: String,
+    pub created_at: String,
+}
+
+#[derive(Debug, Clone, FromRow)]
+pub struct RoutineRow {
+    pub id: i64,
+    pub program_id: i64,
+    pub cell_id: i64,
+    pub position: i64,
+    pub name: Option<String>,
+    pub finish_seq: Option<i64>,
+    pub finished_at: Option<String>,
+    pub created_at: String,
+    /// Number of waypoints.
+    pub waypoints: i64,
+}
+
+impl RoutineRow {
+    pub fn finished(&self) -> bool {
+        self.finish_seq.is_some()
+    }
+}
+
+#[derive(Debug, Clone, FromRow)]
+pub struct WaypointRow {
+    pub id: i64,
+    pub routine_id: i64,
+    pub seq: i64,
+    #[sqlx(flatten)]
+    pub pose: PoseColumns,
+    /// JSON array of joint values (rad).
+    pub joints: Option<String>,
+    pub motion: Option<String>,
+    pub name: Option<String>,
+    pub created_at: String,
+}
+
+#[derive(Debug, Clone)]
+pub struct NewWaypoint {
+    pub routine_id: i64,
+    pub seq: i64,
+    pub pose: PoseColumns,
+    pub joints: Option<String>,
+    pub motion: Option<String>,
+    pub name: Option<String>,
+}
+
+#[derive(Debug, Clone)]
+pub struct NewPrediction {
+    pub cell_id: i64,
+    pub routine_id: i64,
+    pub after_seq: i64,
+    pub pose: PoseColumns,
+    pub phi: f64,
+    pub psi: f64,
+    pub misfit: Option<f64>,
+    pub end_probability: f64,
+    pub model_version: i64,
+}
+
+#[derive(Debug, Clone, FromRow)]
+pub struct PredictionRow {
+    pub id: i64,
+    pub cell_id: i64,
+    pub routine_id: i64,
+    pub after_seq: i64,
+    #[sqlx(flatten)]
+    pub pose: PoseColumns,
+    pub phi: f64,
+    pub psi: f64,
+    pub misfit: Option<f64>,
+    pub end_probability: f64,
+    pub model_version: i64,
+    pub created_at: String,
+    /// The feedback verdict, when there is one.
+    pub verdict: Option<String>,
+}
+
+#[derive(Debug, Clone)]
+pub struct NewFeedback {
+    pub prediction_id: i64,
+    /// `accepted`, `adjusted` or `rejected`.
+    pub verdict: &'static str,
+    pub pose: Option<PoseColumns>,
+    pub adjustment_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct FeedbackCounts {
+    pub offered: i64,
+    pub accepted: i64,
+    pub adjusted: i64,
+    pub rejected: i64,
+    pub adjustments_mm: Vec<f64>,
+}

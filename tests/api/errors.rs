@@ -1,0 +1,253 @@
+//! Every client mistake gets a JSON error with the right status, never a 500.
+
+use std::time::Duration;
+
+use nextpose::http::HttpOptions;
+use reqwest::StatusCode;
+use serde_json::json;
+
+use crate::helpers::*;
+
+#[tokio::test]
+async fn unknown_ids_and_routes_are_404() {
+    let app = spawn_app().await;
+    for path in [
+        "/v1/cells/42",
+        "/v1/cells/42/stats",
+        "/v1/cells/42/programs",
+        "/v1/programs/7",
+        "/v1/programs/7/routines",
+        "/v1/routines/9",
+        "/v1/routines/9/prediction",
+    ] {
+        expect_error(app.get(path).await, StatusCode::NOT_FOUND, "not_found").await;
+    }
+    for path in [
+        "/v1/cells/42/programs",
+        "/v1/programs/7/routines",
+        "/v1/routines/9/finish",
+        "/v1/cells/42/rebuild",
+    ] {
+        let r = app.post(path, &json!({"name": "x"})).await;
+        expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+    }
+    let r = app
+        .post(
+            "/v1/routines/9/waypoints",
+            &json!({"pose": pose([0.0; 3], [0.0; 3])}),
+        )
+        .await;
+    expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+    let r = app.get("/v1/nothing-here").await;
+    expect_error(r, StatusCode::NOT_FOUND, "route_not_found").await;
+    let r = app.delete("/v1/cells").await;
+    expect_error(r, StatusCode::METHOD_NOT_ALLOWED, "method_not_allowed").await;
+    let r = app.get("/v1/cells/not-a-number").await;
+    expect_error(r, StatusCode::BAD_REQUEST, "bad_request").await;
+}
+
+#[tokio::test]
+async fn malformed_and_invalid_bodies() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("errors").await;
+    let program = app.create_program(cell, "p").await;
+    let routine = app.create_routine(program).await;
+    let url = app.url(&format!("/v1/routines/{routine}/waypoints"));
+
+    // Not JSON at all, and JSON without the content type.
+    let r = app
+        .client
+        .post(&url)
+        .header("content-type", "application/json")
+        .body("{\"pose\": ")
+        .send()
+        .await
+        .unwrap();
+    expect_error(r, StatusCode::BAD_REQUEST, "bad_request").await;
+    let r = app.client.post(&url).body("{}").send().await.unwrap();
+    expect_error(
+        r,
+        StatusCode::UNSUPPORTED_MEDIA_TYPE,
+        "unsupported_media_type",
+    )
+    .await;
+
+    let good = pose([1.0, 2.0, 3.0], [0.0; 3]);
+    let cases = [
+        // Unknown field at the top and inside the pose.
+        (json!({"pose": good, "colour": "red"}), "unprocessable"),
+        (
+            json!({"pose": {"x": 1, "y": 2, "z": 3, "qw": 1, "qx": 0, "qy": 0, "qz": 0, "w": 1}}),
+            "unprocessable",
+        ),
+        // Missing field, wrong type.
+        (json!({"pose": {"x": 1, "y": 2, "z": 3}}), "unprocessable"),
+        (
+            json!({"pose": {"x": "1", "y": 2, "z": 3, "qw": 1, "qx": 0, "qy": 0, "qz": 0}}),
+            "unprocessable",
+        ),
+        // A quaternion far from unit length, and the zero quaternion.
+        (
+            json!({"pose": {"x": 1, "y": 2, "z": 3, "qw": 1.1, "qx": 0, "qy": 0, "qz": 0}}),
+            "invalid_pose",
+        ),
+        (
+            json!({"pose": {"x": 1, "y": 2, "z": 3, "qw": 0, "qx": 0, "qy": 0, "qz": 0}}),
+            "invalid_pose",
+        ),
+        // Joints: empty, too many.
+        (json!({"pose": good, "joints": []}), "invalid"),
+        (json!({"pose": good, "joints": vec![0.0; 13]}), "invalid"),
+        (json!({"pose": good, "motion": "teleport"}), "unprocessable"),
+        (json!({"pose": good, "name": ""}), "invalid"),
+    ];
+    for (body, code) in cases {
+        let r = app
+            .post(&format!("/v1/routines/{routine}/waypoints"), &body)
+            .await;
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, code).await;
+    }
+    // Numbers JSON cannot carry (1e999 overflows to infinity) are refused, not stored.
+    let r = app
+        .client
+        .post(&url)
+        .header("content-type", "application/json")
+        .body(r#"{"pose": {"x": 1e999, "y": 2, "z": 3, "qw": 1, "qx": 0, "qy": 0, "qz": 0}}"#)
+        .send()
+        .await
+        .unwrap();
+    assert!(r.status().is_client_error(), "{}", r.status());
+    let body: serde_json::Value = r.json().await.unwrap();
+    assert!(body["error"]["code"].is_string());
+
+    // A quaternion within 1e-3 of unit norm is normalised and accepted.
+    let nearly = json!({"pose": {"x": 1, "y": 2, "z": 3, "qw": 1.0005, "qx": 0, "qy": 0, "qz": 0}});
+    let t = app
+        .post_ok(
+            &format!("/v1/routines/{routine}/waypoints"),
+            &nearly,
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(t["waypoint"]["pose"]["qw"], 1.0);
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoints"].as_array().unwrap().len(), 1);
+
+    // Settings and names.
+    for body in [
+        json!({"name": "c", "settings": {"delta": 0.0}}),
+        json!({"name": "c", "settings": {"horizon": 0}}),
+        json!({"name": "c", "settings": {"phi_min": 2}}),
+        json!({"name": "c", "settings": {"scale": {"enabled": true, "psi_min": 2, "psi_max": 3}}}),
+        json!({"name": ""}),
+    ] {
+        let r = app.post("/v1/cells", &body).await;
+        assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY, "{body}");
+    }
+    let r = app
+        .post(
+            "/v1/cells",
+            &json!({"name": "c", "settings": {"dleta": 0.5}}),
+        )
+        .await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "unprocessable").await;
+    let r = app.post("/v1/cells", &json!({"name": "errors"})).await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    let r = app
+        .post(&format!("/v1/cells/{cell}/programs"), &json!({"name": "p"}))
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    // Query overrides out of range or malformed.
+    for q in ["horizon=0", "horizon=51", "phi_min=-1", "k=101"] {
+        let r = app
+            .get(&format!("/v1/routines/{routine}/prediction?{q}"))
+            .await;
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    }
+    for q in ["horizon=abc", "bogus=1"] {
+        let r = app
+            .get(&format!("/v1/routines/{routine}/prediction?{q}"))
+            .await;
+        expect_error(r, StatusCode::BAD_REQUEST, "bad_request").await;
+    }
+}
+
+#[tokio::test]
+async fn oversized_bodies_are_413() {
+    let app = spawn_with(HttpOptions {
+        body_limit: 4096,
+        ..HttpOptions::default()
+    })
+    .await;
+    let big = json!({"name": "x".repeat(10_000)});
+    let r = app.post("/v1/cells", &big).await;
+    expect_error(r, StatusCode::PAYLOAD_TOO_LARGE, "payload_too_large").await;
+    // Streamed without a length: still refused.
+    let r = app
+        .client
+        .post(app.url("/v1/cells"))
+        .header("content-type", "application/json")
+        .body(reqwest::Body::wrap_stream(futures_stream(
+            serde_json::to_vec(&big).unwrap(),
+        )))
+        .send()
+        .await
+        .unwrap();
+    expect_error(r, StatusCode::PAYLOAD_TOO_LARGE, "payload_too_large").await;
+}
+
+fn futures_stream(
+    bytes: Vec<u8>,
+) -> impl futures_core::Stream<Item = Result<Vec<u8>, std::io::Error>> + Send + 'static {
+    tokio_stream::iter(
+        bytes
+            .chunks(1000)
+            .map(|c| Ok(c.to_vec()))
+            .collect::<Vec<_>>(),
+    )
+}
+
+#[tokio::test]
+async fn bearer_token_guards_everything_but_healthz() {
+    let mut app = spawn_with(HttpOptions {
+        token: Some("s3cret".into()),
+        request_timeout: Duration::from_secs(30),
+        ..HttpOptions::default()
+    })
+    .await;
+    // With the token (the helper sends it), everything works.
+    app.create_cell("guarded").await;
+    app.token = None;
+    assert_eq!(app.get("/healthz").await.status(), StatusCode::OK);
+    expect_error(
+        app.get("/v1/cells").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
+    expect_error(
+        app.get("/metrics").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
+    let r = app
+        .client
+        .get(app.url("/v1/cells"))
+        .bearer_auth("wrong")
+        .send()
+        .await
+        .unwrap();
+    expect_error(r, StatusCode::UNAUTHORIZED, "unauthorized").await;
+    // A browser pendant's CORS preflight is answered without the token.
+    let r = app
+        .client
+        .request(reqwest::Method::OPTIONS, app.url("/v1/cells"))
+        .header("origin", "http://pendant.local")
+        .header("access-control-request-method", "POST")
+        .send()
+        .await
+        .unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    assert!(r.headers().contains_key("access-control-allow-origin"));
+}

@@ -1,0 +1,257 @@
+//! `spawn_app()`: the real application on 127.0.0.1:0 with a fresh SQLite file, plus small
+//! clients for the routes the tests use.
+
+use std::path::PathBuf;
+
+use nalgebra::UnitQuaternion;
+use nextpose::http::HttpOptions;
+use nextpose::server::{Application, Database, ServerSettings};
+use nextpose::storage::Durability;
+use reqwest::{Response, StatusCode};
+use serde_json::{Value, json};
+use tokio::sync::oneshot;
+use tokio::task::JoinHandle;
+
+pub struct TestApp {
+    pub base: String,
+    pub client: reqwest::Client,
+    pub db: PathBuf,
+    pub token: Option<String>,
+    _dir: Option<tempfile::TempDir>,
+    stop: Option<oneshot::Sender<()>>,
+    handle: Option<JoinHandle<std::io::Result<()>>>,
+}
+
+pub async fn spawn_app() -> TestApp {
+    spawn_with(HttpOptions::default()).await
+}
+
+pub async fn spawn_with(http: HttpOptions) -> TestApp {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let db = dir.path().join("nextpose.db");
+    let mut app = start(db, http).await;
+    app._dir = Some(dir);
+    app
+}
+
+async fn start(db: PathBuf, http: HttpOptions) -> TestApp {
+    let token = http.token.clone();
+    let settings = ServerSettings {
+        database: Database::File(db.clone()),
+        durability: Durability::Process,
+        addr: "127.0.0.1:0".into(),
+        http,
+    };
+    let application = Application::build(settings).await.expect("build");
+    let addr = application.local_addr().expect("addr");
+    let (stop, stopped) = oneshot::channel::<()>();
+    let handle = tokio::spawn(application.run_until_stopped(async {
+        let _ = stopped.await;
+    }));
+    TestApp {
+        base: format!("http://{addr}"),
+        client: reqwest::Client::new(),
+        db,
+        token,
+        _dir: None,
+        stop: Some(stop),
+        handle: Some(handle),
+    }
+}
+
+impl TestApp {
+    /// A client for a server running elsewhere (e.g. the real binary).
+    pub fn remote(base: &str) -> TestApp {
+        TestApp {
+            base: base.trim_end_matches('/').to_string(),
+            client: reqwest::Client::new(),
+            db: PathBuf::new(),
+            token: None,
+            _dir: None,
+            stop: None,
+            handle: None,
+        }
+    }
+
+    /// Stops the server gracefully and starts a new one on the same database file.
+    pub async fn restart(mut self) -> TestApp {
+        self.stop().await;
+        let mut next = start(
+            self.db.clone(),
+            HttpOptions {
+                token: self.token.clone(),
+                ..HttpOptions::default()
+            },
+        )
+        .await;
+        next._dir = self._dir.take();
+        next
+    }
+
+    pub async fn stop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        if let Some(handle) = self.handle.take() {
+            handle.await.expect("join").expect("serve");
+        }
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path)
+    }
+
+    fn auth(&self, rb: reqwest::RequestBuilder) -> reqwest::RequestBuilder {
+        match &self.token {
+            Some(t) => rb.bearer_auth(t),
+            None => rb,
+        }
+    }
+
+    pub async fn get(&self, path: &str) -> Response {
+        self.auth(self.client.get(self.url(path)))
+            .send()
+            .await
+            .expect("request")
+    }
+
+    pub async fn post(&self, path: &str, body: &Value) -> Response {
+        self.auth(self.client.post(self.url(path)).json(body))
+            .send()
+            .await
+            .expect("request")
+    }
+
+    pub async fn delete(&self, path: &str) -> Response {
+        self.auth(self.client.delete(self.url(path)))
+            .send()
+            .await
+            .expect("request")
+    }
+
+    /// POSTs and returns the JSON body, asserting the status.
+    pub async fn post_ok(&self, path: &str, body: &Value, status: StatusCode) -> Value {
+        let r = self.post(path, body).await;
+        expect(r, status).await
+    }
+
+    pub async fn get_ok(&self, path: &str) -> Value {
+        expect(self.get(path).await, StatusCode::OK).await
+    }
+
+    pub async fn create_cell(&self, name: &str) -> i64 {
+        self.post_ok("/v1/cells", &json!({ "name": name }), StatusCode::CREATED)
+            .await["id"]
+            .as_i64()
+            .expect("cell id")
+    }
+
+    pub async fn create_program(&self, cell: i64, name: &str) -> i64 {
+        self.post_ok(
+            &format!("/v1/cells/{cell}/programs"),
+            &json!({ "name": name }),
+            StatusCode::CREATED,
+        )
+        .await["id"]
+            .as_i64()
+            .expect("program id")
+    }
+
+    pub async fn create_routine(&self, program: i64) -> i64 {
+        self.post_ok(
+            &format!("/v1/programs/{program}/routines"),
+            &json!({}),
+            StatusCode::CREATED,
+        )
+        .await["id"]
+            .as_i64()
+            .expect("routine id")
+    }
+
+    /// Appends a waypoint; returns the response body (`waypoint`, `prediction`).
+    pub async fn append(&self, routine: i64, pose: &Value) -> Value {
+        self.post_ok(
+            &format!("/v1/routines/{routine}/waypoints"),
+            &json!({ "pose": pose }),
+            StatusCode::CREATED,
+        )
+        .await
+    }
+
+    pub async fn finish(&self, routine: i64) -> Value {
+        self.post_ok(
+            &format!("/v1/routines/{routine}/finish"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await
+    }
+
+    /// Teaches a whole routine in a program and finishes it; returns the predictions made.
+    pub async fn teach_routine(&self, program: i64, poses: &[Value]) -> (i64, Vec<Value>) {
+        let r = self.create_routine(program).await;
+        let mut predictions = Vec::new();
+        for p in poses {
+            predictions.push(self.append(r, p).await["prediction"].clone());
+        }
+        self.finish(r).await;
+        (r, predictions)
+    }
+}
+
+/// Asserts the status (showing the body when it differs) and returns the JSON body.
+pub async fn expect(r: Response, status: StatusCode) -> Value {
+    let got = r.status();
+    let text = r.text().await.expect("body");
+    assert_eq!(got, status, "body: {text}");
+    if text.is_empty() {
+        Value::Null
+    } else {
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
+    }
+}
+
+/// Asserts an error response: status, JSON error shape and code.
+pub async fn expect_error(r: Response, status: StatusCode, code: &str) -> String {
+    let body = expect(r, status).await;
+    assert_eq!(body["error"]["code"], code, "body: {body}");
+    let message = body["error"]["message"].as_str().expect("message");
+    assert!(!message.is_empty());
+    message.to_string()
+}
+
+pub fn pose(p: [f64; 3], rpy: [f64; 3]) -> Value {
+    let q = UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+    json!({ "x": p[0], "y": p[1], "z": p[2], "qw": q.w, "qx": q.i, "qy": q.j, "qz": q.k })
+}
+
+/// A U-shaped seam with approach and retract, placed at `origin` and turned by `yaw`.
+pub fn u_seam(origin: [f64; 3], yaw: f64) -> Vec<Value> {
+    let local: [([f64; 3], [f64; 3]); 8] = [
+        ([0.0, 0.0, 100.0], [0.0, 0.0, 0.0]),
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]),
+        ([120.0, 0.0, 0.0], [0.0, 0.2, 0.0]),
+        ([120.0, 60.0, 0.0], [0.0, 0.2, 0.5]),
+        ([0.0, 60.0, 0.0], [0.0, 0.0, 0.5]),
+        ([0.0, 60.0, 40.0], [0.1, 0.0, 0.5]),
+        ([-30.0, 60.0, 90.0], [0.1, 0.0, 0.0]),
+        ([-30.0, 0.0, 150.0], [0.0, 0.0, 0.0]),
+    ];
+    let turn = UnitQuaternion::from_euler_angles(0.0, 0.0, yaw);
+    local
+        .iter()
+        .map(|(p, rpy)| {
+            let v = turn * nalgebra::Vector3::new(p[0], p[1], p[2]);
+            let q = turn * UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+            json!({
+                "x": v.x + origin[0], "y": v.y + origin[1], "z": v.z + origin[2],
+                "qw": q.w, "qx": q.i, "qy": q.j, "qz": q.k
+            })
+        })
+        .collect()
+}
+
+pub fn distance(a: &Value, b: &Value) -> f64 {
+    let d = |k: &str| a[k].as_f64().expect(k) - b[k].as_f64().expect(k);
+    (d("x").powi(2) + d("y").powi(2) + d("z").powi(2)).sqrt()
+}

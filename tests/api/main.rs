@@ -1,0 +1,8 @@
+//! The service, tested through its real HTTP interface: a real server on a loopback port with
+//! a temporary SQLite file per test (see `helpers::spawn_app`).
+
+mod durability;
+mod errors;
+mod helpers;
+mod openapi;
+mod teaching;

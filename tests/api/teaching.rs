@@ -1,0 +1,340 @@
+//! The teaching loop as a pendant drives it: cells, programs, routines, waypoints,
+//! predictions, undo, completion, feedback and statistics.
+
+use reqwest::StatusCode;
+use serde_json::json;
+
+use crate::helpers::*;
+
+#[tokio::test]
+async fn full_teaching_loop_predicts_the_second_routine_from_the_first() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("weld-cell-1").await;
+    let program = app.create_program(cell, "bracket").await;
+
+    // The first routine: nothing learned yet, so nothing is offered.
+    let first = u_seam([0.0, 0.0, 0.0], 0.0);
+    let (_, predictions) = app.teach_routine(program, &first).await;
+    assert_eq!(predictions[0]["withheld"]["reason"], "empty_model");
+    assert!(predictions.iter().all(|p| p["offered"] == false));
+
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["routines"], 1);
+    assert_eq!(stats["model"]["version"], 1);
+    assert!(stats["model"]["states"].as_u64().unwrap() >= 2);
+
+    // The same seam elsewhere and turned: once the window identifies it, the next waypoint
+    // is offered, exactly.
+    let second = u_seam([800.0, -300.0, 50.0], 1.0);
+    let routine = app.create_routine(program).await;
+    let mut offered = 0;
+    for (i, p) in second.iter().enumerate() {
+        let taught = app.append(routine, p).await;
+        assert_eq!(taught["waypoint"]["seq"], i as i64 + 1);
+        let prediction = &taught["prediction"];
+        assert_eq!(prediction["after_waypoints"], i as i64 + 1);
+        if prediction["offered"] == true {
+            offered += 1;
+            let next = &second[i + 1];
+            let err = distance(&prediction["pose"], next);
+            assert!(err < 1e-6, "waypoint {}: {err} mm", i + 2);
+            assert!(prediction["id"].as_i64().is_some());
+            assert!(prediction["phi"].as_f64().unwrap() >= 0.7);
+        } else {
+            assert!(prediction["id"].is_null());
+            assert!(prediction["withheld"]["message"].as_str().unwrap().len() > 5);
+        }
+    }
+    assert!(offered >= 4, "only {offered} predictions offered");
+
+    // The routine as stored.
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoints"].as_array().unwrap().len(), second.len());
+    assert_eq!(detail["finished"], false);
+    let finished = app.finish(routine).await;
+    assert_eq!(finished["routine"]["finished"], true);
+    assert_eq!(finished["model"]["version"], 2);
+    let routines = app
+        .get_ok(&format!("/v1/programs/{program}/routines"))
+        .await;
+    assert_eq!(routines.as_array().unwrap().len(), 2);
+    assert_eq!(routines[1]["position"], 2);
+    assert_eq!(routines[1]["finish_seq"], 2);
+}
+
+#[tokio::test]
+async fn undo_rolls_the_prediction_back() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("undo").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let copy = u_seam([100.0, 200.0, 0.0], 0.4);
+    let routine = app.create_routine(program).await;
+    let mut before = Vec::new();
+    for p in &copy[..5] {
+        before.push(app.append(routine, p).await["prediction"].clone());
+    }
+    // A wrong waypoint, then undo: the prediction is the one made before it.
+    let wrong = app
+        .append(routine, &pose([5000.0, 0.0, 0.0], [0.0, 0.0, 0.0]))
+        .await;
+    assert_ne!(wrong["prediction"]["pose"], before[4]["pose"]);
+    let undone = app
+        .delete(&format!("/v1/routines/{routine}/waypoints/last"))
+        .await;
+    let undone = expect(undone, StatusCode::OK).await;
+    assert_eq!(undone["removed"]["seq"], 6);
+    let mut a = undone["prediction"].clone();
+    let mut b = before[4].clone();
+    assert_eq!(a["offered"], true, "{a}");
+    for v in [&mut a, &mut b] {
+        v.as_object_mut().unwrap().remove("id");
+    }
+    assert_eq!(a, b);
+    // The GET agrees, and teaching goes on as if the wrong waypoint never happened.
+    let now = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction"))
+        .await;
+    assert_eq!(now["predictions"][0]["pose"], before[4]["pose"]);
+    let next = app.append(routine, &copy[5]).await;
+    assert!(distance(&next["prediction"]["pose"], &copy[6]) < 1e-6);
+
+    // Undo down to nothing, then once more: 409.
+    for _ in 0..6 {
+        let r = app
+            .delete(&format!("/v1/routines/{routine}/waypoints/last"))
+            .await;
+        expect(r, StatusCode::OK).await;
+    }
+    let r = app
+        .delete(&format!("/v1/routines/{routine}/waypoints/last"))
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+}
+
+#[tokio::test]
+async fn completion_predicts_the_next_k_waypoints() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("complete").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let copy = u_seam([-400.0, 10.0, 30.0], -0.7);
+    let routine = app.create_routine(program).await;
+    for p in &copy[..4] {
+        app.append(routine, p).await;
+    }
+    let set = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction?k=3"))
+        .await;
+    let predictions = set["predictions"].as_array().unwrap();
+    assert_eq!(predictions.len(), 3);
+    for (i, p) in predictions.iter().enumerate() {
+        assert_eq!(p["offered"], true, "{p}");
+        assert!(distance(&p["pose"], &copy[4 + i]) < 1e-6);
+        assert_eq!(p["after_waypoints"], 4 + i as i64);
+    }
+    // Per-request overrides: φ_min = 1 withholds what the cell's settings offer.
+    let strict = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction?phi_min=1.0"))
+        .await;
+    let p = &strict["predictions"][0];
+    if p["phi"].as_f64().unwrap() < 1.0 {
+        assert_eq!(p["withheld"]["reason"], "low_confidence");
+    }
+    let r = app
+        .get(&format!("/v1/routines/{routine}/prediction?k=0"))
+        .await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+}
+
+#[tokio::test]
+async fn feedback_is_counted_in_the_cell_stats() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("feedback").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let copy = u_seam([50.0, 50.0, 0.0], 0.2);
+    let routine = app.create_routine(program).await;
+    let mut ids = Vec::new();
+    let mut poses = Vec::new();
+    for p in &copy {
+        let t = app.append(routine, p).await;
+        if let Some(id) = t["prediction"]["id"].as_i64() {
+            ids.push(id);
+            poses.push(t["prediction"]["pose"].clone());
+        }
+    }
+    assert!(ids.len() >= 3, "{} offered", ids.len());
+    let fb = |id: i64| format!("/v1/predictions/{id}/feedback");
+    let accepted = app
+        .post_ok(
+            &fb(ids[0]),
+            &json!({"verdict": "accepted"}),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(accepted["adjustment_mm"], 0.0);
+    let mut adjusted_pose = poses[1].clone();
+    adjusted_pose["x"] = json!(adjusted_pose["x"].as_f64().unwrap() + 3.0);
+    adjusted_pose["z"] = json!(adjusted_pose["z"].as_f64().unwrap() - 4.0);
+    let adjusted = app
+        .post_ok(
+            &fb(ids[1]),
+            &json!({"verdict": "adjusted", "pose": adjusted_pose}),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert!((adjusted["adjustment_mm"].as_f64().unwrap() - 5.0).abs() < 1e-9);
+    app.post_ok(
+        &fb(ids[2]),
+        &json!({"verdict": "rejected"}),
+        StatusCode::CREATED,
+    )
+    .await;
+
+    // Once per prediction; `adjusted` needs the pose; unknown prediction is 404.
+    let again = app.post(&fb(ids[0]), &json!({"verdict": "rejected"})).await;
+    expect_error(again, StatusCode::CONFLICT, "conflict").await;
+    if let Some(&id) = ids.get(3) {
+        let r = app.post(&fb(id), &json!({"verdict": "adjusted"})).await;
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        let r = app
+            .post(&fb(id), &json!({"verdict": "accepted", "pose": poses[0]}))
+            .await;
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    }
+    let r = app
+        .post(&fb(999_999), &json!({"verdict": "accepted"}))
+        .await;
+    expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    let f = &stats["feedback"];
+    assert_eq!(f["offered"], ids.len() as i64);
+    assert_eq!(f["accepted"], 1);
+    assert_eq!(f["adjusted"], 1);
+    assert_eq!(f["rejected"], 1);
+    assert_eq!(f["pending"], ids.len() as i64 - 3);
+    assert!((f["median_adjustment_mm"].as_f64().unwrap() - 5.0).abs() < 1e-9);
+    assert!((f["acceptance"].as_f64().unwrap() - 2.0 / 3.0).abs() < 1e-12);
+
+    // A GET of the same prediction refers to the same record (not counted twice).
+    let now = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction"))
+        .await;
+    if let Some(id) = now["predictions"][0]["id"].as_i64() {
+        let again = app
+            .get_ok(&format!("/v1/routines/{routine}/prediction"))
+            .await;
+        assert_eq!(again["predictions"][0]["id"], id);
+    }
+}
+
+#[tokio::test]
+async fn one_routine_at_a_time_per_cell_and_finished_routines_are_immutable() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("one-at-a-time").await;
+    let program = app.create_program(cell, "p").await;
+    let open = app.create_routine(program).await;
+    let r = app
+        .post(&format!("/v1/programs/{program}/routines"), &json!({}))
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    // Another cell is not affected.
+    let other = app.create_cell("other").await;
+    let other_program = app.create_program(other, "p").await;
+    app.create_routine(other_program).await;
+
+    app.append(open, &pose([0.0; 3], [0.0; 3])).await;
+    app.finish(open).await;
+    let r = app
+        .post(
+            &format!("/v1/routines/{open}/waypoints"),
+            &json!({"pose": pose([1.0, 0.0, 0.0], [0.0; 3])}),
+        )
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    for r in [
+        app.post(&format!("/v1/routines/{open}/finish"), &json!({}))
+            .await,
+        app.delete(&format!("/v1/routines/{open}/waypoints/last"))
+            .await,
+        app.delete(&format!("/v1/routines/{open}")).await,
+        app.get(&format!("/v1/routines/{open}/prediction")).await,
+    ] {
+        expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    }
+    // Deleting an open routine lets the next one start; the model forgets it.
+    let scratch = app.create_routine(program).await;
+    for p in u_seam([0.0; 3], 0.0) {
+        app.append(scratch, &p).await;
+    }
+    let r = app.delete(&format!("/v1/routines/{scratch}")).await;
+    expect(r, StatusCode::NO_CONTENT).await;
+    let r = app.get(&format!("/v1/routines/{scratch}")).await;
+    expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["observations"], 0);
+    app.create_routine(program).await;
+}
+
+#[tokio::test]
+async fn concurrent_appends_to_one_cell_are_serialised() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("busy").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let routine = app.create_routine(program).await;
+    let mut tasks = Vec::new();
+    for i in 0..24 {
+        let client = app.client.clone();
+        let url = app.url(&format!("/v1/routines/{routine}/waypoints"));
+        tasks.push(tokio::spawn(async move {
+            let body = json!({"pose": pose([i as f64 * 10.0, 0.0, 0.0], [0.0; 3])});
+            client.post(url).json(&body).send().await.unwrap().status()
+        }));
+    }
+    for t in tasks {
+        assert_eq!(t.await.unwrap(), StatusCode::CREATED);
+    }
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    let seqs: Vec<i64> = detail["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["seq"].as_i64().unwrap())
+        .collect();
+    assert_eq!(seqs, (1..=24).collect::<Vec<_>>());
+    // The model in memory is the one the database describes.
+    let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    let rebuilt = app
+        .post_ok(
+            &format!("/v1/cells/{cell}/rebuild"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(before["model"], rebuilt);
+}
+
+#[tokio::test]
+async fn health_and_metrics() {
+    let app = spawn_app().await;
+    let h = app.get_ok("/healthz").await;
+    assert_eq!(h["status"], "ok");
+    let cell = app.create_cell("metrics").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let r = app.get("/metrics").await;
+    assert_eq!(r.status(), StatusCode::OK);
+    let text = r.text().await.unwrap();
+    assert!(
+        text.contains("route=\"/v1/routines/{routine_id}/waypoints\""),
+        "{text}"
+    );
+    assert!(text.contains("nextpose_http_request_duration_seconds_bucket"));
+    assert!(text.contains("reason=\"empty_model\""));
+    // Request ids are set and returned.
+    let r = app.get("/healthz").await;
+    assert!(r.headers().contains_key("x-request-id"));
+}
