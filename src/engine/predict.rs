@@ -26,9 +26,9 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 
-use super::config::{EngineConfig, ScaleConfig, WindowPrior};
+use super::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
 use super::hmm::Hmm;
-use super::learner::ObservationGraph;
+use super::learner::{ObservationGraph, TRACE_END};
 use super::pose::{Move, Observation, Pose, scale_translation};
 use super::scale;
 
@@ -43,6 +43,7 @@ pub struct PredictOptions {
     pub match_radius: Option<f64>,
     pub backoff: bool,
     pub backoff_min_support: f64,
+    pub recall: Option<RecallGate>,
     pub window_prior: WindowPrior,
     pub scale: ScaleConfig,
 }
@@ -58,6 +59,7 @@ impl PredictOptions {
             match_radius: c.match_radius,
             backoff: c.backoff,
             backoff_min_support: c.backoff_min_support,
+            recall: c.recall,
             window_prior: c.window_prior,
             scale: c.scale,
         }
@@ -126,6 +128,9 @@ pub struct Prediction {
     /// Evidence: the expected number of earlier continuations of the matched states that agree
     /// with the proposal (within one σ).
     pub support: f64,
+    /// When the proposal was recalled from the most recent occurrence of the window's context
+    /// (see `EngineConfig::recall`): that context's mean squared distance to the window.
+    pub recalled: Option<f64>,
     /// Number of states of the model asked.
     pub states: usize,
     /// Number of most recent moves the prediction conditioned on (less than the horizon when
@@ -155,6 +160,7 @@ impl Prediction {
             misfit: None,
             spread: None,
             support: 0.0,
+            recalled: None,
             states,
             window: 0,
             withheld: Some(reason),
@@ -215,8 +221,18 @@ pub fn predict_move(
     let longest = opts.horizon.min(moves.len()).max(1);
     let shortest = if opts.backoff { 1 } else { longest };
     let mut h = longest;
+    // ψ is estimated on the longest window only: a shortened window carries too little
+    // translation to fix a scale (a single move fits any state whose move points the same way),
+    // and searching ψ again per backoff step tripled the cost of windows that fit nothing.
+    let unscaled = PredictOptions {
+        scale: ScaleConfig {
+            enabled: false,
+            ..opts.scale
+        },
+        ..opts.clone()
+    };
     loop {
-        let p = predict_window(&hmm, moves, h, opts);
+        let p = predict_window(&hmm, moves, h, if h == longest { opts } else { &unscaled });
         let unmatched = matches!(
             p.withheld,
             Some(Withheld::NoMatch | Withheld::PoorMatch { .. })
@@ -233,13 +249,20 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
     let graph = hmm.graph();
     let states = hmm.states();
 
-    let (nu, psi, misfit, end_probability, matched) = if moves.is_empty() {
+    let (nu, psi, misfit, end_probability, matched, own) = if moves.is_empty() {
         // First move of a routine: ν = π.
         let nu: Vec<(usize, f64)> = (0..states)
             .map(|i| (i, hmm.initial(i)))
             .filter(|(_, p)| *p > 0.0)
             .collect();
-        (nu, 1.0, None, 0.0, Vec::new())
+        (
+            nu,
+            1.0,
+            None,
+            0.0,
+            Vec::new(),
+            Transitions::new(hmm, Vec::new()),
+        )
     } else {
         let window = &moves[moves.len() - h.min(moves.len())..];
         let prior = if window.len() == moves.len() {
@@ -250,16 +273,18 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
                 WindowPrior::Uniform => Prior::Uniform,
             }
         };
-        let Some((fwd, psi)) = forward_with_scale(hmm, window, prior, opts) else {
+        let trans = Transitions::for_window(hmm, graph.open_path(), moves.len(), window.len());
+        let Some((fwd, psi)) = forward_with_scale(&trans, window, prior, opts) else {
             return Prediction::withheld(Withheld::NoMatch, states);
         };
-        let (nu, cont) = next_state(hmm, &fwd.last);
+        let (nu, cont) = next_state(&trans, &fwd.last);
         (
             nu,
             psi,
             Some(fwd.misfit),
             (1.0 - cont).clamp(0.0, 1.0),
             fwd.last,
+            trans,
         )
     };
     let window_moves = h.min(moves.len());
@@ -285,7 +310,8 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         .sum();
     let phi = (1.0 - entropy_bits / (states as f64).log2()).clamp(0.0, 1.0);
 
-    let mode = mixture_mode(hmm, &nu);
+    let mut mode = mixture_mode(hmm, &nu);
+    let mut recalled = None;
     let spread: f64 = nu
         .iter()
         .map(|&(j, p)| {
@@ -299,15 +325,9 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
             .map(|(j, _)| f64::from(hmm.node(*j).initial()))
             .sum()
     } else {
-        agreeing_continuations(hmm, &matched, &mode)
+        agreeing_continuations(&own, &matched, &mode)
     };
-    // Back to raw units in the taught routine's scale; canonical quaternion.
-    let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
-    let relative = Move::from_observation(&relative)
-        .map(|m| m.observation())
-        .ok();
-
-    let withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
+    let mut withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
         Some(Withheld::LikelyEnd { end_probability })
     } else if let (Some(m), Some(v)) = (opts.max_misfit, misfit)
         && v > m
@@ -319,11 +339,45 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         Some(Withheld::WideSpread { spread })
     } else if window_moves < opts.horizon.min(moves.len()) && support < opts.backoff_min_support {
         Some(Withheld::LittleEvidence { support })
-    } else if relative.is_none() {
-        Some(Withheld::NoMatch)
     } else {
         None
     };
+    // The HMM merges contexts into states, so an ambiguous next state may still be settled by
+    // where this exact context was seen last (what the nearest-sequence baselines do).
+    let recallable = matches!(
+        withheld,
+        Some(
+            Withheld::LowConfidence { .. }
+                | Withheld::WideSpread { .. }
+                | Withheld::LittleEvidence { .. }
+        )
+    );
+    if let Some(gate) = opts.recall
+        && recallable
+        && psi == 1.0
+        && window_moves >= gate.min_window.max(1)
+    {
+        let metric = graph.metric();
+        let zs: Vec<Observation> = moves[moves.len() - window_moves..]
+            .iter()
+            .map(|x| metric.whiten(x))
+            .collect();
+        if let Some(r) = recall(graph, &zs, gate.max_cost)
+            && r.agree == r.seen
+        {
+            mode = *hmm.node(r.next).mean();
+            recalled = Some(r.cost);
+            withheld = None;
+        }
+    }
+    // Back to raw units in the taught routine's scale; canonical quaternion.
+    let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
+    let relative = Move::from_observation(&relative)
+        .map(|m| m.observation())
+        .ok();
+    if withheld.is_none() && relative.is_none() {
+        withheld = Some(Withheld::NoMatch);
+    }
     Prediction {
         pose: None,
         relative,
@@ -333,6 +387,7 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         misfit,
         spread: Some(spread),
         support,
+        recalled,
         states,
         window: window_moves,
         withheld,
@@ -342,12 +397,12 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
 /// Runs the forward pass on the window at ψ = 1 and, when scale estimation is on and ψ = 1 does
 /// not already fit, at the best ψ; returns the pass to predict from and its ψ.
 fn forward_with_scale(
-    hmm: &Hmm,
+    hmm: &Transitions,
     window: &[Observation],
     prior: Prior,
     opts: &PredictOptions,
 ) -> Option<(Forward, f64)> {
-    let metric = hmm.graph().metric();
+    let metric = hmm.hmm.graph().metric();
     let whitened = |psi: f64| -> Vec<Observation> {
         window
             .iter()
@@ -395,7 +450,7 @@ pub(crate) fn window_log_likelihood(
     let metric = hmm.graph().metric();
     let whitened: Vec<Observation> = moves.iter().map(|x| metric.whiten(x)).collect();
     forward(
-        hmm,
+        &Transitions::new(hmm, Vec::new()),
         &whitened,
         Prior::Initial,
         opts.match_radius.map(|r| r * r),
@@ -411,11 +466,12 @@ const SCALED_FIT_LIMIT: f64 = 18.475_306_906_582_357;
 /// The log-space forward recursion `α_0(j) = b_j(x_0)·prior_j`,
 /// `α_k(j) = b_j(x_k) Σ_i a(j|i) α_{k−1}(i)`, sparse over states with non-zero α.
 fn forward(
-    hmm: &Hmm,
+    trans: &Transitions,
     window: &[Observation],
     prior: Prior,
     radius_sq: Option<f64>,
 ) -> Option<Forward> {
+    let hmm = trans.hmm;
     let graph = hmm.graph();
     let metric = graph.metric();
     let (first, rest) = window.split_first()?;
@@ -437,7 +493,7 @@ fn forward(
     for j in candidates {
         let d2 = (first - hmm.node(j).mean()).norm_squared();
         let p = prior_of(j);
-        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) {
+        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) && !trans.self_only(j) {
             current.push((j, p.ln() + metric.log_density(d2), d2));
         }
     }
@@ -452,13 +508,11 @@ fn forward(
         acc.clear();
         for &(i, log_alpha, _) in &current {
             let w = (log_alpha - max).exp();
-            for (j, a) in hmm.transitions(i) {
-                *acc.entry(j).or_insert(0.0) += a * w;
-            }
+            trans.for_each(i, |j, a| *acc.entry(j).or_insert(0.0) += a * w);
         }
         let mut next: Vec<(usize, f64, f64)> = acc
             .iter()
-            .filter(|(_, s)| **s > 0.0)
+            .filter(|(j, s)| **s > 0.0 && !trans.self_only(**j))
             .filter_map(|(&j, &s)| {
                 let d2 = (z - hmm.node(j).mean()).norm_squared();
                 radius_sq
@@ -495,16 +549,16 @@ fn expected_misfit(step: &[(usize, f64, f64)]) -> Option<f64> {
 }
 
 /// ν(j) ∝ Σ_i γ(i) a(j|i) (unnormalised, sorted by state) and the continuation mass Σ_i γ(i) Σ_j a(j|i).
-fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
+fn next_state(trans: &Transitions, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
     let log_total = log_sum_exp(last.iter().map(|e| e.1));
     let mut nu: HashMap<usize, f64> = HashMap::new();
     let mut cont = 0.0;
     for &(i, a) in last {
         let gamma = (a - log_total).exp();
-        cont += gamma * hmm.continue_probability(i);
-        for (j, p) in hmm.transitions(i) {
+        trans.for_each(i, |j, p| {
+            cont += gamma * p;
             *nu.entry(j).or_insert(0.0) += gamma * p;
-        }
+        });
     }
     let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
     nu.sort_unstable_by_key(|e| e.0);
@@ -513,18 +567,19 @@ fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
 
 /// Σ_i γ(i) Σ_j f(i→j)·[‖mean_j − ẑ‖ ≤ 1]: how many earlier continuations of the matched
 /// states, weighted by the posterior, led to (within one σ of) the proposal.
-fn agreeing_continuations(hmm: &Hmm, last: &[(usize, f64)], mode: &Observation) -> f64 {
+fn agreeing_continuations(trans: &Transitions, last: &[(usize, f64)], mode: &Observation) -> f64 {
+    let hmm = trans.hmm;
     let log_total = log_sum_exp(last.iter().map(|e| e.1));
     last.iter()
         .map(|&(i, a)| {
             let gamma = (a - log_total).exp();
-            let agreeing: u32 = hmm
+            let agreeing: f64 = hmm
                 .node(i)
                 .successors()
                 .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
-                .map(|(_, f)| f)
+                .map(|(j, f)| (f64::from(f) - trans.own_count(i, Some(j))).max(0.0))
                 .sum();
-            gamma * f64::from(agreeing)
+            gamma * agreeing
         })
         .sum()
 }
@@ -587,4 +642,150 @@ fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
         return max;
     }
     max + values.map(|v| (v - max).exp()).sum::<f64>().ln()
+}
+
+/// The HMM's transitions less the current routine's own edges inside the window.
+///
+/// With within-routine learning at a lag shorter than the window, the model already holds the
+/// window's own path, which is no evidence for the window (it would always match itself): its
+/// edges are discounted, and a state made only of window moves explains nothing.
+struct Transitions<'h, 'g> {
+    hmm: &'h Hmm<'g>,
+    /// The window's own edges (i, j), repeated as often as they occur.
+    own: Vec<(usize, usize)>,
+    /// The window's own moves' states, repeated as often as they occur.
+    own_states: Vec<usize>,
+}
+
+impl<'h, 'g> Transitions<'h, 'g> {
+    fn new(hmm: &'h Hmm<'g>, own: Vec<(usize, usize)>) -> Transitions<'h, 'g> {
+        Transitions {
+            hmm,
+            own,
+            own_states: Vec::new(),
+        }
+    }
+
+    /// For a window of the last `window` of `moves` moves, `path` being the states of the
+    /// routine's moves assimilated so far.
+    fn for_window(
+        hmm: &'h Hmm<'g>,
+        path: &[usize],
+        moves: usize,
+        window: usize,
+    ) -> Transitions<'h, 'g> {
+        let start = moves.saturating_sub(window).min(path.len());
+        let inside = &path[start..];
+        Transitions {
+            hmm,
+            own: inside.windows(2).map(|e| (e[0], e[1])).collect(),
+            own_states: inside.to_vec(),
+        }
+    }
+
+    /// Whether every member of state j is one of the window's own moves.
+    fn self_only(&self, j: usize) -> bool {
+        !self.own_states.is_empty()
+            && self.own_states.iter().filter(|&&s| s == j).count() as u32
+                >= self.hmm.node(j).count()
+    }
+
+    /// How many own edges leave `i` (towards `j`, or anywhere with None).
+    fn own_count(&self, i: usize, j: Option<usize>) -> f64 {
+        self.own
+            .iter()
+            .filter(|&&(a, b)| a == i && j.is_none_or(|j| j == b))
+            .count() as f64
+    }
+
+    /// Calls `f(j, a(j|i))` for each successor j of i.
+    fn for_each(&self, i: usize, mut f: impl FnMut(usize, f64)) {
+        let own_out = self.own_count(i, None);
+        if own_out == 0.0 {
+            for (j, a) in self.hmm.transitions(i) {
+                f(j, a);
+            }
+            return;
+        }
+        let node = self.hmm.node(i);
+        let total = node.outcome_weight() - own_out;
+        if total <= 1e-9 {
+            return;
+        }
+        for (j, w) in node.weighted_successors() {
+            let w = w - self.own_count(i, Some(j));
+            if w > 1e-9 {
+                f(j, w / total);
+            }
+        }
+    }
+}
+
+/// Most recent occurrences of a node looked at when searching for the window's context.
+const RECENT_OCCURRENCES: usize = 256;
+
+/// Where the window's context was seen before and what followed it.
+#[derive(Debug, Clone, Copy)]
+struct Recall {
+    /// The node that followed the most recent occurrence.
+    next: usize,
+    /// Mean squared distance of the window to that occurrence's states.
+    cost: f64,
+    /// Occurrences of the context (with a known continuation) found.
+    seen: usize,
+    /// Of those, how many were followed by (a node within one σ of) `next`.
+    agree: usize,
+}
+
+/// The continuation of the most recent place in the trace whose last `k` states fit the
+/// window `zs` (whitened, `k` moves) with mean squared distance at most `limit`.
+/// Contexts do not cross routine boundaries.
+fn recall(graph: &ObservationGraph, zs: &[Observation], limit: f64) -> Option<Recall> {
+    let trace = graph.trace();
+    let nodes = graph.nodes();
+    let k = zs.len();
+    let last = zs.last()?;
+    let budget = limit * k as f64;
+    let mut candidates = Vec::new();
+    graph.candidates(last, budget, &mut candidates);
+    // (position, next, cost) of every matching occurrence
+    let mut found: Vec<(usize, usize, f64)> = Vec::new();
+    for i in candidates {
+        if (last - nodes[i].mean()).norm_squared() > budget {
+            continue;
+        }
+        for &t in nodes[i].occurrences().iter().rev().take(RECENT_OCCURRENCES) {
+            let t = t as usize;
+            let Some(&next) = trace.get(t + 1) else {
+                continue;
+            };
+            if next == TRACE_END || t + 1 < k {
+                continue;
+            }
+            let context = &trace[t + 1 - k..=t];
+            let mut cost = 0.0;
+            for (z, &s) in zs.iter().zip(context) {
+                if s == TRACE_END {
+                    cost = f64::INFINITY;
+                    break;
+                }
+                cost += (z - nodes[s as usize].mean()).norm_squared();
+            }
+            if cost <= budget {
+                found.push((t, next as usize, cost / k as f64));
+            }
+        }
+    }
+    let &(_, next, cost) = found.iter().max_by_key(|e| e.0)?;
+    let target = nodes[next].mean();
+    let agree = found
+        .iter()
+        .filter(|e| (nodes[e.1].mean() - target).norm_squared() <= 1.0)
+        .count();
+    Some(Recall {
+        next,
+        cost,
+        seen: found.len(),
+        agree,
+    })
 }

@@ -4,9 +4,10 @@
 //! **Learning within the routine.** With `learn_within_routine`, each taught move is assimilated
 //! as the routine grows, so a pattern repeated *inside* a long routine (a palletising grid, weld
 //! stitches) is predicted from its earlier repetitions. Moves are assimilated with a lag of
-//! `horizon` moves: the window a prediction conditions on is never in the model itself, so it
-//! can only match *earlier* evidence (otherwise every window would match its own fresh path
-//! perfectly and the match-quality gate would mean nothing). The newest assimilated move is
+//! `within_lag` moves (default `horizon`). The window a prediction conditions on must only match
+//! *earlier* evidence (otherwise every window would match its own fresh path perfectly and the
+//! match-quality gate would mean nothing): with a lag shorter than the window, the predictor
+//! discounts the window's own transitions (`predict`). The newest assimilated move is
 //! *pending*: what follows it is not known yet, which is not the same as the routine ending
 //! there. When the routine finishes, the remaining moves are assimilated and the routine is
 //! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
@@ -70,7 +71,7 @@ impl Teacher {
         }
         self.routine.push(pose);
         if self.config.learn_within_routine {
-            let settled = self.moves.len().saturating_sub(self.config.horizon);
+            let settled = self.moves.len().saturating_sub(self.config.within_lag());
             while self.assimilated < settled {
                 self.graph.push(&self.moves[self.assimilated]);
                 self.assimilated += 1;
