@@ -196,6 +196,8 @@ pub struct ObservationGraph {
     merge: MergeRule,
     recency: f64,
     nodes: Vec<Node>,
+    /// Node means, contiguous (a scan over them stays in cache; the scale search uses it).
+    means: Vec<Observation>,
     index: NodeIndex,
     edges: usize,
     routines: u32,
@@ -224,6 +226,7 @@ impl ObservationGraph {
             merge,
             recency: 1.0,
             nodes: Vec::new(),
+            means: Vec::new(),
             index: NodeIndex::default(),
             edges: 0,
             routines: 0,
@@ -263,6 +266,11 @@ impl ObservationGraph {
         &self.nodes
     }
 
+    /// Every node's mean (whitened), indexed like [`Self::nodes`].
+    pub fn means(&self) -> &[Observation] {
+        &self.means
+    }
+
     /// The pending node: the open routine's latest move, whose successor is not known yet.
     pub fn pending(&self) -> Option<usize> {
         self.open.map(|o| o.last)
@@ -286,12 +294,14 @@ impl ObservationGraph {
         let node = match self.best_node(&z) {
             Some(i) => {
                 self.nodes[i].absorb(&z);
+                self.means[i] = self.nodes[i].mean;
                 self.index.moved(i, &self.nodes[i].mean);
                 i
             }
             None => {
                 let i = self.nodes.len();
                 self.nodes.push(Node::new(&z));
+                self.means.push(z);
                 self.index.insert(i, &z);
                 i
             }

@@ -197,6 +197,8 @@ struct Forward {
     last: Vec<(usize, f64)>,
     log_likelihood: f64,
     misfit: f64,
+    /// Posterior-weighted mean of the state means at each window step (whitened).
+    expected: Vec<Observation>,
 }
 
 /// Predicts the next move of a routine whose moves so far are `moves` (possibly none).
@@ -423,10 +425,13 @@ fn forward_with_scale(
     {
         return unscaled.map(|f| (f, 1.0));
     }
-    let estimate = scale::maximise(sc.psi_min, sc.psi_max, |psi| {
-        forward(hmm, &whitened(psi), prior, radius_sq)
-            .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
-    });
+    let estimate = match radius_sq {
+        Some(r2) => sparse_scale_search(hmm, window, prior, sc, r2),
+        None => scale::maximise(sc.psi_min, sc.psi_max, |psi| {
+            forward(hmm, &whitened(psi), prior, radius_sq)
+                .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
+        }),
+    };
     let base = unscaled
         .as_ref()
         .map_or(f64::NEG_INFINITY, |f| f.log_likelihood);
@@ -438,6 +443,102 @@ fn forward_with_scale(
         return Some((scaled, est.psi));
     }
     unscaled.map(|f| (f, 1.0))
+}
+
+/// Most ψ values a sparse scale search starts from (the best-fitting ones).
+const SCALE_STARTS: usize = 4;
+/// Most EM steps refining ψ from the best start.
+const SCALE_EM_STEPS: usize = 8;
+
+/// ψ search with a match radius: the window's likelihood is −∞ unless every move has a state
+/// within the radius, so only ψ values that put the window's largest move within reach of some
+/// state can win. Each such state proposes the ψ that fits it best (a closed form: the whitened
+/// scaled move is `u + ψ·v`, linear in ψ); the forward pass is run from those (at most
+/// [`SCALE_STARTS`]) instead of a 33-point grid, and the best is refined by EM — ψ maximising the
+/// expected fit to the states the forward pass put each move in, again a closed form — instead
+/// of 40 golden-section steps. A window no state can reach at any ψ costs one scan of the
+/// state means and no forward pass.
+fn sparse_scale_search(
+    trans: &Transitions,
+    window: &[Observation],
+    prior: Prior,
+    sc: &ScaleConfig,
+    radius_sq: f64,
+) -> Option<scale::ScaleEstimate> {
+    let graph = trans.hmm.graph();
+    let metric = graph.metric();
+    // Each move as u + ψ·v in whitened space (only the translation scales).
+    let parts: Vec<(Observation, Observation)> = window
+        .iter()
+        .map(|x| {
+            let mut v = Observation::zeros();
+            v.fixed_rows_mut::<3>(0).copy_from(&x.fixed_rows::<3>(0));
+            (metric.whiten(&(x - v)), metric.whiten(&v))
+        })
+        .collect();
+    let at = |psi: f64| -> Vec<Observation> { parts.iter().map(|(u, v)| u + v * psi).collect() };
+    let (u, v) = parts
+        .iter()
+        .max_by(|a, b| a.1.norm_squared().total_cmp(&b.1.norm_squared()))?;
+    let vv = v.norm_squared();
+    if vv <= 0.0 {
+        return None;
+    }
+    let mut starts: Vec<(f64, f64)> = graph
+        .means()
+        .iter()
+        .filter_map(|mean| {
+            let d = mean - u;
+            let vd = v.dot(&d);
+            // Distance from the whole line u + ψv first: most states are off it.
+            if d.norm_squared() - vd * vd / vv > radius_sq {
+                return None;
+            }
+            let psi = (vd / vv).clamp(sc.psi_min, sc.psi_max);
+            let fit = (v * psi - d).norm_squared();
+            (fit <= radius_sq).then_some((fit, psi))
+        })
+        .collect();
+    if starts.is_empty() {
+        return None;
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut tried: Vec<f64> = Vec::new();
+    let mut best: Option<(f64, f64, Forward)> = None;
+    for &(_, psi) in starts.iter() {
+        if tried.len() >= SCALE_STARTS {
+            break;
+        }
+        if tried.iter().any(|t| (t / psi).ln().abs() < 1e-3) {
+            continue;
+        }
+        tried.push(psi);
+        if let Some(f) = forward(trans, &at(psi), prior, Some(radius_sq))
+            && best.as_ref().is_none_or(|b| f.log_likelihood > b.1)
+        {
+            best = Some((psi, f.log_likelihood, f));
+        }
+    }
+    let (mut psi, mut objective, mut f) = best?;
+    let den: f64 = parts.iter().map(|(_, v)| v.norm_squared()).sum();
+    for _ in 0..SCALE_EM_STEPS {
+        let num: f64 = parts
+            .iter()
+            .zip(&f.expected)
+            .map(|((u, v), e)| v.dot(&(e - u)))
+            .sum();
+        let next = (num / den).clamp(sc.psi_min, sc.psi_max);
+        if (next / psi).ln().abs() < 1e-12 {
+            break;
+        }
+        match forward(trans, &at(next), prior, Some(radius_sq)) {
+            Some(g) if g.log_likelihood > objective => {
+                (psi, objective, f) = (next, g.log_likelihood, g);
+            }
+            _ => break,
+        }
+    }
+    Some(scale::ScaleEstimate { psi, objective })
 }
 
 /// Log-likelihood of a whole routine's moves from the routine start (used by Learn-Scaled-HMM);
@@ -497,7 +598,10 @@ fn forward(
             current.push((j, p.ln() + metric.log_density(d2), d2));
         }
     }
-    let mut misfit_sum = expected_misfit(&current)?;
+    let mut expected = Vec::with_capacity(window.len());
+    let (m, e) = expected_misfit(hmm, &current)?;
+    let mut misfit_sum = m;
+    expected.push(e);
 
     let mut acc: HashMap<usize, f64> = HashMap::new();
     for z in rest {
@@ -521,7 +625,9 @@ fn forward(
             })
             .collect();
         next.sort_unstable_by_key(|e| e.0);
-        misfit_sum += expected_misfit(&next)?;
+        let (m, e) = expected_misfit(hmm, &next)?;
+        misfit_sum += m;
+        expected.push(e);
         current = next;
     }
     let log_likelihood = log_sum_exp(current.iter().map(|e| e.1));
@@ -529,23 +635,25 @@ fn forward(
         last: current.iter().map(|&(j, a, _)| (j, a)).collect(),
         log_likelihood,
         misfit: misfit_sum / window.len() as f64,
+        expected,
     })
 }
 
-/// Posterior-expected squared distance of one window move to its states; None when no state
-/// explains it (the window cannot be produced by the model).
-fn expected_misfit(step: &[(usize, f64, f64)]) -> Option<f64> {
+/// Posterior-expected squared distance of one window move to its states and the posterior
+/// mean of their means; None when no state explains it (the window cannot be produced).
+fn expected_misfit(hmm: &Hmm, step: &[(usize, f64, f64)]) -> Option<(f64, Observation)> {
     let max = step.iter().map(|e| e.1).fold(f64::NEG_INFINITY, f64::max);
     if !max.is_finite() {
         return None;
     }
-    let (mut num, mut den) = (0.0, 0.0);
-    for &(_, a, d2) in step {
+    let (mut num, mut den, mut mean) = (0.0, 0.0, Observation::zeros());
+    for &(j, a, d2) in step {
         let w = (a - max).exp();
         num += w * d2;
         den += w;
+        mean += hmm.node(j).mean() * w;
     }
-    Some(num / den)
+    Some((num / den, mean / den))
 }
 
 /// ν(j) ∝ Σ_i γ(i) a(j|i) (unnormalised, sorted by state) and the continuation mass Σ_i γ(i) Σ_j a(j|i).
@@ -586,6 +694,11 @@ fn agreeing_continuations(trans: &Transitions, last: &[(usize, f64)], mode: &Obs
 
 /// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
 const MODE_STARTS: usize = 16;
+/// Most components (the heaviest by ν) the mode is sought among. A flat ν over thousands of
+/// states (the first move of a routine, ν = π, in a large model) made each prediction cost
+/// milliseconds; such a ν is ambiguous and withheld anyway, and a mode is decided by its heavy
+/// components when ν is sharp.
+const MODE_COMPONENTS: usize = 64;
 
 /// `argmax_z Σ_j ν_j N(z; mean_j, I)` in whitened space by mean-shift fixed-point iterations
 /// started from each heavy component's mean.
@@ -596,6 +709,7 @@ fn mixture_mode(hmm: &Hmm, nu: &[(usize, f64)]) -> Observation {
         .map(|&(j, p)| (p, *hmm.node(j).mean()))
         .collect();
     comps.sort_by(|a, b| b.0.total_cmp(&a.0));
+    comps.truncate(MODE_COMPONENTS);
     if comps.len() == 1 {
         return comps[0].1;
     }
