@@ -194,6 +194,60 @@ fn repeats_inside_one_routine_are_predicted_when_learning_within_the_routine() {
     );
 }
 
+/// Waypoints from a start and a list of translations.
+fn walk(moves: &[[f64; 3]]) -> Vec<Pose> {
+    let mut p = [0.0, 0.0, 0.0];
+    let mut out = vec![pose(p, [0.0; 3])];
+    for m in moves {
+        for k in 0..3 {
+            p[k] += m[k];
+        }
+        out.push(pose(p, [0.0; 3]));
+    }
+    out
+}
+
+#[test]
+fn recall_settles_a_next_state_the_first_order_model_finds_ambiguous() {
+    // Two routines share the moves b, c and differ before (a / x) and after (d / e): after c the
+    // HMM's state has two equally likely successors, the full window a, b, c has one.
+    let (a, x, b, c) = (
+        [100.0, 0.0, 0.0],
+        [0.0, 100.0, 0.0],
+        [0.0, 0.0, 50.0],
+        [30.0, 30.0, 0.0],
+    );
+    let (d, e) = ([-80.0, 0.0, 0.0], [0.0, -80.0, 0.0]);
+    let first = walk(&[a, b, c, d]);
+    let second = walk(&[x, b, c, e]);
+    let probe = walk(&[a, b, c, d]);
+    let predict = |recall: bool| {
+        let mut cfg = EngineConfig::profile(Profile::Default);
+        if !recall {
+            cfg.recall = None;
+        }
+        let mut t = Teacher::new(cfg).unwrap();
+        teach_routine(&mut t, &first);
+        teach_routine(&mut t, &second);
+        for w in &probe[..4] {
+            t.teach(*w);
+        }
+        t.predict()
+    };
+    let without = predict(false);
+    assert!(
+        matches!(
+            without.withheld,
+            Some(Withheld::LowConfidence { .. } | Withheld::WideSpread { .. })
+        ),
+        "{without:?}"
+    );
+    let with = predict(true);
+    assert!(with.offered(), "{with:?}");
+    assert!(with.recalled.is_some());
+    assert!(with.pose.unwrap().distance_to(&probe[4]) < 1e-6);
+}
+
 #[test]
 fn finished_routine_is_not_counted_twice_when_learning_within() {
     let mut within = Teacher::new(EngineConfig::profile(Profile::Default)).unwrap();

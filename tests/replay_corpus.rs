@@ -1,10 +1,9 @@
 //! The scoreboard on the whole shared corpus (`../shared/corpus/json`, read only).
 //!
 //! What it pins down: the seed profile reproduces the independent reference implementation's
-//! figures (so the comparison stays honest), and the default profile keeps its precision while
-//! saving more time than the seed and than the baselines it beats today. The target
-//! (beat *every* baseline, ≥ 18 % saved) is not reached yet: `nearest_seq_within_gated` still
-//! saves more (README, "Scoreboard").
+//! figures (so the comparison stays honest), and the default profile keeps precision ≥ 85 %
+//! while saving more time than the seed and than every baseline. The stretch target
+//! (≥ 18 % saved at ≥ 90 % precision) is not reached yet (README, "Scoreboard").
 
 use std::path::PathBuf;
 
@@ -55,7 +54,7 @@ fn seed_profile_reproduces_the_reference_implementation() {
 }
 
 #[test]
-fn default_profile_is_precise_and_saves_more_than_the_seed() {
+fn default_profile_is_precise_and_beats_every_baseline() {
     let seed = scoreboard(Profile::Seed);
     let r = scoreboard(Profile::Default);
     let e = totals(&r, "engine");
@@ -75,6 +74,7 @@ fn default_profile_is_precise_and_saves_more_than_the_seed() {
         "nearest_seq",
         "nearest_seq_within",
         "nearest_seq_gated",
+        "nearest_seq_within_gated",
     ] {
         let b = totals(&r, baseline);
         assert!(

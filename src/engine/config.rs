@@ -60,6 +60,10 @@ pub struct EngineConfig {
     /// Assimilate each taught move as it arrives (the finished routine is then not counted
     /// twice). When false, a routine is learned only once it is finished (the seed).
     pub learn_within_routine: bool,
+    /// Within-routine learning assimilates a taught move once this many newer moves exist
+    /// (None: `horizon`). With a lag shorter than the window, the predictor discounts the
+    /// window's own transitions, so a window never counts as evidence for itself.
+    pub within_lag: Option<usize>,
     /// Number of most recent moves the prediction conditions on (h).
     pub horizon: usize,
     pub window_prior: WindowPrior,
@@ -86,7 +90,23 @@ pub struct EngineConfig {
     /// Recency weighting of transitions λ ∈ (0, 1]: each new outcome of a state multiplies the
     /// weight of its older outcomes by λ. 1 = plain counts (the seed).
     pub recency: f64,
+    /// Recall of the most recent occurrence: when the HMM's proposal is withheld as ambiguous
+    /// (low φ, wide spread) or as little evidence, look up where the window's context (its states,
+    /// all `k` moves) was seen before; if the most recent such place fits the window with a mean
+    /// squared distance of at most `max_cost`, the window has at least `min_window` moves, and
+    /// every earlier place found was followed by the same move, offer that move.
+    /// None: off (the seed).
+    pub recall: Option<RecallGate>,
     pub scale: ScaleConfig,
+}
+
+/// When a recalled continuation is offered (see [`EngineConfig::recall`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RecallGate {
+    /// Mean squared Mahalanobis distance of the window to the recalled context's states.
+    pub max_cost: f64,
+    /// Fewest window moves (after backoff) a recall may condition on.
+    pub min_window: usize,
 }
 
 /// Named configurations.
@@ -134,6 +154,7 @@ impl EngineConfig {
             sigma_q: 0.01,
             merge: MergeRule::Total,
             learn_within_routine: false,
+            within_lag: None,
             horizon: 3,
             window_prior: WindowPrior::Occupancy,
             phi_min: 0.7,
@@ -144,6 +165,7 @@ impl EngineConfig {
             backoff: false,
             backoff_min_support: 2.0,
             recency: 1.0,
+            recall: None,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -157,14 +179,24 @@ impl EngineConfig {
             Profile::Default => EngineConfig {
                 merge: MergeRule::Incremental,
                 learn_within_routine: true,
+                within_lag: Some(0),
                 max_misfit: Some(1.0),
                 max_spread: Some(0.5),
                 max_end_prob: Some(0.5),
                 match_radius: Some(6.0),
                 backoff: true,
+                recall: Some(RecallGate {
+                    max_cost: 0.1,
+                    min_window: 2,
+                }),
                 ..seed
             },
         }
+    }
+
+    /// Moves of the routine being taught that are not assimilated yet (within-routine learning).
+    pub fn within_lag(&self) -> usize {
+        self.within_lag.unwrap_or(self.horizon)
     }
 
     /// Checks every setting; the engine is only built from a validated configuration.
@@ -208,6 +240,7 @@ impl EngineConfig {
             ("match_radius", self.match_radius),
             ("backoff_min_support", Some(self.backoff_min_support)),
             ("scale.min_gain", Some(sc.min_gain)),
+            ("recall.max_cost", self.recall.map(|r| r.max_cost)),
         ];
         for (name, value) in thresholds {
             if let Some(v) = value

@@ -59,6 +59,8 @@ pub struct Node {
     weights: Vec<f64>,
     /// Recency-weighted weight of "the routine ended after this move".
     end_weight: f64,
+    /// Positions of the node's moves in the graph's trace, oldest first.
+    occurrences: Vec<u32>,
 }
 
 impl Node {
@@ -72,6 +74,7 @@ impl Node {
             out_total: 0,
             weights: Vec::new(),
             end_weight: 0.0,
+            occurrences: Vec::new(),
         }
     }
 
@@ -100,6 +103,11 @@ impl Node {
 
     pub fn out_total(&self) -> u32 {
         self.out_total
+    }
+
+    /// Positions of the node's moves in [`ObservationGraph::trace`], oldest first.
+    pub fn occurrences(&self) -> &[u32] {
+        &self.occurrences
     }
 
     /// Scatter increase if `z` joined: `ξ/(ξ+1)·‖z − mean‖²`.
@@ -188,13 +196,23 @@ pub struct ObservationGraph {
     merge: MergeRule,
     recency: f64,
     nodes: Vec<Node>,
+    /// Node means, contiguous (a scan over them stays in cache; the scale search uses it).
+    means: Vec<Observation>,
     index: NodeIndex,
     edges: usize,
     routines: u32,
     depth: usize,
     observations: u64,
     open: Option<OpenRoutine>,
+    /// Nodes of the open routine's moves, in order (what the predictor must not count as
+    /// evidence for the routine's own window).
+    open_path: Vec<usize>,
+    /// Every assimilated move's node in order, [`TRACE_END`] after each finished routine.
+    trace: Vec<u32>,
 }
+
+/// Marks the end of a routine in [`ObservationGraph::trace`].
+pub const TRACE_END: u32 = u32::MAX;
 
 impl ObservationGraph {
     pub fn new(
@@ -208,12 +226,15 @@ impl ObservationGraph {
             merge,
             recency: 1.0,
             nodes: Vec::new(),
+            means: Vec::new(),
             index: NodeIndex::default(),
             edges: 0,
             routines: 0,
             depth: 0,
             observations: 0,
             open: None,
+            open_path: Vec::new(),
+            trace: Vec::new(),
         })
     }
 
@@ -245,9 +266,25 @@ impl ObservationGraph {
         &self.nodes
     }
 
+    /// Every node's mean (whitened), indexed like [`Self::nodes`].
+    pub fn means(&self) -> &[Observation] {
+        &self.means
+    }
+
     /// The pending node: the open routine's latest move, whose successor is not known yet.
     pub fn pending(&self) -> Option<usize> {
         self.open.map(|o| o.last)
+    }
+
+    /// The nodes the open routine's moves joined, in order (empty when no routine is open).
+    pub fn open_path(&self) -> &[usize] {
+        &self.open_path
+    }
+
+    /// The node of every assimilated move in the order assimilated, with [`TRACE_END`] after
+    /// each finished routine: which context preceded which move, and how recently.
+    pub fn trace(&self) -> &[u32] {
+        &self.trace
     }
 
     /// Assimilates the next move of the open routine (opening one if none is open) and returns
@@ -257,12 +294,14 @@ impl ObservationGraph {
         let node = match self.best_node(&z) {
             Some(i) => {
                 self.nodes[i].absorb(&z);
+                self.means[i] = self.nodes[i].mean;
                 self.index.moved(i, &self.nodes[i].mean);
                 i
             }
             None => {
                 let i = self.nodes.len();
                 self.nodes.push(Node::new(&z));
+                self.means.push(z);
                 self.index.insert(i, &z);
                 i
             }
@@ -281,8 +320,12 @@ impl ObservationGraph {
             None => {
                 self.nodes[node].initial += 1;
                 self.open = Some(OpenRoutine { last: node, len: 1 });
+                self.open_path.clear();
             }
         }
+        self.open_path.push(node);
+        self.nodes[node].occurrences.push(self.trace.len() as u32);
+        self.trace.push(node as u32);
         self.observations += 1;
         node
     }
@@ -290,9 +333,11 @@ impl ObservationGraph {
     /// Closes the open routine: its last move now counts as "the routine ended here".
     /// Does nothing when no routine is open (a routine without moves teaches nothing).
     pub fn end_routine(&mut self) {
+        self.open_path.clear();
         if let Some(open) = self.open.take() {
             let recency = self.recency;
             self.nodes[open.last].count_end(recency);
+            self.trace.push(TRACE_END);
             self.routines += 1;
             self.depth = self.depth.max(open.len);
         }

@@ -26,9 +26,9 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 
-use super::config::{EngineConfig, ScaleConfig, WindowPrior};
+use super::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
 use super::hmm::Hmm;
-use super::learner::ObservationGraph;
+use super::learner::{ObservationGraph, TRACE_END};
 use super::pose::{Move, Observation, Pose, scale_translation};
 use super::scale;
 
@@ -43,6 +43,7 @@ pub struct PredictOptions {
     pub match_radius: Option<f64>,
     pub backoff: bool,
     pub backoff_min_support: f64,
+    pub recall: Option<RecallGate>,
     pub window_prior: WindowPrior,
     pub scale: ScaleConfig,
 }
@@ -58,6 +59,7 @@ impl PredictOptions {
             match_radius: c.match_radius,
             backoff: c.backoff,
             backoff_min_support: c.backoff_min_support,
+            recall: c.recall,
             window_prior: c.window_prior,
             scale: c.scale,
         }
@@ -126,6 +128,9 @@ pub struct Prediction {
     /// Evidence: the expected number of earlier continuations of the matched states that agree
     /// with the proposal (within one σ).
     pub support: f64,
+    /// When the proposal was recalled from the most recent occurrence of the window's context
+    /// (see `EngineConfig::recall`): that context's mean squared distance to the window.
+    pub recalled: Option<f64>,
     /// Number of states of the model asked.
     pub states: usize,
     /// Number of most recent moves the prediction conditioned on (less than the horizon when
@@ -155,6 +160,7 @@ impl Prediction {
             misfit: None,
             spread: None,
             support: 0.0,
+            recalled: None,
             states,
             window: 0,
             withheld: Some(reason),
@@ -191,6 +197,8 @@ struct Forward {
     last: Vec<(usize, f64)>,
     log_likelihood: f64,
     misfit: f64,
+    /// Posterior-weighted mean of the state means at each window step (whitened).
+    expected: Vec<Observation>,
 }
 
 /// Predicts the next move of a routine whose moves so far are `moves` (possibly none).
@@ -215,8 +223,18 @@ pub fn predict_move(
     let longest = opts.horizon.min(moves.len()).max(1);
     let shortest = if opts.backoff { 1 } else { longest };
     let mut h = longest;
+    // ψ is estimated on the longest window only: a shortened window carries too little
+    // translation to fix a scale (a single move fits any state whose move points the same way),
+    // and searching ψ again per backoff step tripled the cost of windows that fit nothing.
+    let unscaled = PredictOptions {
+        scale: ScaleConfig {
+            enabled: false,
+            ..opts.scale
+        },
+        ..opts.clone()
+    };
     loop {
-        let p = predict_window(&hmm, moves, h, opts);
+        let p = predict_window(&hmm, moves, h, if h == longest { opts } else { &unscaled });
         let unmatched = matches!(
             p.withheld,
             Some(Withheld::NoMatch | Withheld::PoorMatch { .. })
@@ -233,13 +251,20 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
     let graph = hmm.graph();
     let states = hmm.states();
 
-    let (nu, psi, misfit, end_probability, matched) = if moves.is_empty() {
+    let (nu, psi, misfit, end_probability, matched, own) = if moves.is_empty() {
         // First move of a routine: ν = π.
         let nu: Vec<(usize, f64)> = (0..states)
             .map(|i| (i, hmm.initial(i)))
             .filter(|(_, p)| *p > 0.0)
             .collect();
-        (nu, 1.0, None, 0.0, Vec::new())
+        (
+            nu,
+            1.0,
+            None,
+            0.0,
+            Vec::new(),
+            Transitions::new(hmm, Vec::new()),
+        )
     } else {
         let window = &moves[moves.len() - h.min(moves.len())..];
         let prior = if window.len() == moves.len() {
@@ -250,16 +275,18 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
                 WindowPrior::Uniform => Prior::Uniform,
             }
         };
-        let Some((fwd, psi)) = forward_with_scale(hmm, window, prior, opts) else {
+        let trans = Transitions::for_window(hmm, graph.open_path(), moves.len(), window.len());
+        let Some((fwd, psi)) = forward_with_scale(&trans, window, prior, opts) else {
             return Prediction::withheld(Withheld::NoMatch, states);
         };
-        let (nu, cont) = next_state(hmm, &fwd.last);
+        let (nu, cont) = next_state(&trans, &fwd.last);
         (
             nu,
             psi,
             Some(fwd.misfit),
             (1.0 - cont).clamp(0.0, 1.0),
             fwd.last,
+            trans,
         )
     };
     let window_moves = h.min(moves.len());
@@ -285,7 +312,8 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         .sum();
     let phi = (1.0 - entropy_bits / (states as f64).log2()).clamp(0.0, 1.0);
 
-    let mode = mixture_mode(hmm, &nu);
+    let mut mode = mixture_mode(hmm, &nu);
+    let mut recalled = None;
     let spread: f64 = nu
         .iter()
         .map(|&(j, p)| {
@@ -299,15 +327,9 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
             .map(|(j, _)| f64::from(hmm.node(*j).initial()))
             .sum()
     } else {
-        agreeing_continuations(hmm, &matched, &mode)
+        agreeing_continuations(&own, &matched, &mode)
     };
-    // Back to raw units in the taught routine's scale; canonical quaternion.
-    let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
-    let relative = Move::from_observation(&relative)
-        .map(|m| m.observation())
-        .ok();
-
-    let withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
+    let mut withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
         Some(Withheld::LikelyEnd { end_probability })
     } else if let (Some(m), Some(v)) = (opts.max_misfit, misfit)
         && v > m
@@ -319,11 +341,45 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         Some(Withheld::WideSpread { spread })
     } else if window_moves < opts.horizon.min(moves.len()) && support < opts.backoff_min_support {
         Some(Withheld::LittleEvidence { support })
-    } else if relative.is_none() {
-        Some(Withheld::NoMatch)
     } else {
         None
     };
+    // The HMM merges contexts into states, so an ambiguous next state may still be settled by
+    // where this exact context was seen last (what the nearest-sequence baselines do).
+    let recallable = matches!(
+        withheld,
+        Some(
+            Withheld::LowConfidence { .. }
+                | Withheld::WideSpread { .. }
+                | Withheld::LittleEvidence { .. }
+        )
+    );
+    if let Some(gate) = opts.recall
+        && recallable
+        && psi == 1.0
+        && window_moves >= gate.min_window.max(1)
+    {
+        let metric = graph.metric();
+        let zs: Vec<Observation> = moves[moves.len() - window_moves..]
+            .iter()
+            .map(|x| metric.whiten(x))
+            .collect();
+        if let Some(r) = recall(graph, &zs, gate.max_cost)
+            && r.agree == r.seen
+        {
+            mode = *hmm.node(r.next).mean();
+            recalled = Some(r.cost);
+            withheld = None;
+        }
+    }
+    // Back to raw units in the taught routine's scale; canonical quaternion.
+    let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
+    let relative = Move::from_observation(&relative)
+        .map(|m| m.observation())
+        .ok();
+    if withheld.is_none() && relative.is_none() {
+        withheld = Some(Withheld::NoMatch);
+    }
     Prediction {
         pose: None,
         relative,
@@ -333,6 +389,7 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         misfit,
         spread: Some(spread),
         support,
+        recalled,
         states,
         window: window_moves,
         withheld,
@@ -342,12 +399,12 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
 /// Runs the forward pass on the window at ψ = 1 and, when scale estimation is on and ψ = 1 does
 /// not already fit, at the best ψ; returns the pass to predict from and its ψ.
 fn forward_with_scale(
-    hmm: &Hmm,
+    hmm: &Transitions,
     window: &[Observation],
     prior: Prior,
     opts: &PredictOptions,
 ) -> Option<(Forward, f64)> {
-    let metric = hmm.graph().metric();
+    let metric = hmm.hmm.graph().metric();
     let whitened = |psi: f64| -> Vec<Observation> {
         window
             .iter()
@@ -368,10 +425,13 @@ fn forward_with_scale(
     {
         return unscaled.map(|f| (f, 1.0));
     }
-    let estimate = scale::maximise(sc.psi_min, sc.psi_max, |psi| {
-        forward(hmm, &whitened(psi), prior, radius_sq)
-            .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
-    });
+    let estimate = match radius_sq {
+        Some(r2) => sparse_scale_search(hmm, window, prior, sc, r2),
+        None => scale::maximise(sc.psi_min, sc.psi_max, |psi| {
+            forward(hmm, &whitened(psi), prior, radius_sq)
+                .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
+        }),
+    };
     let base = unscaled
         .as_ref()
         .map_or(f64::NEG_INFINITY, |f| f.log_likelihood);
@@ -385,6 +445,102 @@ fn forward_with_scale(
     unscaled.map(|f| (f, 1.0))
 }
 
+/// Most ψ values a sparse scale search starts from (the best-fitting ones).
+const SCALE_STARTS: usize = 4;
+/// Most EM steps refining ψ from the best start.
+const SCALE_EM_STEPS: usize = 8;
+
+/// ψ search with a match radius: the window's likelihood is −∞ unless every move has a state
+/// within the radius, so only ψ values that put the window's largest move within reach of some
+/// state can win. Each such state proposes the ψ that fits it best (a closed form: the whitened
+/// scaled move is `u + ψ·v`, linear in ψ); the forward pass is run from those (at most
+/// [`SCALE_STARTS`]) instead of a 33-point grid, and the best is refined by EM — ψ maximising the
+/// expected fit to the states the forward pass put each move in, again a closed form — instead
+/// of 40 golden-section steps. A window no state can reach at any ψ costs one scan of the
+/// state means and no forward pass.
+fn sparse_scale_search(
+    trans: &Transitions,
+    window: &[Observation],
+    prior: Prior,
+    sc: &ScaleConfig,
+    radius_sq: f64,
+) -> Option<scale::ScaleEstimate> {
+    let graph = trans.hmm.graph();
+    let metric = graph.metric();
+    // Each move as u + ψ·v in whitened space (only the translation scales).
+    let parts: Vec<(Observation, Observation)> = window
+        .iter()
+        .map(|x| {
+            let mut v = Observation::zeros();
+            v.fixed_rows_mut::<3>(0).copy_from(&x.fixed_rows::<3>(0));
+            (metric.whiten(&(x - v)), metric.whiten(&v))
+        })
+        .collect();
+    let at = |psi: f64| -> Vec<Observation> { parts.iter().map(|(u, v)| u + v * psi).collect() };
+    let (u, v) = parts
+        .iter()
+        .max_by(|a, b| a.1.norm_squared().total_cmp(&b.1.norm_squared()))?;
+    let vv = v.norm_squared();
+    if vv <= 0.0 {
+        return None;
+    }
+    let mut starts: Vec<(f64, f64)> = graph
+        .means()
+        .iter()
+        .filter_map(|mean| {
+            let d = mean - u;
+            let vd = v.dot(&d);
+            // Distance from the whole line u + ψv first: most states are off it.
+            if d.norm_squared() - vd * vd / vv > radius_sq {
+                return None;
+            }
+            let psi = (vd / vv).clamp(sc.psi_min, sc.psi_max);
+            let fit = (v * psi - d).norm_squared();
+            (fit <= radius_sq).then_some((fit, psi))
+        })
+        .collect();
+    if starts.is_empty() {
+        return None;
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut tried: Vec<f64> = Vec::new();
+    let mut best: Option<(f64, f64, Forward)> = None;
+    for &(_, psi) in starts.iter() {
+        if tried.len() >= SCALE_STARTS {
+            break;
+        }
+        if tried.iter().any(|t| (t / psi).ln().abs() < 1e-3) {
+            continue;
+        }
+        tried.push(psi);
+        if let Some(f) = forward(trans, &at(psi), prior, Some(radius_sq))
+            && best.as_ref().is_none_or(|b| f.log_likelihood > b.1)
+        {
+            best = Some((psi, f.log_likelihood, f));
+        }
+    }
+    let (mut psi, mut objective, mut f) = best?;
+    let den: f64 = parts.iter().map(|(_, v)| v.norm_squared()).sum();
+    for _ in 0..SCALE_EM_STEPS {
+        let num: f64 = parts
+            .iter()
+            .zip(&f.expected)
+            .map(|((u, v), e)| v.dot(&(e - u)))
+            .sum();
+        let next = (num / den).clamp(sc.psi_min, sc.psi_max);
+        if (next / psi).ln().abs() < 1e-12 {
+            break;
+        }
+        match forward(trans, &at(next), prior, Some(radius_sq)) {
+            Some(g) if g.log_likelihood > objective => {
+                (psi, objective, f) = (next, g.log_likelihood, g);
+            }
+            _ => break,
+        }
+    }
+    Some(scale::ScaleEstimate { psi, objective })
+}
+
 /// Log-likelihood of a whole routine's moves from the routine start (used by Learn-Scaled-HMM);
 /// −∞ when the model cannot produce them.
 pub(crate) fn window_log_likelihood(
@@ -395,7 +551,7 @@ pub(crate) fn window_log_likelihood(
     let metric = hmm.graph().metric();
     let whitened: Vec<Observation> = moves.iter().map(|x| metric.whiten(x)).collect();
     forward(
-        hmm,
+        &Transitions::new(hmm, Vec::new()),
         &whitened,
         Prior::Initial,
         opts.match_radius.map(|r| r * r),
@@ -411,11 +567,12 @@ const SCALED_FIT_LIMIT: f64 = 18.475_306_906_582_357;
 /// The log-space forward recursion `α_0(j) = b_j(x_0)·prior_j`,
 /// `α_k(j) = b_j(x_k) Σ_i a(j|i) α_{k−1}(i)`, sparse over states with non-zero α.
 fn forward(
-    hmm: &Hmm,
+    trans: &Transitions,
     window: &[Observation],
     prior: Prior,
     radius_sq: Option<f64>,
 ) -> Option<Forward> {
+    let hmm = trans.hmm;
     let graph = hmm.graph();
     let metric = graph.metric();
     let (first, rest) = window.split_first()?;
@@ -437,11 +594,14 @@ fn forward(
     for j in candidates {
         let d2 = (first - hmm.node(j).mean()).norm_squared();
         let p = prior_of(j);
-        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) {
+        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) && !trans.self_only(j) {
             current.push((j, p.ln() + metric.log_density(d2), d2));
         }
     }
-    let mut misfit_sum = expected_misfit(&current)?;
+    let mut expected = Vec::with_capacity(window.len());
+    let (m, e) = expected_misfit(hmm, &current)?;
+    let mut misfit_sum = m;
+    expected.push(e);
 
     let mut acc: HashMap<usize, f64> = HashMap::new();
     for z in rest {
@@ -452,13 +612,11 @@ fn forward(
         acc.clear();
         for &(i, log_alpha, _) in &current {
             let w = (log_alpha - max).exp();
-            for (j, a) in hmm.transitions(i) {
-                *acc.entry(j).or_insert(0.0) += a * w;
-            }
+            trans.for_each(i, |j, a| *acc.entry(j).or_insert(0.0) += a * w);
         }
         let mut next: Vec<(usize, f64, f64)> = acc
             .iter()
-            .filter(|(_, s)| **s > 0.0)
+            .filter(|(j, s)| **s > 0.0 && !trans.self_only(**j))
             .filter_map(|(&j, &s)| {
                 let d2 = (z - hmm.node(j).mean()).norm_squared();
                 radius_sq
@@ -467,7 +625,9 @@ fn forward(
             })
             .collect();
         next.sort_unstable_by_key(|e| e.0);
-        misfit_sum += expected_misfit(&next)?;
+        let (m, e) = expected_misfit(hmm, &next)?;
+        misfit_sum += m;
+        expected.push(e);
         current = next;
     }
     let log_likelihood = log_sum_exp(current.iter().map(|e| e.1));
@@ -475,36 +635,38 @@ fn forward(
         last: current.iter().map(|&(j, a, _)| (j, a)).collect(),
         log_likelihood,
         misfit: misfit_sum / window.len() as f64,
+        expected,
     })
 }
 
-/// Posterior-expected squared distance of one window move to its states; None when no state
-/// explains it (the window cannot be produced by the model).
-fn expected_misfit(step: &[(usize, f64, f64)]) -> Option<f64> {
+/// Posterior-expected squared distance of one window move to its states and the posterior
+/// mean of their means; None when no state explains it (the window cannot be produced).
+fn expected_misfit(hmm: &Hmm, step: &[(usize, f64, f64)]) -> Option<(f64, Observation)> {
     let max = step.iter().map(|e| e.1).fold(f64::NEG_INFINITY, f64::max);
     if !max.is_finite() {
         return None;
     }
-    let (mut num, mut den) = (0.0, 0.0);
-    for &(_, a, d2) in step {
+    let (mut num, mut den, mut mean) = (0.0, 0.0, Observation::zeros());
+    for &(j, a, d2) in step {
         let w = (a - max).exp();
         num += w * d2;
         den += w;
+        mean += hmm.node(j).mean() * w;
     }
-    Some(num / den)
+    Some((num / den, mean / den))
 }
 
 /// ν(j) ∝ Σ_i γ(i) a(j|i) (unnormalised, sorted by state) and the continuation mass Σ_i γ(i) Σ_j a(j|i).
-fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
+fn next_state(trans: &Transitions, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
     let log_total = log_sum_exp(last.iter().map(|e| e.1));
     let mut nu: HashMap<usize, f64> = HashMap::new();
     let mut cont = 0.0;
     for &(i, a) in last {
         let gamma = (a - log_total).exp();
-        cont += gamma * hmm.continue_probability(i);
-        for (j, p) in hmm.transitions(i) {
+        trans.for_each(i, |j, p| {
+            cont += gamma * p;
             *nu.entry(j).or_insert(0.0) += gamma * p;
-        }
+        });
     }
     let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
     nu.sort_unstable_by_key(|e| e.0);
@@ -513,24 +675,30 @@ fn next_state(hmm: &Hmm, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
 
 /// Σ_i γ(i) Σ_j f(i→j)·[‖mean_j − ẑ‖ ≤ 1]: how many earlier continuations of the matched
 /// states, weighted by the posterior, led to (within one σ of) the proposal.
-fn agreeing_continuations(hmm: &Hmm, last: &[(usize, f64)], mode: &Observation) -> f64 {
+fn agreeing_continuations(trans: &Transitions, last: &[(usize, f64)], mode: &Observation) -> f64 {
+    let hmm = trans.hmm;
     let log_total = log_sum_exp(last.iter().map(|e| e.1));
     last.iter()
         .map(|&(i, a)| {
             let gamma = (a - log_total).exp();
-            let agreeing: u32 = hmm
+            let agreeing: f64 = hmm
                 .node(i)
                 .successors()
                 .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
-                .map(|(_, f)| f)
+                .map(|(j, f)| (f64::from(f) - trans.own_count(i, Some(j))).max(0.0))
                 .sum();
-            gamma * f64::from(agreeing)
+            gamma * agreeing
         })
         .sum()
 }
 
 /// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
 const MODE_STARTS: usize = 16;
+/// Most components (the heaviest by ν) the mode is sought among. A flat ν over thousands of
+/// states (the first move of a routine, ν = π, in a large model) made each prediction cost
+/// milliseconds; such a ν is ambiguous and withheld anyway, and a mode is decided by its heavy
+/// components when ν is sharp.
+const MODE_COMPONENTS: usize = 64;
 
 /// `argmax_z Σ_j ν_j N(z; mean_j, I)` in whitened space by mean-shift fixed-point iterations
 /// started from each heavy component's mean.
@@ -541,6 +709,7 @@ fn mixture_mode(hmm: &Hmm, nu: &[(usize, f64)]) -> Observation {
         .map(|&(j, p)| (p, *hmm.node(j).mean()))
         .collect();
     comps.sort_by(|a, b| b.0.total_cmp(&a.0));
+    comps.truncate(MODE_COMPONENTS);
     if comps.len() == 1 {
         return comps[0].1;
     }
@@ -587,4 +756,150 @@ fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
         return max;
     }
     max + values.map(|v| (v - max).exp()).sum::<f64>().ln()
+}
+
+/// The HMM's transitions less the current routine's own edges inside the window.
+///
+/// With within-routine learning at a lag shorter than the window, the model already holds the
+/// window's own path, which is no evidence for the window (it would always match itself): its
+/// edges are discounted, and a state made only of window moves explains nothing.
+struct Transitions<'h, 'g> {
+    hmm: &'h Hmm<'g>,
+    /// The window's own edges (i, j), repeated as often as they occur.
+    own: Vec<(usize, usize)>,
+    /// The window's own moves' states, repeated as often as they occur.
+    own_states: Vec<usize>,
+}
+
+impl<'h, 'g> Transitions<'h, 'g> {
+    fn new(hmm: &'h Hmm<'g>, own: Vec<(usize, usize)>) -> Transitions<'h, 'g> {
+        Transitions {
+            hmm,
+            own,
+            own_states: Vec::new(),
+        }
+    }
+
+    /// For a window of the last `window` of `moves` moves, `path` being the states of the
+    /// routine's moves assimilated so far.
+    fn for_window(
+        hmm: &'h Hmm<'g>,
+        path: &[usize],
+        moves: usize,
+        window: usize,
+    ) -> Transitions<'h, 'g> {
+        let start = moves.saturating_sub(window).min(path.len());
+        let inside = &path[start..];
+        Transitions {
+            hmm,
+            own: inside.windows(2).map(|e| (e[0], e[1])).collect(),
+            own_states: inside.to_vec(),
+        }
+    }
+
+    /// Whether every member of state j is one of the window's own moves.
+    fn self_only(&self, j: usize) -> bool {
+        !self.own_states.is_empty()
+            && self.own_states.iter().filter(|&&s| s == j).count() as u32
+                >= self.hmm.node(j).count()
+    }
+
+    /// How many own edges leave `i` (towards `j`, or anywhere with None).
+    fn own_count(&self, i: usize, j: Option<usize>) -> f64 {
+        self.own
+            .iter()
+            .filter(|&&(a, b)| a == i && j.is_none_or(|j| j == b))
+            .count() as f64
+    }
+
+    /// Calls `f(j, a(j|i))` for each successor j of i.
+    fn for_each(&self, i: usize, mut f: impl FnMut(usize, f64)) {
+        let own_out = self.own_count(i, None);
+        if own_out == 0.0 {
+            for (j, a) in self.hmm.transitions(i) {
+                f(j, a);
+            }
+            return;
+        }
+        let node = self.hmm.node(i);
+        let total = node.outcome_weight() - own_out;
+        if total <= 1e-9 {
+            return;
+        }
+        for (j, w) in node.weighted_successors() {
+            let w = w - self.own_count(i, Some(j));
+            if w > 1e-9 {
+                f(j, w / total);
+            }
+        }
+    }
+}
+
+/// Most recent occurrences of a node looked at when searching for the window's context.
+const RECENT_OCCURRENCES: usize = 256;
+
+/// Where the window's context was seen before and what followed it.
+#[derive(Debug, Clone, Copy)]
+struct Recall {
+    /// The node that followed the most recent occurrence.
+    next: usize,
+    /// Mean squared distance of the window to that occurrence's states.
+    cost: f64,
+    /// Occurrences of the context (with a known continuation) found.
+    seen: usize,
+    /// Of those, how many were followed by (a node within one σ of) `next`.
+    agree: usize,
+}
+
+/// The continuation of the most recent place in the trace whose last `k` states fit the
+/// window `zs` (whitened, `k` moves) with mean squared distance at most `limit`.
+/// Contexts do not cross routine boundaries.
+fn recall(graph: &ObservationGraph, zs: &[Observation], limit: f64) -> Option<Recall> {
+    let trace = graph.trace();
+    let nodes = graph.nodes();
+    let k = zs.len();
+    let last = zs.last()?;
+    let budget = limit * k as f64;
+    let mut candidates = Vec::new();
+    graph.candidates(last, budget, &mut candidates);
+    // (position, next, cost) of every matching occurrence
+    let mut found: Vec<(usize, usize, f64)> = Vec::new();
+    for i in candidates {
+        if (last - nodes[i].mean()).norm_squared() > budget {
+            continue;
+        }
+        for &t in nodes[i].occurrences().iter().rev().take(RECENT_OCCURRENCES) {
+            let t = t as usize;
+            let Some(&next) = trace.get(t + 1) else {
+                continue;
+            };
+            if next == TRACE_END || t + 1 < k {
+                continue;
+            }
+            let context = &trace[t + 1 - k..=t];
+            let mut cost = 0.0;
+            for (z, &s) in zs.iter().zip(context) {
+                if s == TRACE_END {
+                    cost = f64::INFINITY;
+                    break;
+                }
+                cost += (z - nodes[s as usize].mean()).norm_squared();
+            }
+            if cost <= budget {
+                found.push((t, next as usize, cost / k as f64));
+            }
+        }
+    }
+    let &(_, next, cost) = found.iter().max_by_key(|e| e.0)?;
+    let target = nodes[next].mean();
+    let agree = found
+        .iter()
+        .filter(|e| (nodes[e.1].mean() - target).norm_squared() <= 1.0)
+        .count();
+    Some(Recall {
+        next,
+        cost,
+        seen: found.len(),
+        agree,
+    })
 }

@@ -4,9 +4,10 @@
 //! **Learning within the routine.** With `learn_within_routine`, each taught move is assimilated
 //! as the routine grows, so a pattern repeated *inside* a long routine (a palletising grid, weld
 //! stitches) is predicted from its earlier repetitions. Moves are assimilated with a lag of
-//! `horizon` moves: the window a prediction conditions on is never in the model itself, so it
-//! can only match *earlier* evidence (otherwise every window would match its own fresh path
-//! perfectly and the match-quality gate would mean nothing). The newest assimilated move is
+//! `within_lag` moves (default `horizon`). The window a prediction conditions on must only match
+//! *earlier* evidence (otherwise every window would match its own fresh path perfectly and the
+//! match-quality gate would mean nothing): with a lag shorter than the window, the predictor
+//! discounts the window's own transitions (`predict`). The newest assimilated move is
 //! *pending*: what follows it is not known yet, which is not the same as the routine ending
 //! there. When the routine finishes, the remaining moves are assimilated and the routine is
 //! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
@@ -82,12 +83,12 @@ impl Teacher {
         self.settle();
     }
 
-    /// Within-routine learning: assimilates the moves that are older than the horizon.
+    /// Within-routine learning: assimilates the moves older than the lag (`within_lag`).
     fn settle(&mut self) {
         if !self.config.learn_within_routine {
             return;
         }
-        let settled = self.moves.len().saturating_sub(self.config.horizon);
+        let settled = self.moves.len().saturating_sub(self.config.within_lag());
         if self.assimilated < settled && self.before_routine.is_none() {
             self.before_routine = Some(Box::new(self.graph.clone()));
         }
@@ -102,7 +103,7 @@ impl Teacher {
     pub fn undo(&mut self) -> Option<Pose> {
         let pose = self.routine.pop()?;
         self.moves.truncate(self.routine.len().saturating_sub(1));
-        let settled = self.moves.len().saturating_sub(self.config.horizon);
+        let settled = self.moves.len().saturating_sub(self.config.within_lag());
         if self.config.learn_within_routine && settled < self.assimilated {
             self.restore_routine_start();
             self.settle();
