@@ -33,7 +33,11 @@ pub enum KinematicsError {
     #[error("joint {joint:?} has a zero or non-finite axis")]
     BadAxis { joint: String },
     #[error("joint {joint:?} has no usable limits (lower {lower}, upper {upper})")]
-    BadLimits { joint: String, lower: f64, upper: f64 },
+    BadLimits {
+        joint: String,
+        lower: f64,
+        upper: f64,
+    },
     #[error("joint {joint:?} has a non-finite origin")]
     BadOrigin { joint: String },
     #[error("no closed-form solver fits this arm: {0}")]

@@ -235,8 +235,8 @@ impl Robot {
     pub fn ik_principal(&self, tip: &Isometry3<f64>, hint: Option<&Joints>) -> Vec<Joints> {
         let mut raw = Vec::with_capacity(8);
         match &self.solver {
-            Solver::Opw(s) => s.solve(tip, &mut raw),
-            Solver::Ur(s) => s.solve(tip, hint.map_or(0.0, |h| h[5]), &mut raw),
+            Solver::Opw(s) => s.solve(tip, hint, &mut raw),
+            Solver::Ur(s) => s.solve(tip, hint, &mut raw),
         }
         let mut out: Vec<Joints> = Vec::with_capacity(raw.len());
         for q in raw {

@@ -101,8 +101,8 @@ impl OpwSolver {
         // Forearm direction, pointing away from joint 3.
         let u = if d3w.dot(&w4) >= 0.0 { w4 } else { -w4 };
         let s4 = unit_sign(w4.dot(&u)).ok_or_else(|| unsupported("joint 4 axis"))?;
-        let s6 =
-            unit_sign(w6.dot(&u)).ok_or_else(|| unsupported("joint 6 is not along joint 4 at zero"))?;
+        let s6 = unit_sign(w6.dot(&u))
+            .ok_or_else(|| unsupported("joint 6 is not along joint 4 at zero"))?;
         let theta23 = u.x.atan2(u.z);
         let c3 = d3w.dot(&u);
         let a2 = d3w.dot(&Vector3::new(theta23.cos(), 0.0, -theta23.sin()));
@@ -137,8 +137,9 @@ impl OpwSolver {
             post,
             post_inv: post.inverse(),
         };
-        check_against_chain(chain, |q| solver.fk(q))
-            .map_err(|err| unsupported(&format!("derived model disagrees with the URDF by {err:e}")))?;
+        check_against_chain(chain, |q| solver.fk(q)).map_err(|err| {
+            unsupported(&format!("derived model disagrees with the URDF by {err:e}"))
+        })?;
         Ok(solver)
     }
 
@@ -153,12 +154,17 @@ impl OpwSolver {
     }
 
     /// All OPW solutions for a tip pose (metres), each joint in `(-π, π]`, limits not applied.
-    pub fn solve(&self, tip: &Isometry3<f64>, out: &mut Vec<Joints>) {
+    /// At a wrist singularity J4 and J6 are chosen near `hint` (near zero without one).
+    pub fn solve(&self, tip: &Isometry3<f64>, hint: Option<&Joints>, out: &mut Vec<Joints>) {
         let target = tip * self.post_inv;
         let Ok(pose) = from_iso(&target) else {
             return;
         };
-        for mut q in self.kin.inverse(&pose) {
+        let solutions = match hint {
+            Some(h) => self.kin.inverse_continuing(&pose, h),
+            None => self.kin.inverse(&pose),
+        };
+        for mut q in solutions {
             for v in q.iter_mut() {
                 *v = wrap_angle(*v);
             }

@@ -63,8 +63,8 @@ pub enum ReachPolicy {
 pub struct ReachConfig {
     pub policy: ReachPolicy,
     /// A chosen solution whose smallest Jacobian singular value (metres/radians, at the flange)
-    /// is below this is singular. The default 0.005 corresponds to J5 within about 0.3° of zero
-    /// on an IRB 140.
+    /// is below this is singular. The default 0.005 corresponds to J5 within about 1° of zero on
+    /// an IRB 140 or KR 16 and 0.5° on a UR5e.
     pub min_singular_value: f64,
 }
 
@@ -238,7 +238,8 @@ pub fn check_reach(
                 margin_rad: j.margin(q[i]),
             })
             .min_by(|a, b| a.margin_rad.total_cmp(&b.margin_rad));
-        if !(sigma_min >= config.min_singular_value) {
+        // NaN (never expected) counts as singular.
+        if sigma_min.is_nan() || sigma_min < config.min_singular_value {
             result.unreachable = Some(Unreachable::Singular { sigma_min });
         }
     }

@@ -18,8 +18,9 @@ use super::{check_against_chain, wrap_angle};
 const GEOM_TOL: f64 = 1e-9;
 /// How far outside `[-1, 1]` an acos argument may stray by rounding and still be clamped.
 const CLAMP_TOL: f64 = 1e-10;
-/// Below this `|sin θ5|` the wrist is singular and θ6 is free (chosen as 0 or the hint).
-const WRIST_SINGULAR: f64 = 1e-10;
+/// Below this `|sin θ5|` the wrist is (nearly) singular: besides the computed θ6 (noise at the
+/// singularity itself), the one chosen by [`UrSolver::singular_theta6`] is tried.
+const WRIST_SINGULAR: f64 = 1e-6;
 
 /// UR DH lengths in metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,11 +57,13 @@ fn unit_sign(v: f64, what: &str) -> Result<f64, KinematicsError> {
 
 /// One DH link transform `Rz(θ) Tz(d) Tx(a) Rx(α)`.
 fn dh(theta: f64, d: f64, a: f64, alpha: f64) -> Isometry3<f64> {
-    Isometry3::from_parts(Translation3::identity(), UnitQuaternion::from_axis_angle(&Vector3::z_axis(), theta))
-        * Isometry3::from_parts(
-            Translation3::new(a, 0.0, d),
-            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), alpha),
-        )
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), theta),
+    ) * Isometry3::from_parts(
+        Translation3::new(a, 0.0, d),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), alpha),
+    )
 }
 
 fn clamp_unit(x: f64) -> Option<f64> {
@@ -138,8 +141,8 @@ impl UrSolver {
     }
 
     /// All analytic solutions for a tip pose (metres), each joint in `(-π, π]`, limits not
-    /// applied. At a wrist singularity θ6 (URDF sign) is taken from `hint6`.
-    pub fn solve(&self, tip: &Isometry3<f64>, hint6: f64, out: &mut Vec<Joints>) {
+    /// applied. At a wrist singularity the free split of θ2…θ4 and θ6 is chosen near `hint`.
+    pub fn solve(&self, tip: &Isometry3<f64>, hint: Option<&Joints>, out: &mut Vec<Joints>) {
         let p = &self.p;
         let t = tip * self.post_inv;
         let r = t.rotation.to_rotation_matrix();
@@ -161,44 +164,112 @@ impl UrSolver {
         for theta1 in [phi + asin, phi + std::f64::consts::PI - asin] {
             let (s1, c1) = theta1.sin_cos();
             let z1 = Vector3::new(s1, -c1, 0.0);
-            let Some(c5) = clamp_unit((pos.dot(&z1) - p.d4) / p.d6) else {
-                continue;
-            };
-            let acos5 = c5.acos();
+            // z1 in the flange frame is (s5·c6, −s5·s6, c5): θ5 from atan2 stays accurate near
+            // the wrist singularity, where acos of c5 would lose half the digits.
+            let (zx, zy, zz) = (z1.dot(&x6), z1.dot(&y6), z1.dot(&z6));
+            let s5_abs = zx.hypot(zy);
+            let acos5 = s5_abs.atan2(zz);
             for theta5 in [acos5, -acos5] {
                 let s5 = theta5.sin();
-                let theta6 = if s5.abs() < WRIST_SINGULAR {
-                    hint6 * self.signs[5]
-                } else {
-                    (-z1.dot(&y6) / s5).atan2(z1.dot(&x6) / s5)
-                };
-                // Frame 4 relative to frame 1 gives the planar 2R problem of θ2, θ3.
-                let t01 = dh(theta1, p.d1, 0.0, FRAC_PI_2);
-                let t45 = dh(theta5, p.d5, 0.0, -FRAC_PI_2);
-                let t56 = dh(theta6, p.d6, 0.0, 0.0);
-                let t14 = t01.inv_mul(&t) * (t45 * t56).inverse();
-                let (px, py) = (t14.translation.x, t14.translation.y);
-                let Some(c3) =
-                    clamp_unit((px * px + py * py - p.a2 * p.a2 - p.a3 * p.a3) / (2.0 * p.a2 * p.a3))
-                else {
-                    continue;
-                };
-                let acos3 = c3.acos();
-                let r14 = t14.rotation.to_rotation_matrix();
-                let theta234 = r14[(1, 0)].atan2(r14[(0, 0)]);
-                for theta3 in [acos3, -acos3] {
-                    let s3 = theta3.sin();
-                    let theta2 = py.atan2(px) - (p.a3 * s3).atan2(p.a2 + p.a3 * c3);
-                    let theta4 = theta234 - theta2 - theta3;
-                    let dh_q = [theta1, theta2, theta3, theta4, theta5, theta6];
-                    let mut q = [0.0; DOF];
-                    for i in 0..DOF {
-                        q[i] = wrap_angle(dh_q[i] * self.signs[i]);
-                    }
-                    if q.iter().all(|v| v.is_finite()) {
-                        out.push(q);
-                    }
+                let computed = (-zy / s5).atan2(zx / s5);
+                if computed.is_finite() {
+                    self.arm(&t, theta1, theta5, computed, out);
                 }
+                if s5.abs() < WRIST_SINGULAR
+                    && let Some(theta6) = self.singular_theta6(&t, theta1, zz, &p5, hint)
+                {
+                    self.arm(&t, theta1, theta5, theta6, out);
+                }
+            }
+        }
+    }
+
+    /// θ6 at the wrist singularity (θ5 = 0 or π, `c5` its cosine). Joint 6 is then parallel to
+    /// joints 2–4: the pose fixes φ = θ2 + θ3 + θ4 ± θ6 but not the split, and φ moves frame 4
+    /// on a circle of radius d5 around frame 5, so only an arc of φ lets the 2R arm reach.
+    /// Picks φ in that arc nearest the hint's (mid-arc without a hint) and returns its θ6.
+    fn singular_theta6(
+        &self,
+        t: &Isometry3<f64>,
+        theta1: f64,
+        c5: f64,
+        p5: &Vector3<f64>,
+        hint: Option<&Joints>,
+    ) -> Option<f64> {
+        let p = &self.p;
+        let t01 = dh(theta1, p.d1, 0.0, FRAC_PI_2);
+        let p5_1 = t01.inverse_transform_point(&(*p5).into());
+        let (a, b) = (p5_1.x, p5_1.y);
+        let r = a.hypot(b);
+        if r < 1e-12 || p.d5.abs() < 1e-12 {
+            return None;
+        }
+        let beta = b.atan2(a);
+        let (long, short) = (p.a2.abs() + p.a3.abs(), (p.a2.abs() - p.a3.abs()).abs());
+        let base = a * a + b * b + p.d5 * p.d5;
+        let lo = ((base - long * long) / (2.0 * p.d5 * r)).max(-1.0);
+        let hi = ((base - short * short) / (2.0 * p.d5 * r)).min(1.0);
+        if lo > hi {
+            return None;
+        }
+        let phi = match hint {
+            Some(h) => {
+                let phi_h = (1..4).map(|i| h[i] * self.signs[i]).sum::<f64>();
+                let s = (phi_h - beta).sin().clamp(lo, hi);
+                let candidates = [beta + s.asin(), beta + std::f64::consts::PI - s.asin()];
+                let dist = |x: f64| wrap_angle(x - phi_h).abs();
+                if dist(candidates[0]) <= dist(candidates[1]) {
+                    candidates[0]
+                } else {
+                    candidates[1]
+                }
+            }
+            None => beta + (0.5 * (lo + hi)).asin(),
+        };
+        // Flange rotation in frame 1: Rz(φ + θ6) when c5 > 0, Rz(φ − θ6)·Ry(π) when c5 < 0.
+        let r16 = (t01.rotation.inverse() * t.rotation).to_rotation_matrix();
+        let psi = if c5 > 0.0 {
+            r16[(1, 0)].atan2(r16[(0, 0)])
+        } else {
+            (-r16[(1, 0)]).atan2(-r16[(0, 0)])
+        };
+        Some(if c5 > 0.0 { psi - phi } else { phi - psi })
+    }
+
+    /// θ2, θ3, θ4 for given θ1, θ5, θ6 (DH values): the planar 2R problem of frame 4 in frame 1.
+    fn arm(
+        &self,
+        t: &Isometry3<f64>,
+        theta1: f64,
+        theta5: f64,
+        theta6: f64,
+        out: &mut Vec<Joints>,
+    ) {
+        let p = &self.p;
+        let t01 = dh(theta1, p.d1, 0.0, FRAC_PI_2);
+        let t45 = dh(theta5, p.d5, 0.0, -FRAC_PI_2);
+        let t56 = dh(theta6, p.d6, 0.0, 0.0);
+        let t14 = t01.inv_mul(t) * (t45 * t56).inverse();
+        let (px, py) = (t14.translation.x, t14.translation.y);
+        let Some(c3) =
+            clamp_unit((px * px + py * py - p.a2 * p.a2 - p.a3 * p.a3) / (2.0 * p.a2 * p.a3))
+        else {
+            return;
+        };
+        let acos3 = c3.acos();
+        let r14 = t14.rotation.to_rotation_matrix();
+        let theta234 = r14[(1, 0)].atan2(r14[(0, 0)]);
+        for theta3 in [acos3, -acos3] {
+            let s3 = theta3.sin();
+            let theta2 = py.atan2(px) - (p.a3 * s3).atan2(p.a2 + p.a3 * c3);
+            let theta4 = theta234 - theta2 - theta3;
+            let dh_q = [theta1, theta2, theta3, theta4, theta5, theta6];
+            let mut q = [0.0; DOF];
+            for i in 0..DOF {
+                q[i] = wrap_angle(dh_q[i] * self.signs[i]);
+            }
+            if q.iter().all(|v| v.is_finite()) {
+                out.push(q);
             }
         }
     }

@@ -38,6 +38,9 @@ impl JointSpec {
     }
 }
 
+/// A joint axis in the root frame: unit direction and a point on it.
+pub type JointAxis = (Vector3<f64>, Vector3<f64>);
+
 /// A serial chain of six revolute joints from the root link to the tip link.
 #[derive(Debug, Clone)]
 pub struct Chain {
@@ -86,7 +89,10 @@ impl Chain {
             if parent_joint.insert(j.child.link.as_str(), i).is_some() {
                 return Err(KinematicsError::SeveralParents(j.child.link.clone()));
             }
-            child_joints.entry(j.parent.link.as_str()).or_default().push(i);
+            child_joints
+                .entry(j.parent.link.as_str())
+                .or_default()
+                .push(i);
         }
         let roots: Vec<&str> = links
             .iter()
@@ -187,9 +193,12 @@ impl Chain {
                     axes[k] = Unit::new_normalize(a);
                     let (lower, upper) = (joint.limit.lower, joint.limit.upper);
                     let velocity = joint.limit.velocity;
-                    if !(lower.is_finite() && upper.is_finite() && lower < upper)
-                        || !(velocity.is_finite() && velocity > 0.0)
-                    {
+                    let usable = lower.is_finite()
+                        && upper.is_finite()
+                        && lower < upper
+                        && velocity.is_finite()
+                        && velocity > 0.0;
+                    if !usable {
                         return Err(KinematicsError::BadLimits {
                             joint: joint.name.clone(),
                             lower,
@@ -250,7 +259,7 @@ impl Chain {
     }
 
     /// Each joint's axis (unit, root frame) and a point on it, plus the tip pose; metres.
-    pub fn axes_at(&self, q: &Joints) -> ([(Vector3<f64>, Vector3<f64>); DOF], Isometry3<f64>) {
+    pub fn axes_at(&self, q: &Joints) -> ([JointAxis; DOF], Isometry3<f64>) {
         let mut t = Isometry3::identity();
         let mut out = [(Vector3::zeros(), Vector3::zeros()); DOF];
         for (i, &qi) in q.iter().enumerate() {
