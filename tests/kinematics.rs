@@ -510,3 +510,53 @@ fn malformed_urdf_gives_typed_errors() {
         Err(KinematicsError::Io { .. })
     ));
 }
+
+#[test]
+fn replay_report_gains_reachability_figures() {
+    use nextpose::engine::EngineConfig;
+    use nextpose::replay::baselines::RepeatLast;
+    use nextpose::replay::report::RunConfig;
+    use nextpose::replay::{Method, Program, Routine, replay_all};
+
+    // A RAPID program: a square of 100 mm steps, tool pointing down, then one far outlier.
+    // repeat_last's guesses follow the square; after the last point it guesses beyond reach.
+    let down = [0.0, 0.0, 1.0, 0.0];
+    let mut waypoints: Vec<Pose> = [
+        [0.0, 0.0],
+        [100.0, 0.0],
+        [100.0, 100.0],
+        [0.0, 100.0],
+        [0.0, 0.0],
+    ]
+    .iter()
+    .map(|[x, y]| Pose::new([*x, *y, 0.0], down).unwrap())
+    .collect();
+    waypoints.push(Pose::new([2000.0, 0.0, 0.0], down).unwrap());
+    let program = |language: &str| Program {
+        name: format!("square_{language}"),
+        source: "square.json".into(),
+        language: language.into(),
+        routines: vec![Routine {
+            name: "main".into(),
+            waypoints: waypoints.clone(),
+        }],
+    };
+    let mut methods: Vec<Box<dyn Method>> = vec![Box::new(RepeatLast::new())];
+    let report = replay_all(
+        &[program("rapid"), program("fanuc")],
+        &mut methods,
+        RunConfig::new("default", EngineConfig::default(), 1.0),
+    );
+    let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["config"]["reachability"]["robot"], "abb_irb140");
+    let rapid = &json["programs"][0]["methods"]["repeat_last"];
+    // Guesses with n ≥ 2: after points 2, 3, 4 (in reach) and 5 (moves on to 0,−100: in reach).
+    assert_eq!(rapid["reachable_pct"], 100.0);
+    // Taught with n ≥ 2: points 3, 4, 5 in reach, the outlier 2 m away not.
+    assert_eq!(rapid["taught_reachable_pct"], 75.0);
+    // No arm stands for FANUC programs here.
+    let fanuc = &json["programs"][1]["methods"]["repeat_last"];
+    assert!(fanuc["reachable_pct"].is_null() && fanuc["taught_reachable_pct"].is_null());
+    // Existing keys are untouched.
+    assert!(rapid["offered_pct"].is_number() && rapid["us_per_waypoint"].is_number());
+}
