@@ -81,7 +81,7 @@ impl ReachCheck {
             let mut v: Vec<f64> = positions.iter().map(|p| p[axis]).collect();
             v.sort_by(f64::total_cmp);
             let m = v.len() / 2;
-            if v.len() % 2 == 0 {
+            if v.len().is_multiple_of(2) {
                 0.5 * (v[m - 1] + v[m])
             } else {
                 v[m]
