@@ -223,8 +223,9 @@ impl Robot {
 
     /// As [`Robot::ik`], tip in metres; `hint` picks the free joints at a wrist singularity.
     pub fn ik_metres(&self, tip: &Isometry3<f64>, hint: Option<&Joints>) -> Vec<Joints> {
-        let mut out = Vec::new();
-        for q in self.ik_principal(tip, hint) {
+        let principal = self.ik_principal(tip, hint);
+        let mut out = Vec::with_capacity(principal.len() * self.max_variants());
+        for q in principal {
             self.push_variants(&q, &mut out);
         }
         out
@@ -294,6 +295,15 @@ impl Robot {
                 }
             }
         }
+    }
+
+    /// The most multi-turn variants one principal solution can have (product over joints of the
+    /// values `q + 2πk` a range can hold), for sizing buffers.
+    pub fn max_variants(&self) -> usize {
+        self.joints()
+            .iter()
+            .map(|j| ((j.upper - j.lower) / TAU).floor() as usize + 1)
+            .product()
     }
 
     /// For a principal solution, the smallest distance (rad) by which each joint misses its

@@ -23,6 +23,9 @@ use super::{check_against_chain, wrap_angle};
 /// cosine deviation).
 const GEOM_TOL: f64 = 1e-9;
 
+/// `|sin J5|` below which the wrist counts as singular for choosing J4/J6 near a hint.
+const NEAR_SINGULAR_WRIST: f64 = 1e-6;
+
 /// The OPW model of one arm.
 #[derive(Debug, Clone)]
 pub struct OpwSolver {
@@ -160,10 +163,16 @@ impl OpwSolver {
         let Ok(pose) = from_iso(&target) else {
             return;
         };
-        let solutions = match hint {
-            Some(h) => self.kin.inverse_continuing(&pose, h),
-            None => self.kin.inverse(&pose),
-        };
+        // `inverse_continuing` (J4/J6 near the hint at a singular wrist) costs about half as
+        // much again as `inverse`, and only matters near J5 = 0: use it only there.
+        let mut solutions = self.kin.inverse(&pose);
+        if let Some(h) = hint
+            && solutions
+                .iter()
+                .any(|q| q[4].sin().abs() < NEAR_SINGULAR_WRIST)
+        {
+            solutions = self.kin.inverse_continuing(&pose, h);
+        }
         for mut q in solutions {
             for v in q.iter_mut() {
                 *v = wrap_angle(*v);

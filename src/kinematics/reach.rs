@@ -180,7 +180,7 @@ pub fn check_reach(
         result.unreachable = Some(Unreachable::OutsideReach);
         return result;
     }
-    let mut solutions = Vec::with_capacity(principal.len() * 2);
+    let mut solutions = Vec::with_capacity(principal.len() * robot.max_variants());
     for q in &principal {
         robot.push_variants(q, &mut solutions);
     }
