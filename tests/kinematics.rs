@@ -560,3 +560,27 @@ fn replay_report_gains_reachability_figures() {
     // Existing keys are untouched.
     assert!(rapid["offered_pct"].is_number() && rapid["us_per_waypoint"].is_number());
 }
+
+#[test]
+fn robots_can_be_shared_between_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Robot>();
+    assert_send_sync::<Cell>();
+    assert_send_sync::<nextpose::kinematics::Reachability>();
+}
+
+#[test]
+fn reachability_serialises_with_its_reason() {
+    let r = robot("abb_irb140");
+    let far = Pose::new([5000.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let reach = check_reach(&r, &Cell::default(), &far, None, &ReachConfig::default());
+    let json = serde_json::to_value(&reach).unwrap();
+    assert_eq!(json["unreachable"]["reason"], "outside_reach");
+    assert_eq!(
+        serde_json::to_value(reach.offer(ReachPolicy::Flag)).unwrap()["action"],
+        "flag"
+    );
+    let model = serde_json::to_value(r.model()).unwrap();
+    assert_eq!(model["solver"], "opw");
+    assert_eq!(model["joints"][5]["name"], "joint_6");
+}

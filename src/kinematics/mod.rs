@@ -13,6 +13,17 @@
 //! angles; [`Robot::ik`] maps each joint into its real range and enumerates the multi-turn
 //! variants of joints whose range exceeds 360° (IRB 140 J6 ±400°, UR joints ±360°), and keeps
 //! only solutions that the chain's FK confirms.
+//!
+//! For the service (all types `Send + Sync`; results `Serialize`):
+//!
+//! ```text
+//! list_robots(&bundled_robots_dir())?            -> Vec<RobotModel>   GET /v1/robots
+//! load_robot(&dir, "abb_irb140")?                 -> Robot             once per cell, then shared
+//! Cell::new(base, tool)                           base: robot base in the work frame; tool: TCP on tool0
+//! check_reach(&robot, &cell, &target, prev, &cfg) -> Reachability      per predicted pose (mm)
+//! reachability.offer(cfg.policy)                  -> Offer::{Offer, Flag, Withhold}
+//! robot.ik(&flange) / robot.fk(&q)                 all solutions / tool0 pose, base frame, mm
+//! ```
 
 pub mod error;
 pub mod opw;
