@@ -1,6 +1,8 @@
 //! nextpose: suggests the next waypoint while an operator teaches an industrial robot arm.
 //!
 //! - [`engine`]: the pure prediction engine (poses, learner, HMM, predictor, scale). No I/O.
+//! - [`kinematics`]: robot models from URDF, FK, all IK solutions, reachability. No I/O beyond
+//!   reading URDF files.
 //! - [`replay`]: replays recorded programs through the engine and baselines and reports accuracy
 //!   (the product's scoreboard). Reads corpus files; everything else it does is computation.
 //! - [`app`]: the application service both adapters call: cells, programs, routines, teaching,
@@ -19,6 +21,7 @@ pub mod app;
 pub mod cli;
 pub mod engine;
 pub mod http;
+pub mod kinematics;
 pub mod replay;
 pub mod server;
 pub mod storage;

@@ -247,6 +247,12 @@ pub struct Metrics {
     pub perplexity: Option<f64>,
     /// Mean wall-clock time of predict + observe per predicted waypoint (n ≥ 1), µs.
     pub us_per_waypoint: Option<f64>,
+    /// Share of offered guesses (n ≥ 2) that the cell's arm can reach, % (`null` when the
+    /// program has no arm to check, see [`super::reach`]).
+    pub reachable_pct: Option<f64>,
+    /// Share of taught waypoints (n ≥ 2) the arm reaches at the same placement, %: where this is
+    /// low, the placement does not fit the program and `reachable_pct` means little.
+    pub taught_reachable_pct: Option<f64>,
 }
 
 impl Metrics {
@@ -303,6 +309,8 @@ impl Metrics {
             edges,
             perplexity,
             us_per_waypoint: mean(&times),
+            reachable_pct: None,
+            taught_reachable_pct: None,
         }
     }
 }

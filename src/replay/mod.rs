@@ -10,6 +10,7 @@
 //! - [`engine_method`]: the engine behind that trait.
 //! - [`baselines`]: repeat-last-move and nearest-sequence.
 //! - [`metrics`]: the replay loop ([`replay_program`]) and the figures computed from it.
+//! - [`reach`]: whether the cell's arm could reach the guesses (kinematics).
 //! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
 
@@ -18,6 +19,7 @@ pub mod corpus;
 pub mod engine_method;
 pub mod method;
 pub mod metrics;
+pub mod reach;
 pub mod report;
 pub mod sweep;
 

@@ -21,6 +21,7 @@ use crate::engine::EngineConfig;
 use super::corpus::Program;
 use super::method::Method;
 use super::metrics::{Metrics, ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+use super::reach::{ReachCheck, ReachRecord, ReachRecorder, ReachSetup, reach_figures};
 
 /// The settings a report was produced with.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -33,6 +34,8 @@ pub struct RunConfig {
     pub nearest_seq_gate: f64,
     pub useful_max_mm: f64,
     pub useful_max_rad: f64,
+    /// The arm whose reachability of the guesses is reported (`null`: not checked).
+    pub reachability: Option<ReachSetup>,
 }
 
 impl RunConfig {
@@ -43,6 +46,7 @@ impl RunConfig {
             nearest_seq_gate,
             useful_max_mm: USEFUL_MAX_MM,
             useful_max_rad: USEFUL_MAX_RAD,
+            reachability: Some(ReachSetup::default()),
         }
     }
 }
@@ -90,22 +94,50 @@ pub fn replay_all(
     methods: &mut [Box<dyn Method>],
     config: RunConfig,
 ) -> Report {
-    // records[m][p]: method m on program p.
-    let records: Vec<Vec<ProgramRecord>> = methods
+    // The arm of the reachability figures; a setup that does not load means no figures.
+    let check = config
+        .reachability
+        .clone()
+        .and_then(|setup| ReachCheck::new(setup).ok());
+    let cells: Vec<_> = programs
+        .iter()
+        .map(|p| check.as_ref().and_then(|c| c.cell_for(p)))
+        .collect();
+    // records[m][p], reach[m][p]: method m on program p.
+    let (records, reach): (Vec<Vec<ProgramRecord>>, Vec<Vec<Vec<ReachRecord>>>) = methods
         .iter_mut()
         .map(|m| {
             programs
                 .iter()
-                .map(|p| replay_program(p, m.as_mut()))
-                .collect()
+                .zip(&cells)
+                .map(|(p, cell)| match (&check, cell) {
+                    (Some(check), Some(cell)) => {
+                        let mut recorder = ReachRecorder::new(m.as_mut());
+                        let record = replay_program(p, &mut recorder);
+                        let reach = recorder.check(check, cell);
+                        (record, reach)
+                    }
+                    _ => (replay_program(p, m.as_mut()), Vec::new()),
+                })
+                .unzip()
         })
-        .collect();
+        .unzip();
+    let with_reach = |mut metrics: Metrics, reach: &mut dyn Iterator<Item = &ReachRecord>| {
+        (metrics.reachable_pct, metrics.taught_reachable_pct) = reach_figures(reach, 2);
+        metrics
+    };
     let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
     let totals = MethodMetrics(
         names
             .iter()
-            .zip(&records)
-            .map(|(name, recs)| (name.clone(), Metrics::of_programs(recs)))
+            .zip(records.iter().zip(&reach))
+            .map(|(name, (recs, reach))| {
+                let metrics = Metrics::of_programs(recs);
+                (
+                    name.clone(),
+                    with_reach(metrics, &mut reach.iter().flatten()),
+                )
+            })
             .collect(),
     );
     let programs = programs
@@ -117,8 +149,11 @@ pub fn replay_all(
             methods: MethodMetrics(
                 names
                     .iter()
-                    .zip(&records)
-                    .map(|(name, recs)| (name.clone(), Metrics::of_program(&recs[p])))
+                    .zip(records.iter().zip(&reach))
+                    .map(|(name, (recs, reach))| {
+                        let metrics = Metrics::of_program(&recs[p]);
+                        (name.clone(), with_reach(metrics, &mut reach[p].iter()))
+                    })
                     .collect(),
             ),
         })
@@ -143,6 +178,8 @@ impl Report {
             "saved %",
             "median mm",
             "states",
+            "reach %",
+            "taught reach %",
         ]);
         for p in &self.programs {
             let Some(m) = p.methods.get(method) else {
@@ -158,6 +195,8 @@ impl Report {
                 fmt(m.saved_pct, 1),
                 fmt(m.median_cart_mm, 3),
                 m.states.map_or_else(|| "-".to_string(), |s| s.to_string()),
+                fmt(m.reachable_pct, 1),
+                fmt(m.taught_reachable_pct, 1),
             ]);
         }
         format!("{method}, per program:\n{}", t.render())
@@ -177,6 +216,8 @@ impl Report {
             "median rad",
             "Spearman",
             "µs/waypoint",
+            "reach %",
+            "taught reach %",
         ]);
         for (name, m) in &self.totals.0 {
             t.row(vec![
@@ -191,12 +232,15 @@ impl Report {
                 fmt(m.median_angle_rad, 4),
                 fmt(m.spearman_conf_err, 2),
                 fmt(m.us_per_waypoint, 1),
+                fmt(m.reachable_pct, 1),
+                fmt(m.taught_reachable_pct, 1),
             ]);
         }
         let programs = self.programs.len();
         format!(
             "Totals over {programs} program(s), waypoints with ≥ 2 predecessors \
-             (useful: ≤ {} mm and ≤ {} rad):\n{}",
+             (useful: ≤ {} mm and ≤ {} rad; reach: the cell's arm reaches the guess, \
+             see replay::reach):\n{}",
             self.config.useful_max_mm,
             self.config.useful_max_rad,
             t.render()

@@ -1,0 +1,249 @@
+//! Reachability of a predicted pose for one arm in one cell.
+//!
+//! A cell places the robot base in the work (world) frame and mounts a tool (TCP) on the
+//! flange (`tool0`); a target TCP pose in the work frame is reachable when the flange pose
+//! `base⁻¹ · target · tool⁻¹` has an IK solution within the joint limits that is not singular.
+//! The result says which solutions there are, which one the arm would take (the one nearest the
+//! previous waypoint's joints), how far that one is from a singularity and from its tightest
+//! joint limit, and, when the pose is unreachable, why.
+
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+
+use crate::engine::{Pose, PoseValues};
+
+use super::urdf::{DOF, Joints};
+use super::{Robot, pose_to_metres};
+
+/// Where the robot stands and what it holds. Both poses in mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    /// Robot base frame in the work (world) frame.
+    pub base: Pose,
+    /// TCP in the flange (`tool0`) frame.
+    pub tool: Pose,
+}
+
+impl Default for Cell {
+    fn default() -> Cell {
+        Cell {
+            base: Pose::identity(),
+            tool: Pose::identity(),
+        }
+    }
+}
+
+impl Cell {
+    pub fn new(base: Pose, tool: Pose) -> Cell {
+        Cell { base, tool }
+    }
+
+    /// The flange pose in the robot base frame that puts the TCP at `target` (work frame):
+    /// `base⁻¹ · target · tool⁻¹`.
+    pub fn flange_target(&self, target: &Pose) -> Pose {
+        Pose::from_isometry(
+            self.base.isometry().inv_mul(target.isometry()) * self.tool.isometry().inverse(),
+        )
+    }
+}
+
+/// What the service does with a prediction the arm cannot reach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReachPolicy {
+    /// Do not offer it (default).
+    #[default]
+    Withhold,
+    /// Offer it, marked unreachable with the reason.
+    Flag,
+}
+
+/// Settings of the reachability check.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReachConfig {
+    pub policy: ReachPolicy,
+    /// A chosen solution whose smallest Jacobian singular value (metres/radians, at the flange)
+    /// is below this is singular. The default 0.005 corresponds to J5 within about 1° of zero on
+    /// an IRB 140 or KR 16 and 0.5° on a UR5e.
+    pub min_singular_value: f64,
+}
+
+impl Default for ReachConfig {
+    fn default() -> ReachConfig {
+        ReachConfig {
+            policy: ReachPolicy::Withhold,
+            min_singular_value: DEFAULT_MIN_SINGULAR_VALUE,
+        }
+    }
+}
+
+/// Default of [`ReachConfig::min_singular_value`].
+pub const DEFAULT_MIN_SINGULAR_VALUE: f64 = 0.005;
+
+/// The joint closest to a limit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointMargin {
+    /// 0-based joint index.
+    pub joint: usize,
+    pub name: String,
+    /// Radians to the nearer limit.
+    pub margin_rad: f64,
+}
+
+/// Why a pose is unreachable.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum Unreachable {
+    /// No joint vector at all puts the flange there (too far, too close, behind the arm's
+    /// geometry).
+    OutsideReach,
+    /// Solutions exist, but each has a joint outside its range; this joint blocks the solution
+    /// that misses its limits by the least, by `excess_rad`.
+    JointLimit {
+        joint: usize,
+        name: String,
+        excess_rad: f64,
+    },
+    /// The solution the arm would take is at (or too near) a singularity.
+    Singular { sigma_min: f64 },
+}
+
+/// Outcome of a reachability check.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reachability {
+    /// Flange (`tool0`) target in the robot base frame, mm.
+    pub flange: PoseValues,
+    /// Every IK solution within limits (multi-turn variants included), radians.
+    pub solutions: Vec<Joints>,
+    /// The solution nearest the previous joints (or the range centres when none were given).
+    pub chosen: Option<Joints>,
+    /// Smallest singular value of the Jacobian at `chosen`.
+    pub sigma_min: Option<f64>,
+    /// Yoshikawa manipulability `|det J|` at `chosen`.
+    pub manipulability: Option<f64>,
+    /// The joint of `chosen` nearest a limit.
+    pub limiting_joint: Option<JointMargin>,
+    /// `None` when reachable.
+    pub unreachable: Option<Unreachable>,
+}
+
+/// What to do with a prediction, given its reachability and the policy.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "action", rename_all = "snake_case")]
+pub enum Offer {
+    Offer,
+    Flag { why: Unreachable },
+    Withhold { why: Unreachable },
+}
+
+impl Reachability {
+    pub fn is_reachable(&self) -> bool {
+        self.unreachable.is_none()
+    }
+
+    pub fn offer(&self, policy: ReachPolicy) -> Offer {
+        match (&self.unreachable, policy) {
+            (None, _) => Offer::Offer,
+            (Some(why), ReachPolicy::Flag) => Offer::Flag { why: why.clone() },
+            (Some(why), ReachPolicy::Withhold) => Offer::Withhold { why: why.clone() },
+        }
+    }
+}
+
+fn distance_sq(a: &Joints, b: &Joints) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+/// Checks whether `robot` in `cell` can put its TCP at `target` (work frame, mm).
+/// `previous`: the joints of the previous waypoint, when known.
+pub fn check_reach(
+    robot: &Robot,
+    cell: &Cell,
+    target: &Pose,
+    previous: Option<&Joints>,
+    config: &ReachConfig,
+) -> Reachability {
+    let flange = cell.flange_target(target);
+    let tip: Isometry3<f64> = pose_to_metres(&flange);
+    let previous = previous.filter(|p| p.iter().all(|v| v.is_finite()));
+    let principal = robot.ik_principal(&tip, previous);
+    let mut result = Reachability {
+        flange: flange.values(),
+        solutions: Vec::new(),
+        chosen: None,
+        sigma_min: None,
+        manipulability: None,
+        limiting_joint: None,
+        unreachable: None,
+    };
+    if principal.is_empty() {
+        result.unreachable = Some(Unreachable::OutsideReach);
+        return result;
+    }
+    let mut solutions = Vec::with_capacity(principal.len() * robot.max_variants());
+    for q in &principal {
+        robot.push_variants(q, &mut solutions);
+    }
+    if solutions.is_empty() {
+        // The principal solution that misses its limits by the least, and its worst joint.
+        let mut best: Option<(f64, usize, f64)> = None;
+        for q in &principal {
+            let excess = robot.limit_excess(q);
+            let total: f64 = excess.iter().sum();
+            let (joint, worst) = excess
+                .iter()
+                .copied()
+                .enumerate()
+                .fold((0, 0.0), |acc, (i, e)| if e > acc.1 { (i, e) } else { acc });
+            if best.is_none_or(|b| total < b.0) {
+                best = Some((total, joint, worst));
+            }
+        }
+        if let Some((_, joint, excess_rad)) = best {
+            result.unreachable = Some(Unreachable::JointLimit {
+                joint,
+                name: robot.joints()[joint].name.clone(),
+                excess_rad,
+            });
+        }
+        return result;
+    }
+    let reference: Joints = match previous {
+        Some(p) => *p,
+        None => {
+            let mut c = [0.0; DOF];
+            for (ci, j) in c.iter_mut().zip(robot.joints()) {
+                *ci = 0.5 * (j.lower + j.upper);
+            }
+            c
+        }
+    };
+    let chosen = solutions
+        .iter()
+        .min_by(|a, b| distance_sq(a, &reference).total_cmp(&distance_sq(b, &reference)))
+        .copied();
+    if let Some(q) = chosen {
+        let jac = robot.jacobian(&q);
+        let sv = jac.singular_values();
+        let sigma_min = sv.min();
+        result.sigma_min = Some(sigma_min);
+        result.manipulability = Some(sv.iter().product());
+        result.limiting_joint = robot
+            .joints()
+            .iter()
+            .enumerate()
+            .map(|(i, j)| JointMargin {
+                joint: i,
+                name: j.name.clone(),
+                margin_rad: j.margin(q[i]),
+            })
+            .min_by(|a, b| a.margin_rad.total_cmp(&b.margin_rad));
+        // NaN (never expected) counts as singular.
+        if sigma_min.is_nan() || sigma_min < config.min_singular_value {
+            result.unreachable = Some(Unreachable::Singular { sigma_min });
+        }
+    }
+    result.chosen = chosen;
+    result.solutions = solutions;
+    result
+}
