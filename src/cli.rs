@@ -67,6 +67,9 @@ pub struct ServeArgs {
     /// Requests taking longer than this many seconds are answered 408.
     #[arg(long, default_value_t = 30)]
     pub request_timeout_s: u64,
+    /// Directory of robot models (*.urdf); default: the bundled robots/.
+    #[arg(long, env = "NEXTPOSE_ROBOTS")]
+    pub robots: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -276,6 +279,10 @@ fn run_serve(args: ServeArgs) -> Result<()> {
             request_timeout: std::time::Duration::from_secs(args.request_timeout_s.max(1)),
             token: args.token.clone(),
         },
+        robots: args
+            .robots
+            .clone()
+            .unwrap_or_else(crate::kinematics::bundled_robots_dir),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

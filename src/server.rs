@@ -12,6 +12,7 @@ use anyhow::Context;
 use tokio::net::TcpListener;
 
 use crate::app::App;
+use crate::app::reach::Robots;
 use crate::http::{self, HttpOptions};
 use crate::storage::{Durability, Store};
 use crate::telemetry::Metrics;
@@ -31,6 +32,8 @@ pub struct ServerSettings {
     /// `HOST:PORT`; port 0 picks a free one.
     pub addr: String,
     pub http: HttpOptions,
+    /// Directory of robot models (`*.urdf`).
+    pub robots: PathBuf,
 }
 
 impl Default for ServerSettings {
@@ -40,6 +43,7 @@ impl Default for ServerSettings {
             durability: Durability::default(),
             addr: "127.0.0.1:8080".into(),
             http: HttpOptions::default(),
+            robots: crate::kinematics::bundled_robots_dir(),
         }
     }
 }
@@ -58,7 +62,9 @@ impl Application {
                 .with_context(|| format!("opening database {}", path.display()))?,
             Database::Memory => Store::in_memory().await?,
         };
-        let app = Arc::new(App::new(store, Arc::new(Metrics::new())));
+        let robots = Robots::load(&settings.robots)
+            .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
+        let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
         let router = http::router(app.clone(), &settings.http);
         let listener = TcpListener::bind(&settings.addr)
             .await

@@ -2,6 +2,7 @@
 //! kept in step with every write.
 
 use super::error::AppError;
+use super::reach::{Arm, Robots};
 use super::resources::ModelInfo;
 use super::settings::CellSettings;
 use crate::engine::{Pose, Teacher};
@@ -9,6 +10,9 @@ use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
 
 #[derive(Debug)]
 pub(crate) struct CellModel {
+    /// The cell's arm; None when the robot model named by the cell is no longer installed
+    /// (predictions are then not checked, and say so).
+    pub arm: Option<Arm>,
     pub teacher: Teacher,
     /// The routine being taught (its waypoints are in the teacher).
     pub open: Option<i64>,
@@ -37,8 +41,19 @@ pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
 impl CellModel {
     /// Learns the cell's finished routines in the order they were finished, then takes up the
     /// routine being taught, exactly as incremental teaching did.
-    pub async fn load(store: &Store, cell: &CellRow) -> Result<CellModel, AppError> {
+    pub async fn load(
+        store: &Store,
+        cell: &CellRow,
+        robots: &Robots,
+    ) -> Result<CellModel, AppError> {
         let settings = parse_settings(cell)?;
+        let mut arm = match robots.get(&settings.robot) {
+            Some(robot) => Some(Arm::new(robot, &settings)?),
+            None => {
+                tracing::warn!(cell = cell.id, robot = %settings.robot, "robot model not installed; predictions are not checked for reachability");
+                None
+            }
+        };
         let mut teacher = Teacher::new(settings.engine_config())?;
         let mut version = 0;
         for r in store.finished_routines(cell.id).await? {
@@ -51,10 +66,19 @@ impl CellModel {
         let open = store.open_routine(cell.id).await?;
         if let Some(r) = &open {
             for w in store.waypoints(r.id).await? {
-                teacher.teach(stored_pose(&w)?);
+                let pose = stored_pose(&w)?;
+                teacher.teach(pose);
+                if let Some(arm) = arm.as_mut() {
+                    let joints: Option<Vec<f64>> = w
+                        .joints
+                        .as_deref()
+                        .and_then(|j| serde_json::from_str(j).ok());
+                    arm.taught(&pose, joints.as_deref());
+                }
             }
         }
         Ok(CellModel {
+            arm,
             teacher,
             open: open.map(|r| r.id),
             version,

@@ -9,6 +9,9 @@ pub enum AppError {
     /// A resource that does not exist.
     #[error("{what} {id} does not exist")]
     NotFound { what: &'static str, id: i64 },
+    /// A named resource that does not exist.
+    #[error("{what} {name:?} does not exist")]
+    NotFoundName { what: &'static str, name: String },
     /// The request conflicts with the resource's state (a finished routine, a name taken).
     #[error("{0}")]
     Conflict(String),
@@ -28,7 +31,7 @@ impl AppError {
     /// A short stable code for API clients.
     pub fn code(&self) -> &'static str {
         match self {
-            AppError::NotFound { .. } => "not_found",
+            AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
             AppError::Conflict(_) => "conflict",
             AppError::Invalid(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",

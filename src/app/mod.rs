@@ -13,6 +13,7 @@
 
 mod cell_model;
 pub mod error;
+pub mod reach;
 pub mod resources;
 pub mod settings;
 
@@ -22,6 +23,7 @@ use std::sync::{Arc, Mutex};
 use tokio::sync::{Mutex as AsyncMutex, OwnedMutexGuard};
 
 use crate::engine::{PredictOptions, Prediction, Withheld};
+use crate::kinematics::{Joints, ReachPolicy, Reachability, RobotModel};
 use crate::storage::{
     CellRow, NewFeedback, NewPrediction, NewWaypoint, PoseColumns, ProgramRow, RoutineRow, Store,
     WaypointRow,
@@ -29,6 +31,7 @@ use crate::storage::{
 use crate::telemetry::Metrics;
 use cell_model::{CellModel, parse_settings};
 pub use error::AppError;
+use reach::Robots;
 use resources::*;
 use settings::MAX_HORIZON;
 
@@ -46,6 +49,54 @@ pub struct App {
     store: Store,
     models: Mutex<HashMap<i64, Slot>>,
     metrics: Arc<Metrics>,
+    robots: Arc<Robots>,
+}
+
+/// A prediction after the reachability check.
+struct Checked {
+    prediction: Prediction,
+    reach: Option<Reachability>,
+    /// Withheld because the arm cannot reach it (policy `withhold`).
+    unreachable: bool,
+}
+
+impl Checked {
+    fn offered(&self) -> bool {
+        self.prediction.offered() && !self.unreachable
+    }
+
+    /// The withheld reason code, if withheld.
+    fn reason(&self) -> Option<&'static str> {
+        match (&self.prediction.withheld, self.unreachable) {
+            (Some(w), _) => Some(w.code()),
+            (None, true) => Some("unreachable"),
+            (None, false) => None,
+        }
+    }
+}
+
+/// Checks an engine prediction against the cell's arm (when it has one).
+fn check(arm: Option<&reach::Arm>, prediction: Prediction, previous: Option<&Joints>) -> Checked {
+    let reach = match (arm, &prediction.pose) {
+        (Some(arm), Some(pose)) if prediction.offered() => Some(arm.check(pose, previous)),
+        _ => None,
+    };
+    let unreachable = match (arm, &reach) {
+        (Some(arm), Some(r)) => !r.is_reachable() && arm.policy() == ReachPolicy::Withhold,
+        _ => false,
+    };
+    Checked {
+        prediction,
+        reach,
+        unreachable,
+    }
+}
+
+/// The routine being taught in a locked cell.
+#[derive(Debug, Clone, Copy)]
+struct OpenRoutine {
+    id: i64,
+    cell_id: i64,
 }
 
 /// A locked, loaded cell model.
@@ -107,6 +158,7 @@ fn waypoint(w: WaypointRow) -> Waypoint {
             .and_then(|j| serde_json::from_str(j).ok()),
         motion: w.motion.as_deref().and_then(MotionType::parse),
         name: w.name,
+        reachable: w.reachable,
         created_at: w.created_at,
     }
 }
@@ -168,12 +220,28 @@ fn describe(w: &Withheld, opts: &PredictOptions) -> String {
 }
 
 impl App {
-    pub fn new(store: Store, metrics: Arc<Metrics>) -> App {
+    pub fn new(store: Store, metrics: Arc<Metrics>, robots: Arc<Robots>) -> App {
         App {
             store,
             models: Mutex::new(HashMap::new()),
             metrics,
+            robots,
         }
+    }
+
+    /// The robot models cells can use.
+    pub fn robots(&self) -> Vec<RobotModel> {
+        self.robots.models()
+    }
+
+    pub fn robot(&self, name: &str) -> Result<RobotModel> {
+        self.robots
+            .get(name)
+            .map(|r| r.model())
+            .ok_or_else(|| AppError::NotFoundName {
+                what: "robot",
+                name: name.to_string(),
+            })
     }
 
     pub fn store(&self) -> &Store {
@@ -203,7 +271,7 @@ impl App {
     async fn lock(&self, cell: &CellRow) -> Result<Locked> {
         let mut guard = self.slot(cell.id).lock_owned().await;
         if guard.is_none() {
-            *guard = Some(CellModel::load(&self.store, cell).await?);
+            *guard = Some(CellModel::load(&self.store, cell, &self.robots).await?);
         }
         Ok(Locked(guard))
     }
@@ -229,24 +297,38 @@ impl App {
             .ok_or_else(|| AppError::not_found("routine", id))
     }
 
-    /// Locks the routine's cell and re-reads the routine under the lock; refuses a finished
-    /// routine when `open_only`.
-    async fn lock_routine(&self, id: i64, open_only: bool) -> Result<(Locked, RoutineRow)> {
-        let r = self.routine_row(id).await?;
-        let cell = self.cell_row(r.cell_id).await?;
-        let mut locked = self.lock(&cell).await?;
-        let r = self.routine_row(id).await?;
-        if open_only && r.finished() {
-            return Err(AppError::Conflict(format!(
+    /// Locks a cell by id, loading its model on first use.
+    async fn lock_cell_id(&self, cell_id: i64) -> Result<Locked> {
+        let mut guard = self.slot(cell_id).lock_owned().await;
+        if guard.is_none() {
+            let cell = self.cell_row(cell_id).await?;
+            *guard = Some(CellModel::load(&self.store, &cell, &self.robots).await?);
+        }
+        Ok(Locked(guard))
+    }
+
+    /// Locks the cell of a routine being taught. The cell's model knows which routine is open,
+    /// so under the lock no further read is needed; a finished routine is refused (409).
+    async fn lock_open_routine(&self, id: i64) -> Result<(Locked, OpenRoutine)> {
+        let (cell_id, _) = self
+            .store
+            .routine_cell(id)
+            .await?
+            .ok_or_else(|| AppError::not_found("routine", id))?;
+        let mut locked = self.lock_cell_id(cell_id).await?;
+        if locked.model()?.open == Some(id) {
+            return Ok((locked, OpenRoutine { id, cell_id }));
+        }
+        // Not the open routine: finished, or deleted while we waited for the lock.
+        match self.store.routine_cell(id).await? {
+            None => Err(AppError::not_found("routine", id)),
+            Some((_, true)) => Err(AppError::Conflict(format!(
                 "routine {id} is finished; a finished routine cannot change"
-            )));
-        }
-        if !r.finished() && locked.model()?.open != Some(r.id) {
-            return Err(AppError::Internal(format!(
+            ))),
+            Some((_, false)) => Err(AppError::Internal(format!(
                 "routine {id} is open in the database but not in the cell's model"
-            )));
+            ))),
         }
-        Ok((locked, r))
     }
 
     // ---- cells ------------------------------------------------------------------------------
@@ -263,6 +345,7 @@ impl App {
     pub async fn create_cell(&self, input: CreateCell) -> Result<Cell> {
         check_name("cell name", &input.name)?;
         let settings = input.settings.resolve()?;
+        self.robots.require(&settings.robot)?;
         let json = serde_json::to_string(&settings)
             .map_err(|e| AppError::Internal(format!("settings: {e}")))?;
         let row = self
@@ -327,7 +410,7 @@ impl App {
     pub async fn rebuild(&self, id: i64) -> Result<ModelInfo> {
         let cell = self.cell_row(id).await?;
         let mut guard = self.slot(id).lock_owned().await;
-        let model = CellModel::load(&self.store, &cell).await?;
+        let model = CellModel::load(&self.store, &cell, &self.robots).await?;
         let info = model.info();
         *guard = Some(model);
         Ok(info)
@@ -414,20 +497,26 @@ impl App {
 
     /// Deletes a routine that is being taught, with its waypoints; the model forgets it.
     pub async fn delete_routine(&self, id: i64) -> Result<()> {
-        let (mut locked, r) = self.lock_routine(id, true).await?;
+        let (mut locked, r) = self.lock_open_routine(id).await?;
         self.store.delete_open_routine(r.id).await?;
         let model = locked.model()?;
         model.teacher.abandon_routine();
+        if let Some(arm) = model.arm.as_mut() {
+            arm.clear();
+        }
         model.open = None;
         Ok(())
     }
 
     /// Finishes a routine: it becomes immutable and the cell's model assimilates it.
     pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
-        let (mut locked, r) = self.lock_routine(id, true).await?;
-        self.store.finish_routine(&r).await?;
+        let (mut locked, r) = self.lock_open_routine(id).await?;
+        self.store.finish_routine(r.cell_id, r.id).await?;
         let model = locked.model()?;
         model.teacher.finish_routine();
+        if let Some(arm) = model.arm.as_mut() {
+            arm.clear();
+        }
         model.open = None;
         model.version += 1;
         let info = model.info();
@@ -467,13 +556,21 @@ impl App {
         // The model learns the pose as it will be read back from the database, so a rebuild
         // gives bit-identical results.
         let pose = stored.to_pose()?;
-        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
         let model = locked.model()?;
         model.teacher.teach(pose);
+        let taught_reach = model
+            .arm
+            .as_mut()
+            .map(|arm| arm.taught(&pose, input.joints.as_deref()));
         let opts = PredictOptions::from_config(model.teacher.config());
-        let prediction = model.teacher.predict_with(&opts);
-        let after = r.waypoints + 1;
-        let record = self.new_prediction(&r, after, model.version, &prediction);
+        let checked = check(
+            model.arm.as_ref(),
+            model.teacher.predict_with(&opts),
+            model.arm.as_ref().and_then(|a| a.previous()),
+        );
+        let after = model.teacher.routine().len() as i64;
+        let record = self.new_prediction(&r, after, model.version, &checked);
         let wp = NewWaypoint {
             routine_id,
             seq: after,
@@ -481,26 +578,30 @@ impl App {
             joints,
             motion: input.motion.map(|m| m.as_str().to_string()),
             name: input.name.map(|n| n.trim().to_string()),
+            reachable: taught_reach.as_ref().map(Reachability::is_reachable),
         };
         let (row, id) = match self.store.append_waypoint(&wp, record.as_ref()).await {
             Ok(done) => done,
             Err(e) => {
                 model.teacher.undo();
+                if let Some(arm) = model.arm.as_mut() {
+                    arm.undo();
+                }
                 return Err(e.into());
             }
         };
         let version = model.version;
-        self.metrics
-            .record_prediction(prediction.withheld.as_ref().map(Withheld::code));
+        let prediction = self.dto(model.arm.as_ref(), &checked, &opts, id, after, version);
+        self.metrics.record_prediction(checked.reason());
         Ok(Taught {
             waypoint: waypoint(row),
-            prediction: self.dto(&prediction, &opts, id, after, version),
+            prediction,
         })
     }
 
     /// Removes the last waypoint of an open routine; the prediction rolls back with it.
     pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
-        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
         let Some(removed) = self.store.delete_last_waypoint(r.id).await? else {
             return Err(AppError::Conflict(format!(
                 "routine {routine_id} has no waypoint to undo"
@@ -508,17 +609,24 @@ impl App {
         };
         let model = locked.model()?;
         model.teacher.undo();
+        if let Some(arm) = model.arm.as_mut() {
+            arm.undo();
+        }
         let opts = PredictOptions::from_config(model.teacher.config());
-        let prediction = model.teacher.predict_with(&opts);
-        let after = r.waypoints - 1;
+        let checked = check(
+            model.arm.as_ref(),
+            model.teacher.predict_with(&opts),
+            model.arm.as_ref().and_then(|a| a.previous()),
+        );
+        let after = model.teacher.routine().len() as i64;
         let version = model.version;
-        let id = match self.new_prediction(&r, after, version, &prediction) {
+        let id = match self.new_prediction(&r, after, version, &checked) {
             Some(np) => Some(self.store.record_prediction(&np).await?),
             None => None,
         };
         Ok(Undone {
             removed: waypoint(removed),
-            prediction: self.dto(&prediction, &opts, id, after, version),
+            prediction: self.dto(model.arm.as_ref(), &checked, &opts, id, after, version),
         })
     }
 
@@ -543,7 +651,7 @@ impl App {
         {
             return Err(AppError::Invalid("phi_min must be between 0 and 1".into()));
         }
-        let (mut locked, r) = self.lock_routine(routine_id, true).await?;
+        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
         let model = locked.model()?;
         let mut opts = PredictOptions::from_config(model.teacher.config());
         if let Some(h) = q.horizon {
@@ -556,18 +664,30 @@ impl App {
             opts.scale.enabled = s;
         }
         let version = model.version;
-        let predictions = model.teacher.complete(k, &opts);
-        drop(locked);
-        let mut out = Vec::with_capacity(predictions.len());
-        for (i, p) in predictions.iter().enumerate() {
-            let after = r.waypoints + i as i64;
+        let taught = model.teacher.routine().len() as i64;
+        let arm = model.arm.as_ref();
+        let mut previous = arm.and_then(|a| a.previous()).copied();
+        let mut checked = Vec::new();
+        for p in model.teacher.complete(k, &opts) {
+            let c = check(arm, p, previous.as_ref());
+            previous = c.reach.as_ref().and_then(|r| r.chosen).or(previous);
+            let stop = !c.offered();
+            checked.push(c);
+            if stop {
+                break;
+            }
+        }
+        let mut out = Vec::with_capacity(checked.len());
+        for (i, c) in checked.iter().enumerate() {
+            let after = taught + i as i64;
             // The first prediction is recorded (once) so that feedback can refer to it.
-            let id = match (i, self.new_prediction(&r, after, version, p)) {
+            let id = match (i, self.new_prediction(&r, after, version, c)) {
                 (0, Some(np)) => Some(self.store.record_prediction(&np).await?),
                 _ => None,
             };
-            out.push(self.dto(p, &opts, id, after, version));
+            out.push(self.dto(arm, c, &opts, id, after, version));
         }
+        drop(locked);
         Ok(PredictionSet {
             routine_id,
             predictions: out,
@@ -576,12 +696,13 @@ impl App {
 
     fn new_prediction(
         &self,
-        r: &RoutineRow,
+        r: &OpenRoutine,
         after: i64,
         version: i64,
-        p: &Prediction,
+        c: &Checked,
     ) -> Option<NewPrediction> {
-        let pose = p.pose.as_ref().filter(|_| p.offered())?;
+        let p = &c.prediction;
+        let pose = p.pose.as_ref().filter(|_| c.offered())?;
         Some(NewPrediction {
             cell_id: r.cell_id,
             routine_id: r.id,
@@ -597,19 +718,38 @@ impl App {
 
     fn dto(
         &self,
-        p: &Prediction,
+        arm: Option<&reach::Arm>,
+        c: &Checked,
         opts: &PredictOptions,
         id: Option<i64>,
         after: i64,
         version: i64,
     ) -> PredictionDto {
-        PredictionDto {
-            id,
-            offered: p.offered(),
-            withheld: p.withheld.as_ref().map(|w| WithheldDto {
+        let p = &c.prediction;
+        let reachability = match (arm, &c.reach) {
+            (Some(arm), Some(r)) => Some(arm.dto(r)),
+            _ => None,
+        };
+        let withheld = match (&p.withheld, &reachability) {
+            (Some(w), _) => Some(WithheldDto {
                 reason: w.code().to_string(),
                 message: describe(w, opts),
             }),
+            (None, Some(r)) if c.unreachable => Some(WithheldDto {
+                reason: "unreachable".to_string(),
+                message: r
+                    .unreachable
+                    .as_ref()
+                    .map(|u| u.message.clone())
+                    .unwrap_or_else(|| "the arm cannot reach it".into()),
+            }),
+            _ => None,
+        };
+        PredictionDto {
+            id,
+            offered: c.offered(),
+            withheld,
+            reachability,
             pose: p.pose.as_ref().map(PoseDto::from),
             relative: p.relative.as_ref().map(|x| RelativeMove {
                 x: x[0],

@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
+use super::reach::ReachabilityDto;
 use super::settings::{CellSettings, CellSettingsInput};
 use crate::engine::{Pose, PoseValues};
 
@@ -214,6 +215,9 @@ pub struct Waypoint {
     pub joints: Option<Vec<f64>>,
     pub motion: Option<MotionType>,
     pub name: Option<String>,
+    /// Whether the cell's arm reaches this waypoint (stored and flagged either way: the
+    /// operator is the authority); null when not checked.
+    pub reachable: Option<bool>,
     pub created_at: String,
 }
 
@@ -223,8 +227,8 @@ pub struct Waypoint {
 #[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
 pub struct WithheldDto {
     /// One of `nothing_taught`, `empty_model`, `too_few_states`, `no_match`, `likely_end`,
-    /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence` (and, once predictions
-    /// are checked against the arm, `unreachable`).
+    /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence`, `unreachable` (the
+    /// cell's arm cannot reach the proposal; see `reachability`).
     pub reason: String,
     pub message: String,
 }
@@ -250,6 +254,9 @@ pub struct PredictionDto {
     pub offered: bool,
     /// Why it is withheld; null when offered.
     pub withheld: Option<WithheldDto>,
+    /// The proposal checked against the cell's arm (null when nothing was proposed, or the
+    /// cell's robot model is not installed).
+    pub reachability: Option<ReachabilityDto>,
     /// The proposed next pose (null when nothing could be proposed).
     pub pose: Option<PoseDto>,
     pub relative: Option<RelativeMove>,

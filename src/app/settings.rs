@@ -7,6 +7,7 @@ use utoipa::ToSchema;
 use super::error::AppError;
 use super::resources::PoseDto;
 use crate::engine::{EngineConfig, Pose, Profile};
+use crate::kinematics::ReachPolicy;
 
 /// Robot model a new cell uses when none is named.
 pub const DEFAULT_ROBOT: &str = "abb_irb140";
@@ -40,6 +41,26 @@ impl From<ProfileName> for Profile {
     }
 }
 
+/// What to do with a prediction the cell's arm cannot reach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ReachPolicyName {
+    /// Do not offer it (the reason is `unreachable`).
+    #[default]
+    Withhold,
+    /// Offer it, with `reachability.reachable = false` and why.
+    Flag,
+}
+
+impl From<ReachPolicyName> for ReachPolicy {
+    fn from(p: ReachPolicyName) -> ReachPolicy {
+        match p {
+            ReachPolicyName::Withhold => ReachPolicy::Withhold,
+            ReachPolicyName::Flag => ReachPolicy::Flag,
+        }
+    }
+}
+
 /// A cell's settings, resolved.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -56,12 +77,14 @@ pub struct CellSettings {
     /// Quaternion-component repeatability σ_q of the precision matrix.
     pub sigma_q: f64,
     pub scale: ScaleSettings,
-    /// Robot model (a URDF in `robots/`).
+    /// Robot model (a URDF in `robots/`; `GET /v1/robots` lists them).
     pub robot: String,
     /// The robot base in the cell's work frame.
     pub base: PoseDto,
     /// The tool centre point in the flange frame.
     pub tool: PoseDto,
+    /// Predictions the arm cannot reach: withheld (default) or offered flagged.
+    pub reach_policy: ReachPolicyName,
 }
 
 /// Settings given when a cell is created; anything left out takes the profile's value.
@@ -78,6 +101,7 @@ pub struct CellSettingsInput {
     pub robot: Option<String>,
     pub base: Option<PoseDto>,
     pub tool: Option<PoseDto>,
+    pub reach_policy: Option<ReachPolicyName>,
 }
 
 /// Largest horizon a cell or a request may ask for.
@@ -107,6 +131,7 @@ impl CellSettingsInput {
             robot: self.robot.unwrap_or_else(|| DEFAULT_ROBOT.to_string()),
             base: self.base.unwrap_or_else(identity),
             tool: self.tool.unwrap_or_else(identity),
+            reach_policy: self.reach_policy.unwrap_or_default(),
         };
         settings.validate()?;
         Ok(settings)

@@ -65,7 +65,7 @@ pub fn for_status(status: StatusCode) -> ApiError {
 impl From<AppError> for ApiError {
     fn from(e: AppError) -> ApiError {
         let status = match &e {
-            AppError::NotFound { .. } => StatusCode::NOT_FOUND,
+            AppError::NotFound { .. } | AppError::NotFoundName { .. } => StatusCode::NOT_FOUND,
             AppError::Conflict(_) => StatusCode::CONFLICT,
             AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => {
                 StatusCode::UNPROCESSABLE_ENTITY

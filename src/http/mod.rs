@@ -10,6 +10,7 @@ mod cells;
 pub mod error;
 mod middleware;
 mod programs;
+mod robots;
 mod routines;
 mod system;
 
@@ -67,6 +68,7 @@ impl Default for HttpOptions {
         (name = "programs", description = "Programs of a cell"),
         (name = "routines", description = "Ordered routines of a program"),
         (name = "teaching", description = "Waypoints, predictions, undo, finish and feedback"),
+        (name = "robots", description = "Arm models for reachability checks"),
         (name = "system", description = "Health and metrics"),
     )
 )]
@@ -95,6 +97,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(cells::router())
         .merge(programs::router())
         .merge(routines::router())
+        .merge(robots::router())
 }
 
 /// The OpenAPI description of every route.

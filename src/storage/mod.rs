@@ -220,6 +220,16 @@ impl Store {
             .await?)
     }
 
+    /// The cell of a routine and whether it is finished (a point lookup for the hot path).
+    pub async fn routine_cell(&self, id: i64) -> Result<Option<(i64, bool)>> {
+        let row: Option<(i64, Option<i64>)> =
+            sqlx::query_as("SELECT cell_id, finish_seq FROM routines WHERE id = ?")
+                .bind(id)
+                .fetch_optional(&self.pool)
+                .await?;
+        Ok(row.map(|(cell, seq)| (cell, seq.is_some())))
+    }
+
     /// The routine of a cell that is being taught, if any.
     pub async fn open_routine(&self, cell_id: i64) -> Result<Option<RoutineRow>> {
         let sql = match_routine_sql(
@@ -245,7 +255,7 @@ impl Store {
     }
 
     /// Marks a routine finished; returns its place in the cell's assimilation order.
-    pub async fn finish_routine(&self, routine: &RoutineRow) -> Result<i64> {
+    pub async fn finish_routine(&self, cell_id: i64, routine_id: i64) -> Result<i64> {
         let row: (i64,) = sqlx::query_as(
             "UPDATE routines SET \
                finish_seq = (SELECT COALESCE(MAX(finish_seq), 0) + 1 FROM routines \
@@ -254,8 +264,8 @@ impl Store {
              WHERE id = ?2 AND finish_seq IS NULL \
              RETURNING finish_seq",
         )
-        .bind(routine.cell_id)
-        .bind(routine.id)
+        .bind(cell_id)
+        .bind(routine_id)
         .fetch_one(&self.pool)
         .await
         .map_err(classify)?;
@@ -277,7 +287,7 @@ impl Store {
     // ---- waypoints --------------------------------------------------------------------------
 
     const WAYPOINT_COLUMNS: &'static str =
-        "id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, created_at";
+        "id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, reachable, created_at";
 
     pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
         let sql = format!(
@@ -299,8 +309,8 @@ impl Store {
     ) -> Result<(WaypointRow, Option<i64>)> {
         let mut tx = self.pool.begin().await?;
         let sql = format!(
-            "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name) \
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING {}",
+            "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+             reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING {}",
             Self::WAYPOINT_COLUMNS
         );
         let p = &wp.pose;
@@ -317,6 +327,7 @@ impl Store {
             .bind(&wp.joints)
             .bind(&wp.motion)
             .bind(&wp.name)
+            .bind(wp.reachable)
             .fetch_one(&mut *tx)
             .await
             .map_err(classify)?;

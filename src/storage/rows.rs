@@ -61,6 +61,8 @@ pub struct WaypointRow {
     pub joints: Option<String>,
     pub motion: Option<String>,
     pub name: Option<String>,
+    /// Whether the cell's arm reaches it (None: not checked).
+    pub reachable: Option<bool>,
     pub created_at: String,
 }
 
@@ -72,6 +74,7 @@ pub struct NewWaypoint {
     pub joints: Option<String>,
     pub motion: Option<String>,
     pub name: Option<String>,
+    pub reachable: Option<bool>,
 }
 
 #[derive(Debug, Clone)]

@@ -41,6 +41,7 @@ async fn start(db: PathBuf, http: HttpOptions) -> TestApp {
         durability: Durability::Process,
         addr: "127.0.0.1:0".into(),
         http,
+        robots: nextpose::kinematics::bundled_robots_dir(),
     };
     let application = Application::build(settings).await.expect("build");
     let addr = application.local_addr().expect("addr");
@@ -139,9 +140,21 @@ impl TestApp {
         expect(self.get(path).await, StatusCode::OK).await
     }
 
+    /// A cell whose predictions are offered even where its arm (the default IRB 140 at the
+    /// work-frame origin) cannot reach them, flagged: most tests are about the teaching loop,
+    /// not about reach (tests/api/reach.rs is).
     pub async fn create_cell(&self, name: &str) -> i64 {
-        self.post_ok("/v1/cells", &json!({ "name": name }), StatusCode::CREATED)
-            .await["id"]
+        self.create_cell_with(name, json!({ "reach_policy": "flag" }))
+            .await
+    }
+
+    pub async fn create_cell_with(&self, name: &str, settings: Value) -> i64 {
+        self.post_ok(
+            "/v1/cells",
+            &json!({ "name": name, "settings": settings }),
+            StatusCode::CREATED,
+        )
+        .await["id"]
             .as_i64()
             .expect("cell id")
     }

@@ -5,4 +5,5 @@ mod durability;
 mod errors;
 mod helpers;
 mod openapi;
+mod reach;
 mod teaching;

@@ -1,0 +1,182 @@
+//! The cell's arm in the teaching loop: every taught waypoint and every prediction is checked
+//! against the robot model, and the joints of the taught waypoints are followed so a
+//! prediction's solution is the one nearest where the arm is.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use serde::Serialize;
+use utoipa::ToSchema;
+
+use super::error::AppError;
+use super::settings::CellSettings;
+use crate::engine::Pose;
+use crate::kinematics::{
+    self, Cell as Frames, Joints, KinematicsError, ReachConfig, ReachPolicy, Reachability, Robot,
+    RobotModel, Unreachable, check_reach,
+};
+
+/// The robot models the service knows, loaded once at start-up.
+#[derive(Debug, Default)]
+pub struct Robots {
+    by_name: BTreeMap<String, Arc<Robot>>,
+}
+
+impl Robots {
+    /// Loads every `*.urdf` of `dir`.
+    pub fn load(dir: &Path) -> Result<Robots, KinematicsError> {
+        let by_name = kinematics::load_robots(dir)?
+            .into_iter()
+            .map(|r| (r.name().to_string(), Arc::new(r)))
+            .collect();
+        Ok(Robots { by_name })
+    }
+
+    pub fn get(&self, name: &str) -> Option<Arc<Robot>> {
+        self.by_name.get(name).cloned()
+    }
+
+    pub fn models(&self) -> Vec<RobotModel> {
+        self.by_name.values().map(|r| r.model()).collect()
+    }
+
+    /// The robot a cell names, or a 422 listing the known ones.
+    pub fn require(&self, name: &str) -> Result<Arc<Robot>, AppError> {
+        self.get(name).ok_or_else(|| {
+            let known: Vec<&str> = self.by_name.keys().map(String::as_str).collect();
+            AppError::Invalid(format!(
+                "unknown robot {name:?}; known robots: {}",
+                known.join(", ")
+            ))
+        })
+    }
+}
+
+/// Why a pose is unreachable, for clients.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct UnreachableDto {
+    /// `outside_reach`, `joint_limit` or `singular`.
+    pub reason: String,
+    pub message: String,
+}
+
+/// The joint nearest its limit.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct JointMarginDto {
+    pub name: String,
+    /// Radians to the nearer limit.
+    pub margin_rad: f64,
+}
+
+/// Whether the cell's arm reaches a pose, and how.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct ReachabilityDto {
+    pub robot: String,
+    pub reachable: bool,
+    /// Why not, when not.
+    pub unreachable: Option<UnreachableDto>,
+    /// Number of joint solutions within limits (multi-turn variants included).
+    pub solutions: usize,
+    /// The solution nearest the previous waypoint's joints (rad).
+    pub chosen: Option<Vec<f64>>,
+    /// Smallest singular value of the Jacobian at the chosen solution (singularity margin).
+    pub sigma_min: Option<f64>,
+    pub manipulability: Option<f64>,
+    pub limiting_joint: Option<JointMarginDto>,
+}
+
+pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
+    let (reason, message) = match why {
+        Unreachable::OutsideReach => (
+            "outside_reach",
+            "the pose is outside the arm's reach".to_string(),
+        ),
+        Unreachable::JointLimit {
+            name, excess_rad, ..
+        } => (
+            "joint_limit",
+            format!(
+                "joint {name} would be {:.1}° beyond its limit",
+                excess_rad.to_degrees()
+            ),
+        ),
+        Unreachable::Singular { sigma_min } => (
+            "singular",
+            format!("the arm would be at a singularity (σ_min = {sigma_min:.4})"),
+        ),
+    };
+    UnreachableDto {
+        reason: reason.to_string(),
+        message,
+    }
+}
+
+/// The arm of one cell, and the joints of the routine being taught.
+#[derive(Debug, Clone)]
+pub(crate) struct Arm {
+    robot: Arc<Robot>,
+    frames: Frames,
+    config: ReachConfig,
+    /// Per taught waypoint of the open routine: its joints (taught, or the chosen solution).
+    trail: Vec<Option<Joints>>,
+}
+
+impl Arm {
+    pub fn new(robot: Arc<Robot>, settings: &CellSettings) -> Result<Arm, AppError> {
+        Ok(Arm {
+            robot,
+            frames: Frames::new(settings.base.to_pose()?, settings.tool.to_pose()?),
+            config: ReachConfig {
+                policy: settings.reach_policy.into(),
+                ..ReachConfig::default()
+            },
+            trail: Vec::new(),
+        })
+    }
+
+    pub fn policy(&self) -> ReachPolicy {
+        self.config.policy
+    }
+
+    pub fn previous(&self) -> Option<&Joints> {
+        self.trail.last().and_then(Option::as_ref)
+    }
+
+    pub fn check(&self, pose: &Pose, previous: Option<&Joints>) -> Reachability {
+        check_reach(&self.robot, &self.frames, pose, previous, &self.config)
+    }
+
+    /// A taught waypoint: checks it and follows the arm's joints (the taught ones when the
+    /// pendant sent all six).
+    pub fn taught(&mut self, pose: &Pose, joints: Option<&[f64]>) -> Reachability {
+        let reach = self.check(pose, self.previous());
+        let taught: Option<Joints> = joints.and_then(|j| j.try_into().ok());
+        self.trail.push(taught.or(reach.chosen));
+        reach
+    }
+
+    pub fn undo(&mut self) {
+        self.trail.pop();
+    }
+
+    pub fn clear(&mut self) {
+        self.trail.clear();
+    }
+
+    pub fn dto(&self, r: &Reachability) -> ReachabilityDto {
+        ReachabilityDto {
+            robot: self.robot.name().to_string(),
+            reachable: r.is_reachable(),
+            unreachable: r.unreachable.as_ref().map(describe),
+            solutions: r.solutions.len(),
+            chosen: r.chosen.map(|q| q.to_vec()),
+            sigma_min: r.sigma_min,
+            manipulability: r.manipulability,
+            limiting_joint: r.limiting_joint.as_ref().map(|m| JointMarginDto {
+                name: m.name.clone(),
+                margin_rad: m.margin_rad,
+            }),
+        }
+    }
+}
