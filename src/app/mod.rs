@@ -50,6 +50,9 @@ pub struct App {
     models: Mutex<HashMap<i64, Slot>>,
     metrics: Arc<Metrics>,
     robots: Arc<Robots>,
+    /// Routine id → cell id (a routine never changes cell), so the hot path finds the cell to
+    /// lock without a query.
+    routine_cells: Mutex<HashMap<i64, i64>>,
 }
 
 /// A prediction after the reachability check.
@@ -107,6 +110,15 @@ impl Locked {
         self.0
             .as_mut()
             .ok_or_else(|| AppError::Internal("cell model not loaded".into()))
+    }
+}
+
+/// Locks a map guarded by a std mutex; a panic elsewhere while holding it cannot leave the map
+/// half-updated (every update is a single insert), so a poisoned lock is still usable.
+fn lock_map<K, V>(m: &Mutex<HashMap<K, V>>) -> std::sync::MutexGuard<'_, HashMap<K, V>> {
+    match m.lock() {
+        Ok(g) => g,
+        Err(poisoned) => poisoned.into_inner(),
     }
 }
 
@@ -226,6 +238,7 @@ impl App {
             models: Mutex::new(HashMap::new()),
             metrics,
             robots,
+            routine_cells: Mutex::new(HashMap::new()),
         }
     }
 
@@ -260,11 +273,7 @@ impl App {
     // ---- locking ----------------------------------------------------------------------------
 
     fn slot(&self, cell_id: i64) -> Slot {
-        let mut map = match self.models.lock() {
-            Ok(m) => m,
-            Err(poisoned) => poisoned.into_inner(),
-        };
-        map.entry(cell_id).or_default().clone()
+        lock_map(&self.models).entry(cell_id).or_default().clone()
     }
 
     /// Locks a cell's model, loading it from the database on first use.
@@ -310,11 +319,19 @@ impl App {
     /// Locks the cell of a routine being taught. The cell's model knows which routine is open,
     /// so under the lock no further read is needed; a finished routine is refused (409).
     async fn lock_open_routine(&self, id: i64) -> Result<(Locked, OpenRoutine)> {
-        let (cell_id, _) = self
-            .store
-            .routine_cell(id)
-            .await?
-            .ok_or_else(|| AppError::not_found("routine", id))?;
+        let cached = lock_map(&self.routine_cells).get(&id).copied();
+        let cell_id = match cached {
+            Some(cell) => cell,
+            None => {
+                let (cell, _) = self
+                    .store
+                    .routine_cell(id)
+                    .await?
+                    .ok_or_else(|| AppError::not_found("routine", id))?;
+                lock_map(&self.routine_cells).insert(id, cell);
+                cell
+            }
+        };
         let mut locked = self.lock_cell_id(cell_id).await?;
         if locked.model()?.open == Some(id) {
             return Ok((locked, OpenRoutine { id, cell_id }));

@@ -307,14 +307,13 @@ impl Store {
         wp: &NewWaypoint,
         prediction: Option<&NewPrediction>,
     ) -> Result<(WaypointRow, Option<i64>)> {
-        let mut tx = self.pool.begin().await?;
         let sql = format!(
             "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
              reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING {}",
             Self::WAYPOINT_COLUMNS
         );
         let p = &wp.pose;
-        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+        let insert = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
             .bind(wp.routine_id)
             .bind(wp.seq)
             .bind(p.x)
@@ -327,16 +326,17 @@ impl Store {
             .bind(&wp.joints)
             .bind(&wp.motion)
             .bind(&wp.name)
-            .bind(wp.reachable)
-            .fetch_one(&mut *tx)
-            .await
-            .map_err(classify)?;
-        let pid = match prediction {
-            Some(pr) => Some(insert_prediction(&mut tx, pr).await?),
-            None => None,
+            .bind(wp.reachable);
+        let Some(pr) = prediction else {
+            // One statement is its own transaction.
+            let row = insert.fetch_one(&self.pool).await.map_err(classify)?;
+            return Ok((row, None));
         };
+        let mut tx = self.pool.begin().await?;
+        let row = insert.fetch_one(&mut *tx).await.map_err(classify)?;
+        let pid = insert_prediction(&mut tx, pr).await?;
         tx.commit().await?;
-        Ok((row, pid))
+        Ok((row, Some(pid)))
     }
 
     /// Deletes the last waypoint of a routine; returns it. Predictions made after it stay
