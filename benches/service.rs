@@ -35,24 +35,39 @@ async fn post(client: &reqwest::Client, url: &str, body: &Value) -> Value {
     r.json().await.expect("json")
 }
 
-#[tokio::main]
+#[tokio::main(flavor = "current_thread")]
 async fn main() {
     let clients = env("CLIENTS", 64);
     let requests = env("REQUESTS", 20_000);
     let target_states = env("STATES", 2_000);
 
+    // The server runs on its own runtime (as it would in its own process); the clients on this
+    // one.
     let dir = tempfile::tempdir().expect("temp dir");
-    let app = Application::build(ServerSettings {
-        database: Database::File(dir.path().join("load.db")),
-        durability: Durability::Process,
-        addr: "127.0.0.1:0".into(),
-        http: HttpOptions::default(),
-        robots: nextpose::kinematics::bundled_robots_dir(),
-    })
-    .await
-    .expect("server");
-    let base = format!("http://{}", app.local_addr().expect("addr"));
-    tokio::spawn(app.run_until_stopped(std::future::pending()));
+    let db = dir.path().join("load.db");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .enable_all()
+            .build()
+            .expect("server runtime");
+        rt.block_on(async move {
+            let app = Application::build(ServerSettings {
+                database: Database::File(db),
+                durability: Durability::Process,
+                addr: "127.0.0.1:0".into(),
+                http: HttpOptions::default(),
+                robots: nextpose::kinematics::bundled_robots_dir(),
+            })
+            .await
+            .expect("server");
+            tx.send(app.local_addr().expect("addr")).expect("send");
+            app.run_until_stopped(std::future::pending())
+                .await
+                .expect("serve");
+        });
+    });
+    let base = format!("http://{}", rx.recv().expect("server address"));
     let client = reqwest::Client::builder()
         .pool_max_idle_per_host(clients)
         .build()
