@@ -58,7 +58,12 @@ async fn main() {
         .expect("client");
 
     // Seed: routines of random moves until the model has ~target_states states.
-    let cell = post(&client, &format!("{base}/v1/cells"), &json!({"name": "load"})).await;
+    let cell = post(
+        &client,
+        &format!("{base}/v1/cells"),
+        &json!({"name": "load"}),
+    )
+    .await;
     let cell = cell["id"].as_i64().expect("id");
     let program = post(
         &client,
@@ -127,7 +132,10 @@ async fn main() {
             let mut offered = 0usize;
             for i in 0..per_client {
                 let k = (c * per_client + i) as f64;
-                let body = pose([(k / 3.0).floor() * 50.0, 10.0 * (k % 3.0), 0.0], 0.1 * (k % 3.0));
+                let body = pose(
+                    [(k / 3.0).floor() * 50.0, 10.0 * (k % 3.0), 0.0],
+                    0.1 * (k % 3.0),
+                );
                 let t = Instant::now();
                 let v = post(&client, &url, &body).await;
                 latencies.push(t.elapsed());
