@@ -145,9 +145,10 @@ fn listed() -> BTreeSet<(String, String)> {
         .collect()
 }
 
-fn round(v: f64, decimals: i32) -> f64 {
-    let s = 10f64.powi(decimals);
-    (v * s).round() / s
+/// `v` printed with `decimals` digits, as the JSON was written (exact decimal rounding of the
+/// binary value, like Python's `round`; `(v * 10^d).round()` differs on near-ties).
+fn round(v: f64, decimals: usize) -> f64 {
+    format!("{v:.decimals$}").parse().unwrap()
 }
 
 /// Our pose as the JSON prints it: position to 4 decimals, quaternion (`w ≥ 0`) to 7.
@@ -190,6 +191,8 @@ fn routine_agrees(ours: Option<&Routine>, reference: &JsonRoutine) -> bool {
 }
 
 struct Comparison {
+    /// (program, routine) → (our waypoint count, reference count, max position difference).
+    details: BTreeMap<(String, String), (usize, usize, f64)>,
     /// (program, routine) pairs that disagree, from either side.
     disagreements: BTreeSet<(String, String)>,
     programs_agreeing: Vec<(Program, Program)>,
@@ -205,6 +208,7 @@ fn compare() -> Comparison {
         }
     }
     let mut c = Comparison {
+        details: BTreeMap::new(),
         disagreements: BTreeSet::new(),
         programs_agreeing: Vec::new(),
         waypoints_agreeing: 0,
@@ -226,6 +230,22 @@ fn compare() -> Comparison {
                 all_agree = false;
                 if std::env::var_os("IMPORT_DEBUG").is_some() {
                     explain(&stem, o, r);
+                }
+                if let Some(o) = o {
+                    let max = o
+                        .waypoints
+                        .iter()
+                        .zip(&r.waypoints)
+                        .map(|(a, b)| {
+                            let (p, v) = (a.position(), b.values());
+                            ((p.x - v[0]).powi(2) + (p.y - v[1]).powi(2) + (p.z - v[2]).powi(2))
+                                .sqrt()
+                        })
+                        .fold(0.0, f64::max);
+                    c.details.insert(
+                        (stem.clone(), r.name.clone()),
+                        (o.waypoints.len(), r.waypoints.len(), max),
+                    );
                 }
                 c.disagreements.insert((stem.clone(), r.name.clone()));
             }

@@ -82,13 +82,20 @@ struct Tok<'s> {
 }
 
 fn lex(text: &str) -> Vec<Tok<'_>> {
-    let mut lexer = K::lexer(text);
+    // A `%%% VERSION:1 LANGUAGE:ENGLISH %%%` header (RobotWare 5 files) is not RAPID.
+    let start = text
+        .trim_start()
+        .strip_prefix("%%%")
+        .and_then(|rest| rest.find("%%%").map(|i| text.len() - rest.len() + i + 3))
+        .unwrap_or(0);
+    let body = text.get(start..).unwrap_or("");
+    let mut lexer = K::lexer(body);
     let mut out = Vec::new();
     while let Some(r) = lexer.next() {
         out.push(Tok {
             k: r.unwrap_or(K::Other),
             s: lexer.slice(),
-            at: lexer.span().start,
+            at: start + lexer.span().start,
         });
     }
     out
@@ -191,6 +198,8 @@ struct Stmt {
     end: usize,
     in_error_handler: bool,
     local: bool,
+    /// A `FOR` loop's variable: from here on its value is only known at run time.
+    loop_var: Option<String>,
 }
 
 #[derive(Debug)]
@@ -385,6 +394,15 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
                 i += 1;
             }
             "IF" | "ELSEIF" | "WHILE" | "FOR" => {
+                if let (Some(r), true) = (routine.as_mut(), word == "FOR") {
+                    r.stmts.push(Stmt {
+                        start: i,
+                        end: i,
+                        in_error_handler: in_error,
+                        local: false,
+                        loop_var: toks.get(i + 1).map(|t| t.s.to_ascii_lowercase()),
+                    });
+                }
                 // Skip the condition up to THEN/DO; a compact IF (no THEN) is one statement.
                 let end = statement_end(toks, i);
                 match (i..end).find(|&j| is_kw(toks.get(j), "THEN") || is_kw(toks.get(j), "DO")) {
@@ -415,6 +433,7 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
                     end,
                     in_error_handler: in_error,
                     local,
+                    loop_var: None,
                 };
                 match routine.as_mut() {
                     Some(r) => r.stmts.push(st),
@@ -947,6 +966,10 @@ fn routine_stmt(
     skipped: &mut Vec<Skipped>,
 ) -> Result<(), ImportError> {
     let toks = &m.toks;
+    if let Some(var) = &st.loop_var {
+        locals.insert(var.clone(), Binding::RunTime);
+        return Ok(());
+    }
     let Some(first) = toks.get(st.start) else {
         return Ok(());
     };
