@@ -3,6 +3,7 @@
 //! - [`engine`]: the pure prediction engine (poses, learner, HMM, predictor, scale). No I/O.
 //! - [`kinematics`]: robot models from URDF, FK, all IK solutions, reachability. No I/O beyond
 //!   reading URDF files.
+//! - [`import`]: parses offline programs (ABB RAPID, KUKA KRL, FANUC TP) into waypoints. Pure.
 //! - [`replay`]: replays recorded programs through the engine and baselines and reports accuracy
 //!   (the product's scoreboard). Reads corpus files; everything else it does is computation.
 //! - [`app`]: the application service both adapters call: cells, programs, routines, teaching,
@@ -21,6 +22,7 @@ pub mod app;
 pub mod cli;
 pub mod engine;
 pub mod http;
+pub mod import;
 pub mod kinematics;
 pub mod replay;
 pub mod server;

@@ -302,7 +302,8 @@ fn malformed_json_is_an_error_naming_the_file() {
         "{msg}"
     );
 
-    // Missing files and raw robot source are clear errors too.
+    // Missing files and files of no known kind are clear errors too; raw robot source is
+    // imported (issue 5).
     let missing = dir.join("missing.json");
     assert!(
         load_paths(&[&missing])
@@ -312,9 +313,14 @@ fn malformed_json_is_an_error_naming_the_file() {
     );
     let raw = dir.join("MainModule.mod");
     std::fs::write(&raw, "MODULE MainModule\nENDMODULE\n").unwrap();
-    let err = load_paths(&[&raw]).unwrap_err();
+    let programs = load_paths(&[&raw]).unwrap();
+    assert_eq!(programs.len(), 1);
+    assert_eq!(programs[0].language, "rapid");
+    let other = dir.join("notes.txt");
+    std::fs::write(&other, "hello").unwrap();
+    let err = load_paths(&[&other]).unwrap_err();
     assert!(matches!(err, CorpusError::Unsupported { .. }));
-    assert!(err.to_string().contains("only corpus JSON"), "{err}");
+    assert!(err.to_string().contains("expected corpus JSON"), "{err}");
 
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -6,8 +6,10 @@
 //! not use (`role`, `motion`, `line`, `stats`, `units`, ...) are ignored, so the corpus may grow
 //! fields without breaking replay.
 //!
-//! Raw robot source (RAPID, KRL, FANUC TP) is not parsed here: that belongs to the importer, a
-//! later piece of work. Handing such a file to the loader is a clear error, not a guess.
+//! Raw robot source (RAPID `.mod/.modx/.prg/.sys`, KRL `.src/.dat`, FANUC `.ls`) is handed to
+//! the importer ([`crate::import`]): all raw files named in one call (or found in one directory)
+//! are parsed as one upload, so RAPID targets resolve across modules and a KRL `.src` finds its
+//! `.dat`. The JSON path is unchanged.
 //!
 //! Every failure names the file it came from, and a bad waypoint also names its routine and
 //! index, because the person reading the message has 36 files and 3,587 waypoints to look at.
@@ -19,6 +21,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::engine::{Pose, PoseError};
+use crate::import::{self, ImportError, Language};
 
 /// One recorded program: the routines of one corpus file, in file order.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,17 +77,19 @@ pub enum CorpusError {
         source: PoseError,
     },
     #[error(
-        "{}: only corpus JSON files (*.json, see corpus/README.md) are supported for now; \
-         raw RAPID/KRL/FANUC source is not parsed yet",
+        "{}: not a program file: expected corpus JSON (*.json, see corpus/README.md) or raw \
+         RAPID (.mod .modx .prg .sys), KRL (.src .dat) or FANUC (.ls) source",
         path.display()
     )]
     Unsupported { path: PathBuf },
     #[error(
-        "{}: directory holds no *.json corpus files (only corpus JSON is supported for now; \
-         raw RAPID/KRL/FANUC source is not parsed yet)",
+        "{}: directory holds no *.json corpus files and no raw RAPID/KRL/FANUC program files",
         path.display()
     )]
     EmptyDirectory { path: PathBuf },
+    /// A raw program file that the importer rejected (the message names file, line, column).
+    #[error(transparent)]
+    Import(#[from] ImportError),
 }
 
 /// The corpus file format, as far as replay needs it (unknown fields are ignored).
@@ -113,31 +118,52 @@ struct RawWaypoint {
 
 /// Loads programs from files and directories, in the order given; a directory contributes all
 /// its `*.json` files sorted by file name (not recursive), so replay order is reproducible.
+///
+/// Raw program files (see [`is_raw_program`]) named here are imported together as one upload,
+/// their programs taking the place of the first of them; a directory without `*.json` files
+/// contributes its raw program files, as one upload, sorted by file name.
 pub fn load_paths<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<Program>, CorpusError> {
     let mut programs = Vec::new();
+    let mut raw = Vec::new();
+    let mut raw_at = None;
     for path in paths {
         let path = path.as_ref();
         if path.is_dir() {
             programs.extend(load_dir(path)?);
+        } else if is_raw_program(path) {
+            raw_at.get_or_insert(programs.len());
+            raw.push(path.to_path_buf());
         } else {
             programs.push(load_file(path)?);
         }
     }
+    if let Some(at) = raw_at {
+        let imported = load_raw(&raw)?;
+        programs.splice(at..at, imported);
+    }
     Ok(programs)
 }
 
-/// Loads every `*.json` file of a directory, sorted by file name.
+/// Loads every `*.json` file of a directory, sorted by file name; without any, imports the
+/// directory's raw program files as one upload.
 pub fn load_dir(dir: &Path) -> Result<Vec<Program>, CorpusError> {
     let io_error = |source| CorpusError::Io {
         path: dir.to_path_buf(),
         source,
     };
     let mut files = Vec::new();
+    let mut raw = Vec::new();
     for entry in fs::read_dir(dir).map_err(io_error)? {
         let path = entry.map_err(io_error)?.path();
         if path.is_file() && has_json_extension(&path) {
             files.push(path);
+        } else if path.is_file() && is_raw_program(&path) {
+            raw.push(path);
         }
+    }
+    if files.is_empty() && !raw.is_empty() {
+        raw.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+        return load_raw(&raw);
     }
     if files.is_empty() {
         return Err(CorpusError::EmptyDirectory {
@@ -146,6 +172,34 @@ pub fn load_dir(dir: &Path) -> Result<Vec<Program>, CorpusError> {
     }
     files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
     files.iter().map(|f| load_file(f)).collect()
+}
+
+/// Whether the file's extension is one the importer reads (RAPID, KRL, FANUC).
+pub fn is_raw_program(path: &Path) -> bool {
+    path.file_name()
+        .and_then(|n| n.to_str())
+        .and_then(Language::from_file_name)
+        .is_some()
+}
+
+/// Imports raw program files as one upload (see [`crate::import::parse_files`]).
+pub fn load_raw(paths: &[PathBuf]) -> Result<Vec<Program>, CorpusError> {
+    let mut files = Vec::with_capacity(paths.len());
+    for path in paths {
+        let bytes = fs::read(path).map_err(|source| CorpusError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        files.push((
+            path.to_string_lossy().into_owned(),
+            import::decode_text(&bytes),
+        ));
+    }
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(n, t)| (n.as_str(), t.as_str()))
+        .collect();
+    Ok(import::parse_files(&refs)?.to_replay())
 }
 
 /// Loads one corpus JSON file.
@@ -272,8 +326,41 @@ mod tests {
         )))
         .unwrap_err();
         assert!(matches!(err, CorpusError::Unsupported { .. }));
-        assert!(err.to_string().contains("only corpus JSON"));
+        assert!(err.to_string().contains("expected corpus JSON"));
         let err = load_file(Path::new("no/such/MainModule.mod")).unwrap_err();
         assert!(matches!(err, CorpusError::Io { .. }));
+        let err = load_paths(&["no/such/MainModule.mod"]).unwrap_err();
+        assert!(matches!(err, CorpusError::Io { .. }));
+    }
+
+    #[test]
+    fn raw_program_files_are_imported_as_one_upload() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("A.mod");
+        let b = dir.path().join("B.mod");
+        fs::write(
+            &a,
+            "MODULE A\n PROC r()\n  MoveL p1, v1, z1, tool0;\n  MoveL Offs(p1,0,0,10), v1, z1, tool0;\n ENDPROC\nENDMODULE\n",
+        )
+        .unwrap();
+        fs::write(
+            &b,
+            "MODULE B\n CONST robtarget p1:=[[1,2,3],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n",
+        )
+        .unwrap();
+        let programs = load_paths(&[&a, &b]).unwrap();
+        assert_eq!(programs.len(), 2);
+        assert_eq!(programs[0].language, "rapid");
+        assert_eq!(programs[0].waypoint_count(), 2);
+        let from_dir = load_paths(&[dir.path()]).unwrap();
+        assert_eq!(from_dir, programs);
+        fs::write(
+            &b,
+            "MODULE B\n CONST robtarget p1:=[[1,2],[1,0,0,0]];\nENDMODULE\n",
+        )
+        .unwrap();
+        let err = load_paths(&[&a, &b]).unwrap_err();
+        assert!(matches!(err, CorpusError::Import(_)), "{err}");
+        assert!(err.to_string().contains("B.mod:2:"), "{err}");
     }
 }
