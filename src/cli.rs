@@ -44,6 +44,27 @@ pub enum Command {
     Serve(ServeArgs),
     /// Print the OpenAPI description of the REST API (YAML), as committed in openapi.yaml.
     Openapi,
+    /// Import offline program files (RAPID, KRL, FANUC TP) into a cell of a running server.
+    Import(ImportArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// Program files of one upload (parsed together).
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Name of the cell (created with default settings when it does not exist).
+    #[arg(long)]
+    pub cell: String,
+    /// Store the programs without learning them into the cell's model.
+    #[arg(long)]
+    pub no_learn: bool,
+    /// The server.
+    #[arg(long, env = "NEXTPOSE_URL", default_value = "http://127.0.0.1:8080")]
+    pub server: String,
+    /// Bearer token, when the server requires one.
+    #[arg(long, env = "NEXTPOSE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -245,6 +266,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Replay(args) => run_replay(&args),
         Command::Sweep(args) => run_sweep(&args),
         Command::Serve(args) => run_serve(args),
+        Command::Import(args) => run_import(args),
         Command::Openapi => {
             let yaml = crate::http::openapi()
                 .to_yaml()
@@ -253,6 +275,95 @@ pub fn run_cli(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn run_import(args: ImportArgs) -> Result<()> {
+    let mut files = Vec::with_capacity(args.files.len());
+    for path in &args.files {
+        let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        files.push(serde_json::json!({
+            "name": path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            "content": crate::import::decode_text(&bytes),
+        }));
+    }
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(async move {
+        let base = args.server.trim_end_matches('/');
+        let client = reqwest::Client::new();
+        let auth = |rb: reqwest::RequestBuilder| match &args.token {
+            Some(t) => rb.bearer_auth(t),
+            None => rb,
+        };
+        let answer = |r: reqwest::Response| async move {
+            let status = r.status();
+            let body: serde_json::Value = r.json().await.unwrap_or_default();
+            if status.is_success() {
+                Ok(body)
+            } else {
+                bail!(
+                    "server answered {status}: {}",
+                    body["error"]["message"].as_str().unwrap_or("(no message)")
+                )
+            }
+        };
+        let cells = answer(
+            auth(client.get(format!("{base}/v1/cells")))
+                .send()
+                .await
+                .with_context(|| format!("connecting to {base}"))?,
+        )
+        .await?;
+        let existing = cells
+            .as_array()
+            .and_then(|a| a.iter().find(|c| c["name"] == args.cell.as_str()))
+            .and_then(|c| c["id"].as_i64());
+        let cell = match existing {
+            Some(id) => id,
+            None => answer(
+                auth(client.post(format!("{base}/v1/cells")))
+                    .json(&serde_json::json!({ "name": args.cell }))
+                    .send()
+                    .await?,
+            )
+            .await?["id"]
+                .as_i64()
+                .context("the server returned no cell id")?,
+        };
+        let result = answer(
+            auth(client.post(format!("{base}/v1/cells/{cell}/imports")))
+                .json(&serde_json::json!({ "files": files, "learn": !args.no_learn }))
+                .send()
+                .await?,
+        )
+        .await?;
+        for p in result["programs"].as_array().into_iter().flatten() {
+            println!(
+                "imported {} ({}): {} routines, {} waypoints",
+                p["program"]["name"].as_str().unwrap_or("?"),
+                p["language"].as_str().unwrap_or("?"),
+                p["routines"],
+                p["waypoints"]
+            );
+        }
+        let skipped = result["skipped"].as_array().map(Vec::len).unwrap_or(0);
+        for s in result["skipped"].as_array().into_iter().flatten() {
+            println!(
+                "skipped {}:{} ({}): {}",
+                s["file"].as_str().unwrap_or("?"),
+                s["line"],
+                s["reason"].as_str().unwrap_or("?"),
+                s["text"].as_str().unwrap_or("")
+            );
+        }
+        println!(
+            "cell {:?}: {skipped} skipped; model now {} states, {} routines",
+            args.cell, result["model"]["states"], result["model"]["routines"]
+        );
+        Ok(())
+    })
 }
 
 fn run_serve(args: ServeArgs) -> Result<()> {

@@ -25,8 +25,8 @@ use tokio::sync::{Mutex as AsyncMutex, OwnedMutexGuard};
 use crate::engine::{PredictOptions, Prediction, Withheld};
 use crate::kinematics::{Joints, ReachPolicy, Reachability, RobotModel};
 use crate::storage::{
-    CellRow, NewFeedback, NewPrediction, NewWaypoint, PoseColumns, ProgramRow, RoutineRow, Store,
-    WaypointRow,
+    CellRow, NewFeedback, NewImportedRoutine, NewPrediction, NewWaypoint, PoseColumns, ProgramRow,
+    RoutineRow, Store, WaypointRow,
 };
 use crate::telemetry::Metrics;
 use cell_model::{CellModel, parse_settings};
@@ -122,6 +122,23 @@ fn lock_map<K, V>(m: &Mutex<HashMap<K, V>>) -> std::sync::MutexGuard<'_, HashMap
     }
 }
 
+/// The motion type of an imported instruction (`MoveL`, `ArcCStart`, `PTP`, `L`, `C`, ...).
+fn motion_of(instruction: &str) -> MotionType {
+    let m = instruction.to_ascii_lowercase();
+    if m == "j" || m == "ptp" || m.starts_with("ptp_") || m.starts_with("movej") {
+        MotionType::Joint
+    } else if m == "c"
+        || m.starts_with("movec")
+        || m.starts_with("arcc")
+        || m.starts_with("circ")
+        || m.starts_with("triggc")
+    {
+        MotionType::Circular
+    } else {
+        MotionType::Linear
+    }
+}
+
 fn check_name(what: &str, name: &str) -> Result<()> {
     if name.trim().is_empty() {
         return Err(AppError::Invalid(format!("{what} must not be empty")));
@@ -182,6 +199,8 @@ fn routine(r: RoutineRow) -> Routine {
         cell_id: r.cell_id,
         position: r.position,
         finished: r.finished(),
+        learned: r.learned(),
+        imported: r.imported,
         name: r.name,
         finish_seq: r.finish_seq,
         finished_at: r.finished_at,
@@ -789,6 +808,117 @@ impl App {
             after_waypoints: after,
             model_version: version,
         }
+    }
+
+    // ---- import -----------------------------------------------------------------------------
+
+    /// Imports offline programs (RAPID, KRL, FANUC TP) into a cell as new programs whose
+    /// routines are immutable; with `learn` (default) the model learns them in program order.
+    /// All of it is one transaction: a syntax error or a name clash imports nothing.
+    pub async fn import(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
+        if input.files.is_empty() {
+            return Err(AppError::Invalid("no files to import".into()));
+        }
+        for f in &input.files {
+            check_name("file name", &f.name)?;
+        }
+        let learn = input.learn.unwrap_or(true);
+        let files: Vec<(&str, &str)> = input
+            .files
+            .iter()
+            .map(|f| (f.name.as_str(), f.content.as_str()))
+            .collect();
+        let report = crate::import::parse_files(&files)
+            .map_err(|e| AppError::Invalid(format!("cannot import: {e}")))?;
+        let mut programs = Vec::with_capacity(report.programs.len());
+        let mut poses = Vec::new();
+        for p in &report.programs {
+            let mut routines = Vec::with_capacity(p.routines.len());
+            for r in &p.routines {
+                let mut waypoints = Vec::with_capacity(r.waypoints.len());
+                let mut taught = Vec::with_capacity(r.waypoints.len());
+                for w in &r.waypoints {
+                    let stored = PoseDto::from(&w.pose);
+                    taught.push(stored.to_pose()?);
+                    waypoints.push(NewWaypoint {
+                        routine_id: 0,
+                        seq: 0,
+                        pose: pose_columns(&stored),
+                        joints: None,
+                        motion: Some(motion_of(&w.motion).as_str().to_string()),
+                        name: Some(w.name.chars().take(MAX_NAME).collect()),
+                        reachable: None,
+                    });
+                }
+                poses.push(taught);
+                routines.push(NewImportedRoutine {
+                    name: r.name.chars().take(MAX_NAME).collect(),
+                    waypoints,
+                });
+            }
+            programs.push((p.name.chars().take(MAX_NAME).collect::<String>(), routines));
+        }
+        self.cell_row(cell_id).await?;
+        let mut locked = self.lock_cell_id(cell_id).await?;
+        let model = locked.model()?;
+        if learn && model.open.is_some() {
+            return Err(AppError::Conflict(format!(
+                "cell {cell_id} is teaching a routine; finish or delete it before importing \
+                 with learn"
+            )));
+        }
+        let stored = self
+            .store
+            .import_programs(cell_id, &programs, learn)
+            .await
+            .map_err(|e| match AppError::from(e) {
+                AppError::Conflict(_) => AppError::Conflict(format!(
+                    "cell {cell_id} already has a program with one of the names {:?}",
+                    programs.iter().map(|p| p.0.as_str()).collect::<Vec<_>>()
+                )),
+                other => other,
+            })?;
+        if learn {
+            for routine in &poses {
+                for pose in routine {
+                    model.teacher.teach(*pose);
+                }
+                model.teacher.finish_routine();
+                model.version += 1;
+            }
+        }
+        let info = model.info();
+        drop(locked);
+        let out = stored
+            .into_iter()
+            .zip(&report.programs)
+            .map(|((row, _), p)| ImportedProgramDto {
+                program: program(row),
+                language: format!("{:?}", p.language).to_lowercase(),
+                source: p.source.clone(),
+                routines: p.routines.len(),
+                waypoints: p.routines.iter().map(|r| r.waypoints.len()).sum(),
+            })
+            .collect();
+        let skipped = report
+            .skipped
+            .iter()
+            .map(|s| SkippedDto {
+                file: s.file.clone(),
+                line: s.line,
+                routine: s.routine.clone(),
+                reason: serde_json::to_value(s.reason)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_else(|| format!("{:?}", s.reason)),
+                text: s.text.clone(),
+            })
+            .collect();
+        Ok(ImportResult {
+            programs: out,
+            skipped,
+            model: info,
+        })
     }
 
     // ---- feedback ---------------------------------------------------------------------------

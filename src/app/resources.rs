@@ -149,8 +149,12 @@ pub struct Routine {
     /// Order within the program (1, 2, ...).
     pub position: i64,
     pub name: Option<String>,
-    /// A finished routine is immutable and part of the cell's model.
+    /// Immutable: finished by the operator, or imported.
     pub finished: bool,
+    /// Part of the cell's model (finished, or imported with `learn`).
+    pub learned: bool,
+    /// Imported from an offline program.
+    pub imported: bool,
     /// Order in which the cell's model assimilated it (finished routines only).
     pub finish_seq: Option<i64>,
     pub finished_at: Option<String>,
@@ -364,4 +368,60 @@ pub struct FeedbackRecorded {
     pub verdict: Verdict,
     /// Distance (mm) from the prediction to the final pose (0 when accepted as is).
     pub adjustment_mm: Option<f64>,
+}
+
+// ---- import -----------------------------------------------------------------------------------
+
+/// One uploaded program file.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct UploadedFile {
+    /// File name with its extension (`.mod`, `.modx`, `.prg`, `.sys`, `.src`, `.dat`, `.ls`);
+    /// keep the folder (`job/main.ls`) where programs span several files.
+    pub name: String,
+    /// The file's text.
+    pub content: String,
+}
+
+/// Offline programs to import into a cell.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ImportRequest {
+    /// The files of one upload, parsed together (RAPID targets resolve across modules; a KRL
+    /// `.src` pairs with its `.dat`).
+    pub files: Vec<UploadedFile>,
+    /// Learn the imported routines into the cell's model, in program order (default true).
+    /// The cell must not be teaching a routine.
+    pub learn: Option<bool>,
+}
+
+/// A program created by an import.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ImportedProgramDto {
+    pub program: Program,
+    /// `rapid`, `krl` or `fanuc`.
+    pub language: String,
+    pub source: String,
+    pub routines: usize,
+    pub waypoints: usize,
+}
+
+/// Something in the upload that was not imported, and why.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct SkippedDto {
+    pub file: String,
+    pub line: usize,
+    pub routine: Option<String>,
+    /// `joint-move`, `unresolved-name`, `computed-at-run-time`, `in-error-handler`,
+    /// `invalid-target`, `short-routine`, `data-only`.
+    pub reason: String,
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ImportResult {
+    pub programs: Vec<ImportedProgramDto>,
+    pub skipped: Vec<SkippedDto>,
+    /// The cell's model after the import.
+    pub model: ModelInfo,
 }

@@ -8,6 +8,7 @@
 
 mod cells;
 pub mod error;
+mod imports;
 mod middleware;
 mod programs;
 mod robots;
@@ -98,6 +99,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(programs::router())
         .merge(routines::router())
         .merge(robots::router())
+        .merge(imports::router())
 }
 
 /// The OpenAPI description of every route.

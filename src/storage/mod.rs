@@ -18,8 +18,8 @@ use sqlx::sqlite::{
 };
 
 pub use rows::{
-    CellRow, FeedbackCounts, NewFeedback, NewPrediction, NewWaypoint, PoseColumns, PredictionRow,
-    ProgramRow, RoutineRow, WaypointRow,
+    CellRow, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction, NewWaypoint,
+    PoseColumns, PredictionRow, ProgramRow, RoutineRow, WaypointRow,
 };
 
 /// How hard commits try to reach the disk.
@@ -180,7 +180,7 @@ impl Store {
     // ---- routines ---------------------------------------------------------------------------
 
     const ROUTINE_COLUMNS: &'static str = "r.id, r.program_id, r.cell_id, r.position, r.name, \
-        r.finish_seq, r.finished_at, r.created_at, \
+        r.finish_seq, r.finished_at, r.created_at, r.imported, \
         (SELECT COUNT(*) FROM waypoints w WHERE w.routine_id = r.id) AS waypoints";
 
     /// Adds a routine at the end of a program. Fails with `Conflict` when the cell already has
@@ -222,11 +222,13 @@ impl Store {
 
     /// The cell of a routine and whether it is finished (a point lookup for the hot path).
     pub async fn routine_cell(&self, id: i64) -> Result<Option<(i64, bool)>> {
-        let row: Option<(i64, Option<i64>)> =
-            sqlx::query_as("SELECT cell_id, finish_seq FROM routines WHERE id = ?")
-                .bind(id)
-                .fetch_optional(&self.pool)
-                .await?;
+        let row: Option<(i64, Option<i64>)> = sqlx::query_as(
+            "SELECT cell_id, CASE WHEN finish_seq IS NOT NULL OR imported = 1 THEN 1 END \
+                 FROM routines WHERE id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await?;
         Ok(row.map(|(cell, seq)| (cell, seq.is_some())))
     }
 
@@ -234,7 +236,7 @@ impl Store {
     pub async fn open_routine(&self, cell_id: i64) -> Result<Option<RoutineRow>> {
         let sql = match_routine_sql(
             Self::ROUTINE_COLUMNS,
-            "WHERE r.cell_id = ? AND r.finish_seq IS NULL",
+            "WHERE r.cell_id = ? AND r.finish_seq IS NULL AND r.imported = 0",
         );
         Ok(sqlx::query_as::<_, RoutineRow>(sqlx::AssertSqlSafe(sql))
             .bind(cell_id)
@@ -272,12 +274,86 @@ impl Store {
         Ok(row.0)
     }
 
+    /// Stores imported programs with their routines and waypoints in one transaction. With
+    /// `learn`, the routines are marked finished in order (the model must learn them in that
+    /// order). Returns each program's row and routine ids.
+    pub async fn import_programs(
+        &self,
+        cell_id: i64,
+        programs: &[(String, Vec<NewImportedRoutine>)],
+        learn: bool,
+    ) -> Result<Vec<(ProgramRow, Vec<i64>)>> {
+        let mut tx = self.pool.begin().await?;
+        let mut out = Vec::with_capacity(programs.len());
+        for (name, routines) in programs {
+            let program = sqlx::query_as::<_, ProgramRow>(
+                "INSERT INTO programs (cell_id, name) VALUES (?, ?) \
+                 RETURNING id, cell_id, name, created_at",
+            )
+            .bind(cell_id)
+            .bind(name)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(classify)?;
+            let mut ids = Vec::with_capacity(routines.len());
+            for (position, r) in routines.iter().enumerate() {
+                let (id,): (i64,) = sqlx::query_as(
+                    "INSERT INTO routines (program_id, cell_id, position, name, imported, \
+                       finish_seq, finished_at) \
+                     VALUES (?1, ?2, ?3, ?4, 1, \
+                       CASE WHEN ?5 THEN (SELECT COALESCE(MAX(finish_seq), 0) + 1 FROM routines \
+                                          WHERE cell_id = ?2) END, \
+                       CASE WHEN ?5 THEN strftime('%Y-%m-%dT%H:%M:%fZ', 'now') END) \
+                     RETURNING id",
+                )
+                .bind(program.id)
+                .bind(cell_id)
+                .bind(position as i64 + 1)
+                .bind(&r.name)
+                .bind(learn)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(classify)?;
+                for (i, w) in r.waypoints.iter().enumerate() {
+                    let p = &w.pose;
+                    sqlx::query(
+                        "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, \
+                           joints, motion, name, reachable) \
+                         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    )
+                    .bind(id)
+                    .bind(i as i64 + 1)
+                    .bind(p.x)
+                    .bind(p.y)
+                    .bind(p.z)
+                    .bind(p.qw)
+                    .bind(p.qx)
+                    .bind(p.qy)
+                    .bind(p.qz)
+                    .bind(&w.joints)
+                    .bind(&w.motion)
+                    .bind(&w.name)
+                    .bind(w.reachable)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(classify)?;
+                }
+                ids.push(id);
+            }
+            out.push((program, ids));
+        }
+        tx.commit().await?;
+        Ok(out)
+    }
+
     /// Deletes a routine that is being taught (with its waypoints and predictions).
     pub async fn delete_open_routine(&self, routine_id: i64) -> Result<()> {
-        let done = sqlx::query("DELETE FROM routines WHERE id = ? AND finish_seq IS NULL")
-            .bind(routine_id)
-            .execute(&self.pool)
-            .await?;
+        let done = sqlx::query(
+            "DELETE FROM routines WHERE id = ? AND finish_seq IS NULL AND imported = 0",
+        )
+        .bind(routine_id)
+        .execute(&self.pool)
+        .await?;
         if done.rows_affected() == 0 {
             return Err(StorageError::NotFound);
         }

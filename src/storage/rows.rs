@@ -40,14 +40,29 @@ pub struct RoutineRow {
     pub finish_seq: Option<i64>,
     pub finished_at: Option<String>,
     pub created_at: String,
+    /// Imported from an offline program (immutable; learned only when `finish_seq` is set).
+    pub imported: bool,
     /// Number of waypoints.
     pub waypoints: i64,
 }
 
 impl RoutineRow {
+    /// Immutable: finished, or imported.
     pub fn finished(&self) -> bool {
+        self.finish_seq.is_some() || self.imported
+    }
+
+    /// Part of the cell's model.
+    pub fn learned(&self) -> bool {
         self.finish_seq.is_some()
     }
+}
+
+/// A routine of an imported program, ready to store.
+#[derive(Debug, Clone)]
+pub struct NewImportedRoutine {
+    pub name: String,
+    pub waypoints: Vec<NewWaypoint>,
 }
 
 #[derive(Debug, Clone, FromRow)]

@@ -4,6 +4,7 @@
 mod durability;
 mod errors;
 mod helpers;
+mod import;
 mod openapi;
 mod reach;
 mod teaching;

@@ -1,0 +1,235 @@
+//! Importing real offline programs from the shared corpus into a cell.
+
+use std::path::Path;
+
+use reqwest::StatusCode;
+use serde_json::{Value, json};
+
+use crate::helpers::*;
+
+/// The RAPID modules of one repository in the corpus, as an upload.
+fn upload(dir: &str) -> Vec<Value> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/corpus/raw")
+        .join(dir);
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mod"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "{}", dir.display());
+    files
+        .iter()
+        .map(|p| {
+            let bytes = std::fs::read(p).unwrap();
+            json!({
+                "name": p.file_name().unwrap().to_string_lossy(),
+                "content": nextpose::import::decode_text(&bytes),
+            })
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn imported_programs_seed_the_model_and_predictions_follow() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("imported").await;
+    let files = upload("ravenorb__abb-robot-welder");
+    let result = app
+        .post_ok(
+            &format!("/v1/cells/{cell}/imports"),
+            &json!({ "files": files }),
+            StatusCode::CREATED,
+        )
+        .await;
+    let programs = result["programs"].as_array().unwrap();
+    assert!(!programs.is_empty());
+    let routines: u64 = programs
+        .iter()
+        .map(|p| p["routines"].as_u64().unwrap())
+        .sum();
+    assert!(routines >= 2);
+    assert_eq!(result["model"]["routines"], routines);
+    assert_eq!(result["model"]["version"], routines);
+    assert!(result["skipped"].is_array());
+    assert_eq!(programs[0]["language"], "rapid");
+
+    // The imported routines are stored, learned and immutable.
+    let program_id = programs[0]["program"]["id"].as_i64().unwrap();
+    let list = app
+        .get_ok(&format!("/v1/programs/{program_id}/routines"))
+        .await;
+    let first = &list[0];
+    assert_eq!(first["imported"], true);
+    assert_eq!(first["learned"], true);
+    assert_eq!(first["finished"], true);
+    let routine_id = first["id"].as_i64().unwrap();
+    let detail = app.get_ok(&format!("/v1/routines/{routine_id}")).await;
+    let waypoints: Vec<Value> = detail["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["pose"].clone())
+        .collect();
+    assert_eq!(
+        waypoints.len() as i64,
+        first["waypoint_count"].as_i64().unwrap()
+    );
+    let r = app
+        .post(
+            &format!("/v1/routines/{routine_id}/waypoints"),
+            &json!({"pose": waypoints[0]}),
+        )
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+
+    // Teaching the same routine again is predicted from the imported one.
+    let program = app.create_program(cell, "retaught").await;
+    let (_, predictions) = app.teach_routine(program, &waypoints).await;
+    // Real programs: most offered predictions are exactly right (the model also knows the
+    // other imported routines, so not every one is).
+    let (mut offered, mut right) = (0, 0);
+    for (i, p) in predictions.iter().enumerate() {
+        if p["offered"] == true && i + 1 < waypoints.len() {
+            offered += 1;
+            right += usize::from(distance(&p["pose"], &waypoints[i + 1]) < 1e-6);
+        }
+    }
+    assert!(right >= 1, "no right prediction ({offered} offered)");
+    assert!(right * 10 >= offered * 8, "{right} of {offered} right");
+
+    // The model after the import is the one a rebuild gives.
+    let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    let rebuilt = app
+        .post_ok(
+            &format!("/v1/cells/{cell}/rebuild"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(before["model"], rebuilt);
+    let app = app.restart().await;
+    let after = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(before, after);
+
+    // The same upload again: the program names are taken, nothing is imported.
+    let r = app
+        .post(
+            &format!("/v1/cells/{cell}/imports"),
+            &json!({ "files": files }),
+        )
+        .await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    assert_eq!(app.get_ok(&format!("/v1/cells/{cell}/stats")).await, after);
+}
+
+#[tokio::test]
+async fn import_errors() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("import-errors").await;
+    let url = format!("/v1/cells/{cell}/imports");
+    let r = app.post(&url, &json!({"files": []})).await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    let r = app
+        .post(
+            &url,
+            &json!({"files": [{"name": "a.txt", "content": "hello"}]}),
+        )
+        .await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    // A malformed robtarget: 422 naming file, line and column; nothing imported.
+    let broken = "MODULE M\n  CONST robtarget p:=[[1,2],[1,0,0,0]];\nENDMODULE";
+    let r = app
+        .post(
+            &url,
+            &json!({"files": [{"name": "M.mod", "content": broken}]}),
+        )
+        .await;
+    let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    assert!(message.contains("M.mod:2:22"), "{message}");
+    let programs = app.get_ok(&format!("/v1/cells/{cell}/programs")).await;
+    assert_eq!(programs.as_array().unwrap().len(), 0);
+    let empty = json!({"files": [{"name": "m.mod", "content": "MODULE M\nENDMODULE\n"}]});
+    let r = app.post("/v1/cells/999/imports", &empty).await;
+    expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+
+    // Learning while a routine is being taught would interleave it with the imported ones.
+    let program = app.create_program(cell, "p").await;
+    app.create_routine(program).await;
+    let files = upload("ravenorb__abb-robot-welder");
+    let r = app.post(&url, &json!({"files": files})).await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
+    // Without learning it is allowed; the model does not change.
+    let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    let result = app
+        .post_ok(
+            &url,
+            &json!({"files": files, "learn": false}),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(result["model"], before["model"]);
+    let pid = result["programs"][0]["program"]["id"].as_i64().unwrap();
+    let list = app.get_ok(&format!("/v1/programs/{pid}/routines")).await;
+    assert_eq!(list[0]["learned"], false);
+    assert_eq!(list[0]["finished"], true);
+}
+
+#[tokio::test]
+async fn nextpose_import_uploads_files_to_a_running_server() {
+    let app = spawn_app().await;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/corpus/raw/ravenorb__abb-robot-welder");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "mod"))
+        .collect();
+    files.sort();
+    let base = app.base.clone();
+    let output = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+            .arg("import")
+            .args(&files)
+            .args(["--cell", "from-cli", "--server", &base])
+            .env_remove("NEXTPOSE_TOKEN")
+            .output()
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("imported "), "{stdout}");
+    let cells = app.get_ok("/v1/cells").await;
+    let cell = cells
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "from-cli")
+        .expect("cell created");
+    let stats = app.get_ok(&format!("/v1/cells/{}/stats", cell["id"])).await;
+    assert!(stats["model"]["routines"].as_u64().unwrap() >= 2);
+    // Against nothing: a clear error, non-zero exit.
+    let output = tokio::task::spawn_blocking(|| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+            .args([
+                "import",
+                "x.mod",
+                "--cell",
+                "c",
+                "--server",
+                "http://127.0.0.1:9",
+            ])
+            .output()
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    assert!(!output.status.success());
+}
