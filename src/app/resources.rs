@@ -425,3 +425,22 @@ pub struct ImportResult {
     /// The cell's model after the import.
     pub model: ModelInfo,
 }
+
+// ---- replay -----------------------------------------------------------------------------------
+
+/// A replay of programs through the engine and the baselines (the scoreboard).
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReplayRequest {
+    /// Program files to replay (as for an import). Give these or `cell_id`.
+    pub files: Option<Vec<UploadedFile>>,
+    /// Replay a cell's stored programs (taught and imported), in the order they were created.
+    pub cell_id: Option<i64>,
+    /// Engine settings to start from (default `default`).
+    pub profile: Option<super::settings::ProfileName>,
+    pub delta: Option<f64>,
+    pub phi_min: Option<f64>,
+    pub horizon: Option<usize>,
+    /// Estimate the scale ψ.
+    pub scale: Option<bool>,
+}

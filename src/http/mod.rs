@@ -11,6 +11,7 @@ pub mod error;
 mod imports;
 mod middleware;
 mod programs;
+mod replays;
 mod robots;
 mod routines;
 mod system;
@@ -100,6 +101,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(routines::router())
         .merge(robots::router())
         .merge(imports::router())
+        .merge(replays::router())
 }
 
 /// The OpenAPI description of every route.

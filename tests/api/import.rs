@@ -233,3 +233,49 @@ async fn nextpose_import_uploads_files_to_a_running_server() {
     .unwrap();
     assert!(!output.status.success());
 }
+
+#[tokio::test]
+async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
+    let app = spawn_app().await;
+    let files = upload("ravenorb__abb-robot-welder");
+    let report = app
+        .post_ok("/v1/replays", &json!({ "files": files }), StatusCode::OK)
+        .await;
+    for method in [
+        "engine",
+        "repeat_last",
+        "nearest_seq",
+        "nearest_seq_gated",
+        "nearest_seq_within",
+        "nearest_seq_within_gated",
+    ] {
+        let t = &report["totals"][method];
+        assert!(t["predictable"].as_u64().unwrap() > 10, "{method}: {t}");
+        assert!(t["saved_pct"].is_number(), "{method}");
+    }
+    assert!(report["programs"].as_array().unwrap().len() >= 1);
+
+    // The same programs imported into a cell and replayed from there give the same totals.
+    let cell = app.create_cell("replayed").await;
+    app.post_ok(
+        &format!("/v1/cells/{cell}/imports"),
+        &json!({ "files": files, "learn": false }),
+        StatusCode::CREATED,
+    )
+    .await;
+    let stored = app
+        .post_ok("/v1/replays", &json!({ "cell_id": cell }), StatusCode::OK)
+        .await;
+    for key in ["predictable", "offered_pct", "useful_pct", "saved_pct"] {
+        assert_eq!(
+            stored["totals"]["engine"][key], report["totals"]["engine"][key],
+            "{key}"
+        );
+    }
+    let r = app.post("/v1/replays", &json!({})).await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    let r = app
+        .post("/v1/replays", &json!({"cell_id": cell, "delta": 2.0}))
+        .await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid_settings").await;
+}

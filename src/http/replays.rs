@@ -1,0 +1,35 @@
+//! `/v1/replays`: the accuracy scoreboard of the engine and the baselines on given programs.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use super::error::extract::Json;
+use super::error::{ApiError, ErrorBody};
+use crate::app::App;
+use crate::app::resources::ReplayRequest;
+
+pub fn router() -> OpenApiRouter<Arc<App>> {
+    OpenApiRouter::new().routes(routes!(replay))
+}
+
+/// Replay program files, or a cell's stored programs, through the engine (with the given
+/// settings) and the baselines. The answer is the scoreboard in the form `nextpose replay
+/// --json` writes: `config`, `totals` by method (`engine`, `repeat_last`, `nearest_seq`, ...)
+/// and `programs`. Nothing is stored; each program is learned from scratch.
+#[utoipa::path(post, path = "/v1/replays", tag = "programs",
+    request_body = ReplayRequest,
+    responses(
+        (status = 200, description = "The scoreboard", body = Object),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 422, description = "Neither or both of files and cell_id, bad settings, or unreadable files", body = ErrorBody),
+    ))]
+async fn replay(
+    State(app): State<Arc<App>>,
+    Json(body): Json<ReplayRequest>,
+) -> Result<axum::Json<serde_json::Value>, ApiError> {
+    Ok(axum::Json(app.replay(body).await?))
+}
