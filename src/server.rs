@@ -13,6 +13,7 @@ use tokio::net::TcpListener;
 
 use crate::app::App;
 use crate::app::reach::Robots;
+use crate::grpc;
 use crate::http::{self, HttpOptions};
 use crate::storage::{Durability, Store};
 use crate::telemetry::Metrics;
@@ -65,7 +66,11 @@ impl Application {
         let robots = Robots::load(&settings.robots)
             .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
         let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
-        let router = http::router(app.clone(), &settings.http);
+        // REST and gRPC on one port: gRPC calls are told apart by their content type.
+        let router = grpc::beside(
+            http::router(app.clone(), &settings.http),
+            grpc::router(app.clone(), &settings.http).await?,
+        );
         let listener = TcpListener::bind(&settings.addr)
             .await
             .with_context(|| format!("binding {}", settings.addr))?;

@@ -8,7 +8,7 @@
 
 mod cells;
 pub mod error;
-mod middleware;
+pub(crate) mod middleware;
 mod programs;
 mod robots;
 mod routines;
