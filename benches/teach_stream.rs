@@ -168,8 +168,7 @@ async fn rest(base: &str, program: i64, first: usize, routines: usize) -> (usize
     let mut predictions = 0;
     let start = Instant::now();
     for i in first..first + routines {
-        let routine = post(format!("{base}/v1/programs/{program}/routines"), json!({})).await
-            ["id"]
+        let routine = post(format!("{base}/v1/programs/{program}/routines"), json!({})).await["id"]
             .as_i64()
             .expect("id");
         for p in seam(i) {

@@ -75,7 +75,9 @@ fn reach_policy_in(v: i32) -> In<Option<ReachPolicyName>> {
         Ok(pb::ReachPolicy::Unspecified) => Ok(None),
         Ok(pb::ReachPolicy::Withhold) => Ok(Some(ReachPolicyName::Withhold)),
         Ok(pb::ReachPolicy::Flag) => Ok(Some(ReachPolicyName::Flag)),
-        Err(_) => Err(Status::invalid_argument(format!("unknown reach policy {v}"))),
+        Err(_) => Err(Status::invalid_argument(format!(
+            "unknown reach policy {v}"
+        ))),
     }
 }
 

@@ -118,7 +118,10 @@ impl Teach {
     }
 
     async fn start(&mut self, routine_id: i64) -> pb::Routine {
-        match self.call(Command::Start(pb::StartCommand { routine_id })).await {
+        match self
+            .call(Command::Start(pb::StartCommand { routine_id }))
+            .await
+        {
             Event::Started(s) => s.routine.expect("routine"),
             other => panic!("expected started, got {other:?}"),
         }
@@ -150,7 +153,11 @@ async fn unary_calls_cover_every_resource() {
     assert_eq!(settings.robot, "abb_irb140");
     assert_eq!(settings.reach_policy(), pb::ReachPolicy::Flag);
     assert_eq!(settings.profile(), pb::Profile::Default);
-    let cells = c.list_cells(pb::ListCellsRequest {}).await.unwrap().into_inner();
+    let cells = c
+        .list_cells(pb::ListCellsRequest {})
+        .await
+        .unwrap()
+        .into_inner();
     assert_eq!(cells.cells.len(), 1);
     let got = c
         .get_cell(pb::GetCellRequest { cell_id: cell.id })
@@ -362,7 +369,11 @@ fn same(a: f64, b: f64) -> bool {
 
 /// Compares a REST prediction (JSON) with a gRPC one.
 fn assert_same_prediction(rest: &Value, grpc: &pb::Prediction, at: &str) {
-    assert_eq!(rest["offered"].as_bool(), Some(grpc.offered), "{at}: offered");
+    assert_eq!(
+        rest["offered"].as_bool(),
+        Some(grpc.offered),
+        "{at}: offered"
+    );
     assert_eq!(
         rest["withheld"]["reason"].as_str(),
         grpc.withheld.as_ref().map(|w| w.reason.as_str()),
@@ -650,11 +661,12 @@ async fn the_bearer_token_applies_to_grpc_metadata() {
     let e = wrong.list_cells(pb::ListCellsRequest {}).await.unwrap_err();
     assert_eq!(e.code(), Code::Unauthenticated);
 
-    let mut authorised = NextposeClient::with_interceptor(ch.clone(), |mut r: tonic::Request<()>| {
-        r.metadata_mut()
-            .insert("authorization", "Bearer s3cret".parse().unwrap());
-        Ok(r)
-    });
+    let mut authorised =
+        NextposeClient::with_interceptor(ch.clone(), |mut r: tonic::Request<()>| {
+            r.metadata_mut()
+                .insert("authorization", "Bearer s3cret".parse().unwrap());
+            Ok(r)
+        });
     let cells = authorised
         .list_cells(pb::ListCellsRequest {})
         .await
@@ -679,15 +691,20 @@ async fn the_bearer_token_applies_to_grpc_metadata() {
     // REST is unchanged: JSON errors without the token.
     let mut rest = TestApp::remote(&app.base);
     rest.token = None;
-    expect_error(rest.get("/v1/cells").await, StatusCode::UNAUTHORIZED, "unauthorized").await;
+    expect_error(
+        rest.get("/v1/cells").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
 }
 
 #[tokio::test]
 async fn reflection_lists_the_service() {
+    use tonic_reflection::pb::v1::ServerReflectionRequest;
     use tonic_reflection::pb::v1::server_reflection_client::ServerReflectionClient;
     use tonic_reflection::pb::v1::server_reflection_request::MessageRequest;
     use tonic_reflection::pb::v1::server_reflection_response::MessageResponse;
-    use tonic_reflection::pb::v1::ServerReflectionRequest;
 
     let app = spawn_app().await;
     let mut c = ServerReflectionClient::new(channel(&app).await);
