@@ -244,29 +244,29 @@ struct Session {
     routine: Option<i64>,
 }
 
-fn app_error(e: AppError) -> Event {
-    Event::Error(pb::TeachError {
+fn app_error(e: AppError) -> pb::TeachError {
+    pb::TeachError {
         code: status::code(&e) as i32,
         reason: e.code().to_string(),
         message: status::message(&e),
-    })
+    }
 }
 
-fn adapter_error(s: Status) -> Event {
+fn adapter_error(s: Status) -> pb::TeachError {
     let reason = match s.code() {
         Code::InvalidArgument => "invalid",
         Code::FailedPrecondition => "no_routine",
         _ => "bad_request",
     };
-    Event::Error(pb::TeachError {
+    pb::TeachError {
         code: s.code() as i32,
         reason: reason.to_string(),
         message: s.message().to_string(),
-    })
+    }
 }
 
 impl Session {
-    fn routine(&self) -> Result<i64, Event> {
+    fn routine(&self) -> Result<i64, pb::TeachError> {
         self.routine.ok_or_else(|| {
             adapter_error(Status::failed_precondition(
                 "no routine selected; send `start` first",
@@ -275,12 +275,10 @@ impl Session {
     }
 
     async fn apply(&mut self, command: Option<Command>) -> Event {
-        match self.try_apply(command).await {
-            Ok(event) | Err(event) => event,
-        }
+        self.try_apply(command).await.unwrap_or_else(Event::Error)
     }
 
-    async fn try_apply(&mut self, command: Option<Command>) -> Result<Event, Event> {
+    async fn try_apply(&mut self, command: Option<Command>) -> Result<Event, pb::TeachError> {
         let app = &self.app;
         match command {
             None => Err(adapter_error(Status::invalid_argument(
