@@ -10,6 +10,8 @@
 //!   predictions, feedback; one model per cell in memory, kept in step with the database.
 //! - [`storage`]: SQLite via sqlx (migrations in `migrations/`); the source of truth.
 //! - [`http`]: the REST adapter (axum): extraction, routing, error mapping, OpenAPI.
+//! - [`grpc`]: the gRPC adapter (tonic) on the same port: the same operations, a streaming
+//!   teach session, reflection and health.
 //! - [`server`]: start-up and graceful shutdown of the service.
 //! - [`telemetry`]: Prometheus metrics.
 //! - [`cli`]: the `nextpose` command line.
@@ -21,6 +23,7 @@
 pub mod app;
 pub mod cli;
 pub mod engine;
+pub mod grpc;
 pub mod http;
 pub mod import;
 pub mod kinematics;

@@ -9,10 +9,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::Context;
+use axum::serve::ListenerExt;
 use tokio::net::TcpListener;
 
 use crate::app::App;
 use crate::app::reach::Robots;
+use crate::grpc;
 use crate::http::{self, HttpOptions};
 use crate::storage::{Durability, Store};
 use crate::telemetry::Metrics;
@@ -65,7 +67,11 @@ impl Application {
         let robots = Robots::load(&settings.robots)
             .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
         let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
-        let router = http::router(app.clone(), &settings.http);
+        // REST and gRPC on one port: gRPC calls are told apart by their content type.
+        let router = grpc::beside(
+            http::router(app.clone(), &settings.http),
+            grpc::router(app.clone(), &settings.http).await?,
+        );
         let listener = TcpListener::bind(&settings.addr)
             .await
             .with_context(|| format!("binding {}", settings.addr))?;
@@ -89,7 +95,14 @@ impl Application {
         self,
         shutdown: impl Future<Output = ()> + Send + 'static,
     ) -> std::io::Result<()> {
-        let result = axum::serve(self.listener, self.router)
+        // TCP_NODELAY: a pipelined Teach stream writes many small HTTP/2 frames; with Nagle's
+        // algorithm each batch waited for the client's delayed ACK (~40 ms).
+        let listener = self.listener.tap_io(|tcp| {
+            if let Err(e) = tcp.set_nodelay(true) {
+                tracing::warn!(error = %e, "could not set TCP_NODELAY");
+            }
+        });
+        let result = axum::serve(listener, self.router)
             .with_graceful_shutdown(shutdown)
             .await;
         self.app.store().close().await;

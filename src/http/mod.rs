@@ -9,7 +9,7 @@
 mod cells;
 pub mod error;
 mod imports;
-mod middleware;
+pub(crate) mod middleware;
 mod programs;
 mod replays;
 mod robots;

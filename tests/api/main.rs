@@ -3,6 +3,7 @@
 
 mod durability;
 mod errors;
+mod grpc;
 mod helpers;
 mod import;
 mod openapi;

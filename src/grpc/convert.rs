@@ -1,0 +1,447 @@
+//! Resources ↔ protobuf messages. Outbound conversions are total; inbound ones refuse what the
+//! wire allows but the resource cannot hold (a missing pose, an unknown enum value) with
+//! `INVALID_ARGUMENT`, as the REST adapter refuses malformed JSON.
+
+use tonic::Status;
+
+use super::pb;
+use crate::app::reach::{JointMarginDto, ReachabilityDto, UnreachableDto};
+use crate::app::resources::*;
+use crate::app::settings::{
+    CellSettings, CellSettingsInput, ProfileName, ReachPolicyName, ScaleSettings,
+};
+use crate::kinematics::{RobotModel, SolverKind};
+
+type In<T> = Result<T, Status>;
+
+fn required<T>(v: Option<T>, what: &str) -> In<T> {
+    v.ok_or_else(|| Status::invalid_argument(format!("{what} is required")))
+}
+
+fn usize_from(v: u64, what: &str) -> In<usize> {
+    usize::try_from(v).map_err(|_| Status::invalid_argument(format!("{what} is too large")))
+}
+
+// ---- poses ------------------------------------------------------------------------------------
+
+impl From<PoseDto> for pb::Pose {
+    fn from(p: PoseDto) -> pb::Pose {
+        pb::Pose {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            qw: p.qw,
+            qx: p.qx,
+            qy: p.qy,
+            qz: p.qz,
+        }
+    }
+}
+
+impl From<pb::Pose> for PoseDto {
+    fn from(p: pb::Pose) -> PoseDto {
+        PoseDto {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            qw: p.qw,
+            qx: p.qx,
+            qy: p.qy,
+            qz: p.qz,
+        }
+    }
+}
+
+// ---- cells ------------------------------------------------------------------------------------
+
+fn profile_in(v: i32) -> In<Option<ProfileName>> {
+    match pb::Profile::try_from(v) {
+        Ok(pb::Profile::Unspecified) => Ok(None),
+        Ok(pb::Profile::Seed) => Ok(Some(ProfileName::Seed)),
+        Ok(pb::Profile::Default) => Ok(Some(ProfileName::Default)),
+        Err(_) => Err(Status::invalid_argument(format!("unknown profile {v}"))),
+    }
+}
+
+fn profile_out(p: ProfileName) -> pb::Profile {
+    match p {
+        ProfileName::Seed => pb::Profile::Seed,
+        ProfileName::Default => pb::Profile::Default,
+    }
+}
+
+fn reach_policy_in(v: i32) -> In<Option<ReachPolicyName>> {
+    match pb::ReachPolicy::try_from(v) {
+        Ok(pb::ReachPolicy::Unspecified) => Ok(None),
+        Ok(pb::ReachPolicy::Withhold) => Ok(Some(ReachPolicyName::Withhold)),
+        Ok(pb::ReachPolicy::Flag) => Ok(Some(ReachPolicyName::Flag)),
+        Err(_) => Err(Status::invalid_argument(format!(
+            "unknown reach policy {v}"
+        ))),
+    }
+}
+
+fn reach_policy_out(p: ReachPolicyName) -> pb::ReachPolicy {
+    match p {
+        ReachPolicyName::Withhold => pb::ReachPolicy::Withhold,
+        ReachPolicyName::Flag => pb::ReachPolicy::Flag,
+    }
+}
+
+fn scale_in(s: pb::ScaleSettings) -> ScaleSettings {
+    ScaleSettings {
+        enabled: s.enabled,
+        psi_min: s.psi_min,
+        psi_max: s.psi_max,
+    }
+}
+
+fn scale_out(s: ScaleSettings) -> pb::ScaleSettings {
+    pb::ScaleSettings {
+        enabled: s.enabled,
+        psi_min: s.psi_min,
+        psi_max: s.psi_max,
+    }
+}
+
+pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
+    let s = r.settings.unwrap_or_default();
+    Ok(CreateCell {
+        name: r.name,
+        settings: CellSettingsInput {
+            profile: profile_in(s.profile)?,
+            delta: s.delta,
+            phi_min: s.phi_min,
+            horizon: s.horizon.map(|h| usize_from(h, "horizon")).transpose()?,
+            sigma_t_mm: s.sigma_t_mm,
+            sigma_q: s.sigma_q,
+            scale: s.scale.map(scale_in),
+            robot: s.robot,
+            base: s.base.map(PoseDto::from),
+            tool: s.tool.map(PoseDto::from),
+            reach_policy: reach_policy_in(s.reach_policy)?,
+        },
+    })
+}
+
+fn settings_out(s: CellSettings) -> pb::CellSettings {
+    pb::CellSettings {
+        profile: profile_out(s.profile).into(),
+        delta: s.delta,
+        phi_min: s.phi_min,
+        horizon: s.horizon as u64,
+        sigma_t_mm: s.sigma_t_mm,
+        sigma_q: s.sigma_q,
+        scale: Some(scale_out(s.scale)),
+        robot: s.robot,
+        base: Some(s.base.into()),
+        tool: Some(s.tool.into()),
+        reach_policy: reach_policy_out(s.reach_policy).into(),
+    }
+}
+
+impl From<Cell> for pb::Cell {
+    fn from(c: Cell) -> pb::Cell {
+        pb::Cell {
+            id: c.id,
+            name: c.name,
+            settings: Some(settings_out(c.settings)),
+            created_at: c.created_at,
+        }
+    }
+}
+
+impl From<ModelInfo> for pb::ModelInfo {
+    fn from(m: ModelInfo) -> pb::ModelInfo {
+        pb::ModelInfo {
+            states: m.states as u64,
+            edges: m.edges as u64,
+            perplexity: m.perplexity,
+            routines: m.routines,
+            depth: m.depth as u64,
+            observations: m.observations,
+            version: m.version,
+        }
+    }
+}
+
+impl From<CellStats> for pb::CellStats {
+    fn from(s: CellStats) -> pb::CellStats {
+        let f = s.feedback;
+        pb::CellStats {
+            cell_id: s.cell_id,
+            model: Some(s.model.into()),
+            feedback: Some(pb::FeedbackStats {
+                offered: f.offered,
+                accepted: f.accepted,
+                adjusted: f.adjusted,
+                rejected: f.rejected,
+                pending: f.pending,
+                acceptance: f.acceptance,
+                median_adjustment_mm: f.median_adjustment_mm,
+            }),
+        }
+    }
+}
+
+// ---- programs and routines --------------------------------------------------------------------
+
+impl From<Program> for pb::Program {
+    fn from(p: Program) -> pb::Program {
+        pb::Program {
+            id: p.id,
+            cell_id: p.cell_id,
+            name: p.name,
+            created_at: p.created_at,
+        }
+    }
+}
+
+impl From<Routine> for pb::Routine {
+    fn from(r: Routine) -> pb::Routine {
+        pb::Routine {
+            id: r.id,
+            program_id: r.program_id,
+            cell_id: r.cell_id,
+            position: r.position,
+            name: r.name,
+            finished: r.finished,
+            finish_seq: r.finish_seq,
+            finished_at: r.finished_at,
+            waypoint_count: r.waypoint_count,
+            created_at: r.created_at,
+        }
+    }
+}
+
+impl From<RoutineDetail> for pb::RoutineDetail {
+    fn from(d: RoutineDetail) -> pb::RoutineDetail {
+        pb::RoutineDetail {
+            routine: Some(d.routine.into()),
+            waypoints: d.waypoints.into_iter().map(Into::into).collect(),
+        }
+    }
+}
+
+impl From<Finished> for pb::Finished {
+    fn from(f: Finished) -> pb::Finished {
+        pb::Finished {
+            routine: Some(f.routine.into()),
+            model: Some(f.model.into()),
+        }
+    }
+}
+
+// ---- waypoints and predictions ------------------------------------------------------------------
+
+fn motion_in(v: i32) -> In<Option<MotionType>> {
+    match pb::Motion::try_from(v) {
+        Ok(pb::Motion::Unspecified) => Ok(None),
+        Ok(pb::Motion::Joint) => Ok(Some(MotionType::Joint)),
+        Ok(pb::Motion::Linear) => Ok(Some(MotionType::Linear)),
+        Ok(pb::Motion::Circular) => Ok(Some(MotionType::Circular)),
+        Err(_) => Err(Status::invalid_argument(format!("unknown motion {v}"))),
+    }
+}
+
+fn motion_out(m: Option<MotionType>) -> pb::Motion {
+    match m {
+        None => pb::Motion::Unspecified,
+        Some(MotionType::Joint) => pb::Motion::Joint,
+        Some(MotionType::Linear) => pb::Motion::Linear,
+        Some(MotionType::Circular) => pb::Motion::Circular,
+    }
+}
+
+pub fn new_waypoint(w: pb::NewWaypoint) -> In<NewWaypointDto> {
+    Ok(NewWaypointDto {
+        pose: required(w.pose, "pose")?.into(),
+        joints: (!w.joints.is_empty()).then_some(w.joints),
+        motion: motion_in(w.motion)?,
+        name: w.name,
+    })
+}
+
+impl From<Waypoint> for pb::Waypoint {
+    fn from(w: Waypoint) -> pb::Waypoint {
+        pb::Waypoint {
+            id: w.id,
+            routine_id: w.routine_id,
+            seq: w.seq,
+            pose: Some(w.pose.into()),
+            joints: w.joints.unwrap_or_default(),
+            motion: motion_out(w.motion).into(),
+            name: w.name,
+            reachable: w.reachable,
+            created_at: w.created_at,
+        }
+    }
+}
+
+fn unreachable_out(u: UnreachableDto) -> pb::Unreachable {
+    pb::Unreachable {
+        reason: u.reason,
+        message: u.message,
+    }
+}
+
+fn margin_out(m: JointMarginDto) -> pb::JointMargin {
+    pb::JointMargin {
+        name: m.name,
+        margin_rad: m.margin_rad,
+    }
+}
+
+impl From<ReachabilityDto> for pb::Reachability {
+    fn from(r: ReachabilityDto) -> pb::Reachability {
+        pb::Reachability {
+            robot: r.robot,
+            reachable: r.reachable,
+            unreachable: r.unreachable.map(unreachable_out),
+            solutions: r.solutions as u64,
+            chosen: r.chosen.unwrap_or_default(),
+            sigma_min: r.sigma_min,
+            manipulability: r.manipulability,
+            limiting_joint: r.limiting_joint.map(margin_out),
+        }
+    }
+}
+
+impl From<PredictionDto> for pb::Prediction {
+    fn from(p: PredictionDto) -> pb::Prediction {
+        pb::Prediction {
+            id: p.id,
+            offered: p.offered,
+            withheld: p.withheld.map(|w| pb::Withheld {
+                reason: w.reason,
+                message: w.message,
+            }),
+            reachability: p.reachability.map(Into::into),
+            pose: p.pose.map(Into::into),
+            relative: p.relative.map(|r| pb::RelativeMove {
+                x: r.x,
+                y: r.y,
+                z: r.z,
+                qw: r.qw,
+                qx: r.qx,
+                qy: r.qy,
+                qz: r.qz,
+            }),
+            phi: p.phi,
+            psi: p.psi,
+            routine_scale: p.routine_scale,
+            end_probability: p.end_probability,
+            misfit: p.misfit,
+            spread: p.spread,
+            support: p.support,
+            window: p.window as u64,
+            states: p.states as u64,
+            after_waypoints: p.after_waypoints,
+            model_version: p.model_version,
+        }
+    }
+}
+
+impl From<Taught> for pb::Taught {
+    fn from(t: Taught) -> pb::Taught {
+        pb::Taught {
+            waypoint: Some(t.waypoint.into()),
+            prediction: Some(t.prediction.into()),
+        }
+    }
+}
+
+impl From<Undone> for pb::Undone {
+    fn from(u: Undone) -> pb::Undone {
+        pb::Undone {
+            removed: Some(u.removed.into()),
+            prediction: Some(u.prediction.into()),
+        }
+    }
+}
+
+pub fn predict_query(r: &pb::PredictRequest) -> In<PredictQuery> {
+    Ok(PredictQuery {
+        horizon: r.horizon.map(|h| usize_from(h, "horizon")).transpose()?,
+        phi_min: r.phi_min,
+        scale: r.scale,
+        k: r.k.map(|k| usize_from(k, "k")).transpose()?,
+    })
+}
+
+impl From<PredictionSet> for pb::PredictionSet {
+    fn from(s: PredictionSet) -> pb::PredictionSet {
+        pb::PredictionSet {
+            routine_id: s.routine_id,
+            predictions: s.predictions.into_iter().map(Into::into).collect(),
+        }
+    }
+}
+
+// ---- feedback -----------------------------------------------------------------------------------
+
+fn verdict_out(v: Verdict) -> pb::Verdict {
+    match v {
+        Verdict::Accepted => pb::Verdict::Accepted,
+        Verdict::Adjusted => pb::Verdict::Adjusted,
+        Verdict::Rejected => pb::Verdict::Rejected,
+    }
+}
+
+pub fn feedback(r: pb::FeedbackRequest) -> In<FeedbackDto> {
+    let verdict = match pb::Verdict::try_from(r.verdict) {
+        Ok(pb::Verdict::Accepted) => Verdict::Accepted,
+        Ok(pb::Verdict::Adjusted) => Verdict::Adjusted,
+        Ok(pb::Verdict::Rejected) => Verdict::Rejected,
+        Ok(pb::Verdict::Unspecified) => {
+            return Err(Status::invalid_argument("verdict is required"));
+        }
+        Err(_) => {
+            return Err(Status::invalid_argument(format!(
+                "unknown verdict {}",
+                r.verdict
+            )));
+        }
+    };
+    Ok(FeedbackDto {
+        verdict,
+        pose: r.pose.map(Into::into),
+    })
+}
+
+impl From<FeedbackRecorded> for pb::FeedbackRecorded {
+    fn from(f: FeedbackRecorded) -> pb::FeedbackRecorded {
+        pb::FeedbackRecorded {
+            prediction_id: f.prediction_id,
+            verdict: verdict_out(f.verdict).into(),
+            adjustment_mm: f.adjustment_mm,
+        }
+    }
+}
+
+// ---- robots -------------------------------------------------------------------------------------
+
+impl From<RobotModel> for pb::Robot {
+    fn from(r: RobotModel) -> pb::Robot {
+        pb::Robot {
+            name: r.name,
+            solver: match r.solver {
+                SolverKind::Opw => "opw",
+                SolverKind::Ur => "ur",
+            }
+            .to_string(),
+            root: r.root,
+            tip: r.tip,
+            joints: r
+                .joints
+                .into_iter()
+                .map(|j| pb::Joint {
+                    name: j.name,
+                    lower: j.lower,
+                    upper: j.upper,
+                    velocity: j.velocity,
+                })
+                .collect(),
+        }
+    }
+}

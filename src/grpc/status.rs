@@ -1,0 +1,45 @@
+//! The one place where application errors become gRPC status codes (the gRPC counterpart of
+//! `http::error`). `Teach` error events use the same mapping.
+
+use tonic::{Code, Status};
+
+use crate::app::AppError;
+
+/// The status code of an application error.
+///
+/// A name clash is an `AppError::Conflict` like a finished routine, so both map to
+/// `FAILED_PRECONDITION` (the REST API answers both 409).
+pub fn code(e: &AppError) -> Code {
+    match e {
+        AppError::NotFound { .. } | AppError::NotFoundName { .. } => Code::NotFound,
+        AppError::Conflict(_) => Code::FailedPrecondition,
+        AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => Code::InvalidArgument,
+        AppError::Internal(_) => Code::Internal,
+    }
+}
+
+/// The message a client sees: internal details stay in the server log.
+pub fn message(e: &AppError) -> String {
+    if code(e) == Code::Internal {
+        tracing::error!(error = %e, "gRPC request failed");
+        "internal error; see the server log".to_string()
+    } else {
+        e.to_string()
+    }
+}
+
+/// The status for an application error; the service's stable code (`not_found`, `conflict`,
+/// …) travels in the `x-error-code` metadata entry.
+pub fn status(e: AppError) -> Status {
+    let mut s = Status::new(code(&e), message(&e));
+    if let Ok(v) = e.code().parse() {
+        s.metadata_mut().insert("x-error-code", v);
+    }
+    s
+}
+
+impl From<AppError> for Status {
+    fn from(e: AppError) -> Status {
+        status(e)
+    }
+}

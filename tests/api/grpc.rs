@@ -1,0 +1,730 @@
+//! The gRPC adapter through a real tonic client against the real server on its loopback port
+//! (the same port as REST): unary calls for every resource, `Teach` sessions (same predictions
+//! as the REST loop, cancellation), error mapping, token, health and reflection.
+
+use std::time::Duration;
+
+use nextpose::grpc::pb;
+use nextpose::grpc::pb::nextpose_client::NextposeClient;
+use nextpose::grpc::pb::teach_request::Command;
+use nextpose::grpc::pb::teach_response::Event;
+use nextpose::http::HttpOptions;
+use reqwest::StatusCode;
+use serde_json::Value;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::transport::Channel;
+use tonic::{Code, Streaming};
+
+use crate::helpers::*;
+
+type Client = NextposeClient<Channel>;
+
+async fn channel(app: &TestApp) -> Channel {
+    Channel::from_shared(app.base.clone())
+        .expect("uri")
+        .connect()
+        .await
+        .expect("connect")
+}
+
+async fn client(app: &TestApp) -> Client {
+    NextposeClient::new(channel(app).await)
+}
+
+fn pb_pose(v: &Value) -> pb::Pose {
+    let f = |k: &str| v[k].as_f64().expect(k);
+    pb::Pose {
+        x: f("x"),
+        y: f("y"),
+        z: f("z"),
+        qw: f("qw"),
+        qx: f("qx"),
+        qy: f("qy"),
+        qz: f("qz"),
+    }
+}
+
+fn waypoint(v: &Value) -> pb::NewWaypoint {
+    pb::NewWaypoint {
+        pose: Some(pb_pose(v)),
+        ..Default::default()
+    }
+}
+
+/// A cell offering predictions its arm cannot reach, flagged (as `TestApp::create_cell`).
+async fn create_cell(c: &mut Client, name: &str) -> pb::Cell {
+    c.create_cell(pb::CreateCellRequest {
+        name: name.into(),
+        settings: Some(pb::CellSettingsInput {
+            reach_policy: pb::ReachPolicy::Flag.into(),
+            ..Default::default()
+        }),
+    })
+    .await
+    .expect("create cell")
+    .into_inner()
+}
+
+/// An open teach session: commands go in, one event comes back per command.
+struct Teach {
+    tx: mpsc::Sender<pb::TeachRequest>,
+    rx: Streaming<pb::TeachResponse>,
+    tag: u64,
+}
+
+impl Teach {
+    async fn open(c: &mut Client) -> Teach {
+        let (tx, rx) = mpsc::channel(16);
+        let stream = c
+            .teach(ReceiverStream::new(rx))
+            .await
+            .expect("teach")
+            .into_inner();
+        Teach {
+            tx,
+            rx: stream,
+            tag: 0,
+        }
+    }
+
+    async fn send(&mut self, command: Command) -> u64 {
+        self.tag += 1;
+        self.tx
+            .send(pb::TeachRequest {
+                tag: self.tag,
+                command: Some(command),
+            })
+            .await
+            .expect("send");
+        self.tag
+    }
+
+    async fn next(&mut self) -> (u64, Event) {
+        let r = self
+            .rx
+            .message()
+            .await
+            .expect("stream ok")
+            .expect("an event");
+        (r.tag, r.event.expect("event set"))
+    }
+
+    async fn call(&mut self, command: Command) -> Event {
+        let tag = self.send(command).await;
+        let (got, event) = self.next().await;
+        assert_eq!(got, tag);
+        event
+    }
+
+    async fn start(&mut self, routine_id: i64) -> pb::Routine {
+        match self
+            .call(Command::Start(pb::StartCommand { routine_id }))
+            .await
+        {
+            Event::Started(s) => s.routine.expect("routine"),
+            other => panic!("expected started, got {other:?}"),
+        }
+    }
+
+    async fn waypoint(&mut self, pose: &Value) -> pb::Taught {
+        match self.call(Command::Waypoint(waypoint(pose))).await {
+            Event::Taught(t) => t,
+            other => panic!("expected taught, got {other:?}"),
+        }
+    }
+
+    async fn finish(&mut self) -> pb::Finished {
+        match self.call(Command::Finish(pb::FinishCommand {})).await {
+            Event::Finished(f) => f,
+            other => panic!("expected finished, got {other:?}"),
+        }
+    }
+}
+
+#[tokio::test]
+async fn unary_calls_cover_every_resource() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+
+    // Cells.
+    let cell = create_cell(&mut c, "grpc-cell").await;
+    let settings = cell.settings.as_ref().expect("settings");
+    assert_eq!(settings.robot, "abb_irb140");
+    assert_eq!(settings.reach_policy(), pb::ReachPolicy::Flag);
+    assert_eq!(settings.profile(), pb::Profile::Default);
+    let cells = c
+        .list_cells(pb::ListCellsRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(cells.cells.len(), 1);
+    let got = c
+        .get_cell(pb::GetCellRequest { cell_id: cell.id })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(got, cell);
+    // The same cell through REST.
+    let rest = app.get_ok(&format!("/v1/cells/{}", cell.id)).await;
+    assert_eq!(rest["name"], "grpc-cell");
+    assert_eq!(rest["settings"]["delta"].as_f64(), Some(settings.delta));
+
+    // Programs.
+    let program = c
+        .create_program(pb::CreateProgramRequest {
+            cell_id: cell.id,
+            name: "bracket".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(program.cell_id, cell.id);
+    let programs = c
+        .list_programs(pb::ListProgramsRequest { cell_id: cell.id })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(programs.programs, vec![program.clone()]);
+    let got = c
+        .get_program(pb::GetProgramRequest {
+            program_id: program.id,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(got, program);
+
+    // Routines and teaching: two copies of a seam, the second one predicted.
+    let mut offered_id = None;
+    for (i, seam) in [
+        u_seam([0.0, 0.0, 0.0], 0.0),
+        u_seam([300.0, -200.0, 20.0], 0.7),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let routine = c
+            .create_routine(pb::CreateRoutineRequest {
+                program_id: program.id,
+                name: Some(format!("pass {}", i + 1)),
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        assert!(!routine.finished);
+        assert_eq!(routine.position, i as i64 + 1);
+        for (j, p) in seam.iter().enumerate() {
+            let taught = c
+                .append_waypoint(pb::AppendWaypointRequest {
+                    routine_id: routine.id,
+                    waypoint: Some(pb::NewWaypoint {
+                        pose: Some(pb_pose(p)),
+                        joints: vec![],
+                        motion: pb::Motion::Linear.into(),
+                        name: Some(format!("p{j}")),
+                    }),
+                })
+                .await
+                .unwrap()
+                .into_inner();
+            let w = taught.waypoint.unwrap();
+            assert_eq!(w.seq, j as i64 + 1);
+            assert_eq!(w.motion(), pb::Motion::Linear);
+            let prediction = taught.prediction.unwrap();
+            if prediction.offered {
+                offered_id = offered_id.or(prediction.id);
+                assert!(prediction.pose.is_some());
+                assert!(prediction.reachability.is_some());
+            } else {
+                assert!(!prediction.withheld.unwrap().reason.is_empty());
+            }
+        }
+        // Predict with an open-loop completion, then undo and re-teach the last waypoint.
+        let set = c
+            .predict(pb::PredictRequest {
+                routine_id: routine.id,
+                k: Some(3),
+                ..Default::default()
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        assert_eq!(set.routine_id, routine.id);
+        assert!(!set.predictions.is_empty());
+        let undone = c
+            .undo(pb::UndoRequest {
+                routine_id: routine.id,
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        assert_eq!(undone.removed.unwrap().seq, seam.len() as i64);
+        c.append_waypoint(pb::AppendWaypointRequest {
+            routine_id: routine.id,
+            waypoint: Some(waypoint(seam.last().unwrap())),
+        })
+        .await
+        .unwrap();
+        let detail = c
+            .get_routine(pb::GetRoutineRequest {
+                routine_id: routine.id,
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        assert_eq!(detail.waypoints.len(), seam.len());
+        assert_eq!(detail.routine.unwrap().waypoint_count, seam.len() as i64);
+        let finished = c
+            .finish_routine(pb::FinishRoutineRequest {
+                routine_id: routine.id,
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        assert!(finished.routine.unwrap().finished);
+        assert_eq!(finished.model.unwrap().version, i as i64 + 1);
+    }
+    let routines = c
+        .list_routines(pb::ListRoutinesRequest {
+            program_id: program.id,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(routines.routines.len(), 2);
+    assert_eq!(routines.routines[1].finish_seq, Some(2));
+
+    // Feedback on an offered prediction; the stats count it.
+    let id = offered_id.expect("the second pass offers predictions");
+    let recorded = c
+        .feedback(pb::FeedbackRequest {
+            prediction_id: id,
+            verdict: pb::Verdict::Accepted.into(),
+            pose: None,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(recorded.verdict(), pb::Verdict::Accepted);
+    assert_eq!(recorded.adjustment_mm, Some(0.0));
+    let stats = c
+        .get_cell_stats(pb::GetCellStatsRequest { cell_id: cell.id })
+        .await
+        .unwrap()
+        .into_inner();
+    let model = stats.model.unwrap();
+    assert_eq!(model.routines, 2);
+    assert_eq!(stats.feedback.unwrap().accepted, 1);
+    let rebuilt = c
+        .rebuild_model(pb::RebuildModelRequest { cell_id: cell.id })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(rebuilt, model);
+
+    // Delete an open routine.
+    let routine = c
+        .create_routine(pb::CreateRoutineRequest {
+            program_id: program.id,
+            name: None,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    c.delete_routine(pb::DeleteRoutineRequest {
+        routine_id: routine.id,
+    })
+    .await
+    .unwrap();
+    let gone = c
+        .get_routine(pb::GetRoutineRequest {
+            routine_id: routine.id,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(gone.code(), Code::NotFound);
+
+    // Robots.
+    let robots = c
+        .list_robots(pb::ListRobotsRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(robots.robots.iter().any(|r| r.name == "abb_irb140"));
+    let robot = c
+        .get_robot(pb::GetRobotRequest {
+            name: "abb_irb140".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(robot.joints.len(), 6);
+    assert_eq!(robot.solver, "opw");
+}
+
+fn same(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * (1.0 + a.abs().max(b.abs()))
+}
+
+/// Compares a REST prediction (JSON) with a gRPC one.
+fn assert_same_prediction(rest: &Value, grpc: &pb::Prediction, at: &str) {
+    assert_eq!(
+        rest["offered"].as_bool(),
+        Some(grpc.offered),
+        "{at}: offered"
+    );
+    assert_eq!(
+        rest["withheld"]["reason"].as_str(),
+        grpc.withheld.as_ref().map(|w| w.reason.as_str()),
+        "{at}: withheld reason"
+    );
+    assert!(same(rest["phi"].as_f64().unwrap(), grpc.phi), "{at}: phi");
+    assert_eq!(rest["after_waypoints"].as_i64(), Some(grpc.after_waypoints));
+    assert_eq!(rest["model_version"].as_i64(), Some(grpc.model_version));
+    match (&rest["pose"], &grpc.pose) {
+        (Value::Null, None) => {}
+        (r, Some(g)) => {
+            for (k, v) in [
+                ("x", g.x),
+                ("y", g.y),
+                ("z", g.z),
+                ("qw", g.qw),
+                ("qx", g.qx),
+                ("qy", g.qy),
+                ("qz", g.qz),
+            ] {
+                assert!(same(r[k].as_f64().unwrap(), v), "{at}: pose.{k}");
+            }
+        }
+        (r, g) => panic!("{at}: pose {r} vs {g:?}"),
+    }
+}
+
+#[tokio::test]
+async fn a_teach_stream_predicts_what_the_rest_loop_predicts() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let routines = [
+        u_seam([0.0, 0.0, 0.0], 0.0),
+        u_seam([800.0, -300.0, 50.0], 1.0),
+        u_seam([-200.0, 400.0, 0.0], -0.6),
+        u_seam([100.0, 100.0, 300.0], 2.2),
+    ];
+
+    // Cell A through REST.
+    let rest_cell = app.create_cell("rest").await;
+    let rest_program = app.create_program(rest_cell, "p").await;
+    let mut rest = Vec::new();
+    for r in &routines {
+        rest.push(app.teach_routine(rest_program, r).await.1);
+    }
+
+    // Cell B through one Teach session.
+    let cell = create_cell(&mut c, "grpc").await;
+    let program = app.create_program(cell.id, "p").await;
+    let mut session = Teach::open(&mut c).await;
+    let mut offered = 0;
+    for (i, r) in routines.iter().enumerate() {
+        let routine = app.create_routine(program).await;
+        let started = session.start(routine).await;
+        assert_eq!(started.id, routine);
+        assert_eq!(started.waypoint_count, 0);
+        for (j, p) in r.iter().enumerate() {
+            let taught = session.waypoint(p).await;
+            assert_eq!(taught.waypoint.unwrap().seq, j as i64 + 1);
+            let prediction = taught.prediction.unwrap();
+            offered += usize::from(prediction.offered);
+            assert_same_prediction(&rest[i][j], &prediction, &format!("routine {i} wp {j}"));
+        }
+        let finished = session.finish().await;
+        assert_eq!(finished.model.unwrap().version, i as i64 + 1);
+    }
+    assert!(offered >= 8, "only {offered} predictions offered");
+    drop(session);
+
+    // Both cells learned the same model.
+    let a = app.get_ok(&format!("/v1/cells/{rest_cell}/stats")).await;
+    let b = app.get_ok(&format!("/v1/cells/{}/stats", cell.id)).await;
+    assert_eq!(a["model"], b["model"]);
+}
+
+#[tokio::test]
+async fn a_dropped_teach_stream_leaves_the_routine_open_and_consistent() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let cell = app.create_cell("drop").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let seam = u_seam([500.0, 0.0, 0.0], 0.3);
+    let routine = app.create_routine(program).await;
+
+    let mut session = Teach::open(&mut c).await;
+    session.start(routine).await;
+    for p in &seam[..3] {
+        session.waypoint(p).await;
+    }
+    // Two more commands go out, then the client disappears without reading the answers.
+    session.send(Command::Waypoint(waypoint(&seam[3]))).await;
+    session.send(Command::Waypoint(waypoint(&seam[4]))).await;
+    drop(session);
+    tokio::time::sleep(Duration::from_millis(200)).await;
+
+    // The routine is still open, with the waypoints sent before the drop (the three answered
+    // and whichever of the two in flight the server had applied), numbered without gaps.
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["finished"], false);
+    let waypoints = detail["waypoints"].as_array().unwrap();
+    let n = waypoints.len();
+    assert!((3..=5).contains(&n), "{n} waypoints");
+    assert_eq!(detail["waypoint_count"], n as i64);
+    for (i, w) in waypoints.iter().enumerate() {
+        assert_eq!(w["seq"], i as i64 + 1);
+        assert!(distance(&w["pose"], &seam[i]) < 1e-9);
+    }
+
+    // Teaching goes on through REST, and through a new session.
+    let next = app.append(routine, &seam[n]).await;
+    assert_eq!(next["waypoint"]["seq"], n as i64 + 1);
+    let mut session = Teach::open(&mut c).await;
+    let started = session.start(routine).await;
+    assert_eq!(started.waypoint_count, n as i64 + 1);
+    let taught = session.waypoint(&seam[n + 1]).await;
+    assert_eq!(taught.waypoint.unwrap().seq, n as i64 + 2);
+    let finished = session.finish().await;
+    assert_eq!(finished.routine.unwrap().waypoint_count, n as i64 + 2);
+}
+
+#[tokio::test]
+async fn errors_map_to_status_codes() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+
+    // NOT_FOUND, with the service's error code in metadata.
+    let e = c
+        .get_cell(pb::GetCellRequest { cell_id: 999 })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::NotFound, "{e:?}");
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "not_found");
+    let e = c
+        .get_robot(pb::GetRobotRequest {
+            name: "nope".into(),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::NotFound);
+
+    // INVALID_ARGUMENT: an empty name, a quaternion far from unit, a missing pose.
+    let e = c
+        .create_cell(pb::CreateCellRequest {
+            name: " ".into(),
+            settings: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument);
+    let cell = create_cell(&mut c, "errors").await;
+    let program = app.create_program(cell.id, "p").await;
+    let routine = app.create_routine(program).await;
+    let mut bad = pb_pose(&pose([0.0; 3], [0.0; 3]));
+    bad.qw = 2.0;
+    let e = c
+        .append_waypoint(pb::AppendWaypointRequest {
+            routine_id: routine,
+            waypoint: Some(pb::NewWaypoint {
+                pose: Some(bad),
+                ..Default::default()
+            }),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument);
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "invalid_pose");
+    let e = c
+        .append_waypoint(pb::AppendWaypointRequest {
+            routine_id: routine,
+            waypoint: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument);
+
+    // FAILED_PRECONDITION: a second open routine, undo with nothing taught, a finished routine,
+    // a name taken.
+    let e = c
+        .create_routine(pb::CreateRoutineRequest {
+            program_id: program,
+            name: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::FailedPrecondition);
+    let e = c
+        .undo(pb::UndoRequest {
+            routine_id: routine,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::FailedPrecondition);
+    app.append(routine, &pose([0.0; 3], [0.0; 3])).await;
+    app.finish(routine).await;
+    let e = c
+        .append_waypoint(pb::AppendWaypointRequest {
+            routine_id: routine,
+            waypoint: Some(waypoint(&pose([1.0, 0.0, 0.0], [0.0; 3]))),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::FailedPrecondition);
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+    let e = c
+        .create_program(pb::CreateProgramRequest {
+            cell_id: cell.id,
+            name: "p".into(),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::FailedPrecondition);
+
+    // In a Teach session an error answers its command and the session goes on.
+    let routine = app.create_routine(program).await;
+    let mut session = Teach::open(&mut c).await;
+    let error = |e: Event| match e {
+        Event::Error(e) => e,
+        other => panic!("expected an error, got {other:?}"),
+    };
+    let e = error(session.call(Command::Undo(pb::UndoCommand {})).await);
+    assert_eq!(e.code, Code::FailedPrecondition as i32);
+    assert_eq!(e.reason, "no_routine");
+    let e = error(
+        session
+            .call(Command::Start(pb::StartCommand { routine_id: 12345 }))
+            .await,
+    );
+    assert_eq!(e.code, Code::NotFound as i32);
+    assert_eq!(e.reason, "not_found");
+    session.start(routine).await;
+    let mut far = pb::NewWaypoint {
+        pose: Some(bad),
+        ..Default::default()
+    };
+    let e = error(session.call(Command::Waypoint(far.clone())).await);
+    assert_eq!(e.code, Code::InvalidArgument as i32);
+    assert_eq!(e.reason, "invalid_pose");
+    far.pose = None;
+    let e = error(session.call(Command::Waypoint(far)).await);
+    assert_eq!(e.code, Code::InvalidArgument as i32);
+    let e = error(session.call(Command::Undo(pb::UndoCommand {})).await);
+    assert_eq!(e.code, Code::FailedPrecondition as i32);
+    assert_eq!(e.reason, "conflict");
+    let taught = session.waypoint(&pose([0.0; 3], [0.0; 3])).await;
+    assert_eq!(taught.waypoint.unwrap().seq, 1);
+    session.finish().await;
+    let e = error(
+        session
+            .call(Command::Start(pb::StartCommand {
+                routine_id: routine,
+            }))
+            .await,
+    );
+    assert_eq!(e.code, Code::FailedPrecondition as i32);
+}
+
+#[tokio::test]
+async fn the_bearer_token_applies_to_grpc_metadata() {
+    let app = spawn_with(HttpOptions {
+        token: Some("s3cret".into()),
+        ..HttpOptions::default()
+    })
+    .await;
+    let ch = channel(&app).await;
+
+    let mut anonymous = NextposeClient::new(ch.clone());
+    let e = anonymous
+        .list_cells(pb::ListCellsRequest {})
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::Unauthenticated, "{e:?}");
+    let e = anonymous
+        .teach(tokio_stream::empty())
+        .await
+        .map(|_| ())
+        .unwrap_err();
+    assert_eq!(e.code(), Code::Unauthenticated);
+
+    let mut wrong = NextposeClient::with_interceptor(ch.clone(), |mut r: tonic::Request<()>| {
+        r.metadata_mut()
+            .insert("authorization", "Bearer nope".parse().unwrap());
+        Ok(r)
+    });
+    let e = wrong.list_cells(pb::ListCellsRequest {}).await.unwrap_err();
+    assert_eq!(e.code(), Code::Unauthenticated);
+
+    let mut authorised =
+        NextposeClient::with_interceptor(ch.clone(), |mut r: tonic::Request<()>| {
+            r.metadata_mut()
+                .insert("authorization", "Bearer s3cret".parse().unwrap());
+            Ok(r)
+        });
+    let cells = authorised
+        .list_cells(pb::ListCellsRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(cells.cells.is_empty());
+
+    // Health checks need no token, like /healthz.
+    let mut health = tonic_health::pb::health_client::HealthClient::new(ch);
+    let status = health
+        .check(tonic_health::pb::HealthCheckRequest {
+            service: "nextpose.v1.Nextpose".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(
+        status.status(),
+        tonic_health::pb::health_check_response::ServingStatus::Serving
+    );
+
+    // REST is unchanged: JSON errors without the token.
+    let mut rest = TestApp::remote(&app.base);
+    rest.token = None;
+    expect_error(
+        rest.get("/v1/cells").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
+}
+
+#[tokio::test]
+async fn reflection_lists_the_service() {
+    use tonic_reflection::pb::v1::ServerReflectionRequest;
+    use tonic_reflection::pb::v1::server_reflection_client::ServerReflectionClient;
+    use tonic_reflection::pb::v1::server_reflection_request::MessageRequest;
+    use tonic_reflection::pb::v1::server_reflection_response::MessageResponse;
+
+    let app = spawn_app().await;
+    let mut c = ServerReflectionClient::new(channel(&app).await);
+    let request = ServerReflectionRequest {
+        host: String::new(),
+        message_request: Some(MessageRequest::ListServices(String::new())),
+    };
+    let mut stream = c
+        .server_reflection_info(tokio_stream::iter([request]))
+        .await
+        .unwrap()
+        .into_inner();
+    let response = stream.message().await.unwrap().unwrap();
+    let Some(MessageResponse::ListServicesResponse(list)) = response.message_response else {
+        panic!("unexpected {response:?}");
+    };
+    let names: Vec<_> = list.service.iter().map(|s| s.name.as_str()).collect();
+    assert!(names.contains(&"nextpose.v1.Nextpose"), "{names:?}");
+
+    // A plain REST request on the same port still gets REST.
+    let health = app.get_ok("/healthz").await;
+    assert_eq!(health["status"], "ok");
+}
