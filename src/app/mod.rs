@@ -295,15 +295,6 @@ impl App {
         lock_map(&self.models).entry(cell_id).or_default().clone()
     }
 
-    /// Locks a cell's model, loading it from the database on first use.
-    async fn lock(&self, cell: &CellRow) -> Result<Locked> {
-        let mut guard = self.slot(cell.id).lock_owned().await;
-        if guard.is_none() {
-            *guard = Some(CellModel::load(&self.store, cell, &self.robots).await?);
-        }
-        Ok(Locked(guard))
-    }
-
     async fn cell_row(&self, id: i64) -> Result<CellRow> {
         self.store
             .cell(id)
@@ -325,7 +316,8 @@ impl App {
             .ok_or_else(|| AppError::not_found("routine", id))
     }
 
-    /// Locks a cell by id, loading its model on first use.
+    /// Locks a cell's model, loading it from the database on first use (the cell must exist:
+    /// a missing one is a 404, but callers check first so no slot is made for it).
     async fn lock_cell_id(&self, cell_id: i64) -> Result<Locked> {
         let mut guard = self.slot(cell_id).lock_owned().await;
         if guard.is_none() {
@@ -412,9 +404,9 @@ impl App {
     }
 
     pub async fn cell_stats(&self, id: i64) -> Result<CellStats> {
-        let cell = self.cell_row(id).await?;
+        self.cell_row(id).await?;
         let model = {
-            let mut locked = self.lock(&cell).await?;
+            let mut locked = self.lock_cell_id(id).await?;
             locked.model()?.info()
         };
         let counts = self.store.feedback_counts(id).await?;
@@ -495,12 +487,11 @@ impl App {
             check_name("routine name", n)?;
         }
         let p = self.program_row(program_id).await?;
-        let cell = self.cell_row(p.cell_id).await?;
-        let mut locked = self.lock(&cell).await?;
-        if let Some(open) = self.store.open_routine(cell.id).await? {
+        let mut locked = self.lock_cell_id(p.cell_id).await?;
+        if let Some(open) = self.store.open_routine(p.cell_id).await? {
             return Err(AppError::Conflict(format!(
                 "routine {} of cell {} is still being taught; finish or delete it first",
-                open.id, cell.id
+                open.id, p.cell_id
             )));
         }
         let id = self
