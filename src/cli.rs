@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use serde::Serialize;
 
-use crate::engine::config::MergeRule;
+use crate::engine::config::{MergeRule, RecallGate};
 use crate::engine::{EngineConfig, Profile};
 use crate::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use crate::replay::engine_method::EngineMethod;
@@ -164,6 +164,28 @@ pub struct EngineArgs {
     /// End-of-routine probability gate (number, or "none" for no gate).
     #[arg(long, value_name = "F|none", value_parser = parse_limit)]
     pub max_end_prob: Option<Limit>,
+    /// Recall of the most recent occurrence: "K" or "K:COST" (fewest window moves, mean squared
+    /// distance allowed), or "none".
+    #[arg(long, value_name = "K[:COST]|none", value_parser = parse_gate)]
+    pub recall: Option<GateArg>,
+}
+
+/// A recall gate given on the command line, `None` meaning "off".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GateArg(pub Option<RecallGate>);
+
+fn parse_gate(s: &str) -> Result<GateArg, String> {
+    if s.eq_ignore_ascii_case("none") {
+        return Ok(GateArg(None));
+    }
+    let bad = || format!("expected K, K:COST or \"none\", got {s:?}");
+    let (k, cost) = s.split_once(':').unwrap_or((s, "0.1"));
+    let min_window = k.parse::<usize>().map_err(|_| bad())?;
+    let max_cost = cost.parse::<f64>().map_err(|_| bad())?;
+    Ok(GateArg(Some(RecallGate {
+        max_cost,
+        min_window,
+    })))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -245,6 +267,9 @@ impl EngineArgs {
         }
         if let Some(Limit(v)) = self.max_end_prob {
             c.max_end_prob = v;
+        }
+        if let Some(GateArg(v)) = self.recall {
+            c.recall = v;
         }
         c.validate().context("invalid engine settings")?;
         Ok(c)
