@@ -382,7 +382,7 @@ impl App {
             .await
             .map_err(|e| match AppError::from(e) {
                 AppError::Conflict(_) => {
-                    AppError::Conflict(format!("a cell named {:?} exists", input.name.trim()))
+                    AppError::Exists(format!("a cell named {:?} exists", input.name.trim()))
                 }
                 other => other,
             })?;
@@ -454,7 +454,7 @@ impl App {
             .insert_program(cell_id, input.name.trim())
             .await
             .map_err(|e| match AppError::from(e) {
-                AppError::Conflict(_) => AppError::Conflict(format!(
+                AppError::Conflict(_) => AppError::Exists(format!(
                     "cell {cell_id} already has a program named {:?}",
                     input.name.trim()
                 )),
@@ -863,7 +863,7 @@ impl App {
             .import_programs(cell_id, &programs, learn)
             .await
             .map_err(|e| match AppError::from(e) {
-                AppError::Conflict(_) => AppError::Conflict(format!(
+                AppError::Conflict(_) => AppError::Exists(format!(
                     "cell {cell_id} already has a program with one of the names {:?}",
                     programs.iter().map(|p| p.0.as_str()).collect::<Vec<_>>()
                 )),

@@ -10,7 +10,7 @@ use nextpose::grpc::pb::teach_request::Command;
 use nextpose::grpc::pb::teach_response::Event;
 use nextpose::http::HttpOptions;
 use reqwest::StatusCode;
-use serde_json::Value;
+use serde_json::{Value, json};
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::transport::Channel;
@@ -550,8 +550,7 @@ async fn errors_map_to_status_codes() {
         .unwrap_err();
     assert_eq!(e.code(), Code::InvalidArgument);
 
-    // FAILED_PRECONDITION: a second open routine, undo with nothing taught, a finished routine,
-    // a name taken.
+    // FAILED_PRECONDITION: a second open routine, undo with nothing taught, a finished routine.
     let e = c
         .create_routine(pb::CreateRoutineRequest {
             program_id: program,
@@ -578,6 +577,8 @@ async fn errors_map_to_status_codes() {
         .unwrap_err();
     assert_eq!(e.code(), Code::FailedPrecondition);
     assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+
+    // ALREADY_EXISTS: a name taken (REST: 409 `conflict`, like the state conflicts above).
     let e = c
         .create_program(pb::CreateProgramRequest {
             cell_id: cell.id,
@@ -585,7 +586,18 @@ async fn errors_map_to_status_codes() {
         })
         .await
         .unwrap_err();
-    assert_eq!(e.code(), Code::FailedPrecondition);
+    assert_eq!(e.code(), Code::AlreadyExists, "{e:?}");
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+    let e = c
+        .create_cell(pb::CreateCellRequest {
+            name: "errors".into(),
+            settings: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::AlreadyExists, "{e:?}");
+    let r = app.post("/v1/cells", &json!({"name": "errors"})).await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
 
     // In a Teach session an error answers its command and the session goes on.
     let routine = app.create_routine(program).await;
