@@ -236,6 +236,20 @@ impl Nextpose for Service {
     async fn get_robot(&self, r: Request<pb::GetRobotRequest>) -> Reply<pb::Robot> {
         reply(self.app.robot(&r.into_inner().name))
     }
+
+    async fn import_programs(
+        &self,
+        r: Request<pb::ImportProgramsRequest>,
+    ) -> Reply<pb::ImportResult> {
+        let r = r.into_inner();
+        let cell_id = r.cell_id;
+        reply(self.app.import(cell_id, convert::import_request(r)).await)
+    }
+
+    async fn replay(&self, r: Request<pb::ReplayRequest>) -> Reply<pb::ReplayReport> {
+        let input = convert::replay_request(r.into_inner())?;
+        reply(self.app.replay(input).await)
+    }
 }
 
 /// One `Teach` stream: which routine its commands apply to.
@@ -319,6 +333,9 @@ impl Session {
 }
 
 /// The gRPC router: the API, health and reflection, behind the optional bearer token.
+///
+/// A request message of the API may be as large as a REST body (`options.body_limit`, 2 MiB by
+/// default, instead of tonic's 4 MiB): larger ones are refused with `OUT_OF_RANGE`.
 pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Router> {
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<NextposeServer<Service>>().await;
@@ -328,7 +345,8 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
     let reflection_alpha = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
-    let mut routes = tonic::service::Routes::new(NextposeServer::new(Service::new(app)))
+    let api = NextposeServer::new(Service::new(app)).max_decoding_message_size(options.body_limit);
+    let mut routes = tonic::service::Routes::new(api)
         .add_service(health_service)
         .add_service(reflection)
         .add_service(reflection_alpha)
