@@ -11,6 +11,7 @@
 
 pub mod convert;
 pub mod status;
+pub mod track;
 
 use std::convert::Infallible;
 use std::pin::Pin;
@@ -30,6 +31,7 @@ use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
 use crate::app::{App, AppError};
 use crate::http::HttpOptions;
+use crate::http::middleware::{Protocol, with_request_ids};
 
 /// The generated messages, client and server of `proto/nextpose/v1/nextpose.proto`.
 pub mod pb {
@@ -332,11 +334,14 @@ impl Session {
     }
 }
 
-/// The gRPC router: the API, health and reflection, behind the optional bearer token.
+/// The gRPC router: the API, health and reflection, behind the optional bearer token, with
+/// the same request ids and tracing as REST ([`crate::http::middleware::with_request_ids`])
+/// and its own call metrics ([`track`]).
 ///
 /// A request message of the API may be as large as a REST body (`options.body_limit`, 2 MiB by
 /// default, instead of tonic's 4 MiB): larger ones are refused with `OUT_OF_RANGE`.
 pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Router> {
+    let metrics = app.metrics().clone();
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<NextposeServer<Service>>().await;
     let reflection = tonic_reflection::server::Builder::configure()
@@ -357,7 +362,8 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
             require_token,
         ));
     }
-    Ok(routes)
+    let routes = routes.layer(axum::middleware::from_fn_with_state(metrics, track::track));
+    Ok(with_request_ids(routes, Protocol::Grpc))
 }
 
 /// Requires `authorization: Bearer <token>` metadata on every call but health checks.

@@ -1,7 +1,7 @@
 //! The gRPC adapter through a real tonic client against the real server on its loopback port
 //! (the same port as REST): unary calls for every resource, `Teach` sessions (same predictions
 //! as the REST loop, cancellation), import and replay (same results as REST), error mapping,
-//! token, health and reflection.
+//! metrics and request ids, token, health and reflection.
 
 use std::time::Duration;
 
@@ -1170,4 +1170,103 @@ async fn grpc_messages_are_limited_like_rest_bodies() {
     let e = c.import_programs(request(1000)).await.unwrap_err();
     assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
     assert!(e.message().contains("M.mod:2:22"), "{}", e.message());
+}
+
+/// The value of a sample line of `/metrics` (`name{labels} value`), if present.
+fn sample(metrics: &str, name_and_labels: &str) -> Option<f64> {
+    metrics.lines().find_map(|l| {
+        l.strip_prefix(name_and_labels)
+            .and_then(|rest| rest.strip_prefix(' '))
+            .and_then(|v| v.trim().parse().ok())
+    })
+}
+
+#[tokio::test]
+async fn grpc_calls_are_counted_in_metrics_and_carry_request_ids() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+
+    // A call that succeeds, one that fails, a Teach stream closed by the client, and a call
+    // to a method that does not exist.
+    let response = c
+        .create_cell(pb::CreateCellRequest {
+            name: "counted".into(),
+            settings: None,
+        })
+        .await
+        .unwrap();
+    let id = response
+        .metadata()
+        .get("x-request-id")
+        .expect("a request id");
+    assert!(!id.is_empty());
+    let cell = response.into_inner();
+    let mut request = tonic::Request::new(pb::GetCellRequest { cell_id: 999 });
+    request
+        .metadata_mut()
+        .insert("x-request-id", "pendant-42".parse().unwrap());
+    let e = c.get_cell(request).await.unwrap_err();
+    assert_eq!(e.code(), Code::NotFound);
+    assert_eq!(e.metadata().get("x-request-id").unwrap(), "pendant-42");
+    c.get_cell(pb::GetCellRequest { cell_id: cell.id })
+        .await
+        .unwrap();
+
+    let program = app.create_program(cell.id, "p").await;
+    let routine = app.create_routine(program).await;
+    let mut session = Teach::open(&mut c).await;
+    session.start(routine).await;
+    let Teach { tx, mut rx, .. } = session;
+    drop(tx);
+    // The server ends the stream with its status once the client's side is closed.
+    assert!(rx.message().await.unwrap().is_none());
+
+    let mut raw = tonic::client::Grpc::new(channel(&app).await);
+    raw.ready().await.unwrap();
+    let e = raw
+        .unary::<_, pb::ListCellsResponse, _>(
+            tonic::Request::new(pb::ListCellsRequest {}),
+            "/nextpose.v1.Nextpose/NoSuchMethod".parse().unwrap(),
+            tonic_prost::ProstCodec::default(),
+        )
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::Unimplemented);
+
+    let metrics = app.client.get(app.url("/metrics")).send().await.unwrap();
+    let metrics = metrics.text().await.unwrap();
+    let calls = |method: &str, code: &str| {
+        sample(
+            &metrics,
+            &format!(
+                "nextpose_grpc_requests_total{{service=\"nextpose.v1.Nextpose\",method=\"{method}\",code=\"{code}\"}}"
+            ),
+        )
+    };
+    assert_eq!(calls("CreateCell", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(calls("GetCell", "NOT_FOUND"), Some(1.0), "{metrics}");
+    assert_eq!(calls("GetCell", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(calls("Teach", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(
+        sample(
+            &metrics,
+            "nextpose_grpc_request_duration_seconds_count{service=\"nextpose.v1.Nextpose\",method=\"GetCell\"}"
+        ),
+        Some(2.0),
+        "{metrics}"
+    );
+    assert_eq!(
+        sample(
+            &metrics,
+            "nextpose_grpc_requests_total{service=\"unknown\",method=\"unknown\",code=\"UNIMPLEMENTED\"}"
+        ),
+        Some(1.0),
+        "{metrics}"
+    );
+    assert!(!metrics.contains("NoSuchMethod"), "{metrics}");
+    // The REST requests of this test are counted as before.
+    assert!(
+        metrics.contains("nextpose_http_requests_total{method=\"POST\",route=\"/v1/cells/{cell_id}/programs\",status=\"201\"} 1"),
+        "{metrics}"
+    );
 }
