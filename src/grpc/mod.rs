@@ -344,11 +344,14 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
     let metrics = app.metrics().clone();
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<NextposeServer<Service>>().await;
+    // Reflection describes the health service too, so that `grpcurl` can call it.
     let reflection = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1()?;
     let reflection_alpha = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
     let api = NextposeServer::new(Service::new(app)).max_decoding_message_size(options.body_limit);
     let mut routes = tonic::service::Routes::new(api)

@@ -737,6 +737,8 @@ async fn reflection_lists_the_service() {
     };
     let names: Vec<_> = list.service.iter().map(|s| s.name.as_str()).collect();
     assert!(names.contains(&"nextpose.v1.Nextpose"), "{names:?}");
+    // The health service is described too (grpcurl calls it by reflection).
+    assert!(names.contains(&"grpc.health.v1.Health"), "{names:?}");
 
     // A plain REST request on the same port still gets REST.
     let health = app.get_ok("/healthz").await;
