@@ -208,7 +208,10 @@ impl Nextpose for Service {
                     Ok(Some(request)) => request,
                     Ok(None) => break,
                     Err(e) => {
+                        // The client went away, or sent what cannot be read (a message over
+                        // the size limit, OUT_OF_RANGE): the stream ends with that status.
                         tracing::debug!(status = %e, "teach stream ended by the client");
+                        let _ = tx.send(Err(e)).await;
                         break;
                     }
                 };

@@ -1172,6 +1172,19 @@ async fn grpc_messages_are_limited_like_rest_bodies() {
     let e = c.import_programs(request(1000)).await.unwrap_err();
     assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
     assert!(e.message().contains("M.mod:2:22"), "{}", e.message());
+
+    // A Teach stream ends with OUT_OF_RANGE at an oversized command.
+    let program = app.create_program(cell.id, "p").await;
+    let routine = app.create_routine(program).await;
+    let mut session = Teach::open(&mut c).await;
+    session.start(routine).await;
+    let mut big = waypoint(&pose([0.0; 3], [0.0; 3]));
+    big.name = Some("n".repeat(8000));
+    session.send(Command::Waypoint(big)).await;
+    let e = session.rx.message().await.unwrap_err();
+    assert_eq!(e.code(), Code::OutOfRange, "{e:?}");
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoint_count"], 0);
 }
 
 /// The value of a sample line of `/metrics` (`name{labels} value`), if present.
