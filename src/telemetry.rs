@@ -1,5 +1,6 @@
-//! Prometheus metrics: requests and their latency per route (recorded by the adapters) and
-//! predictions offered or withheld by reason (recorded by the application).
+//! Prometheus metrics: requests and their latency per route (REST) or per call (gRPC), recorded
+//! by the adapters, and predictions offered or withheld by reason (recorded by the
+//! application, so they count whichever adapter asked).
 
 use prometheus_client::encoding::EncodeLabelSet;
 use prometheus_client::metrics::counter::Counter;
@@ -22,6 +23,23 @@ pub struct RouteLabels {
 }
 
 #[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+pub struct GrpcLabels {
+    /// `nextpose.v1.Nextpose`, `grpc.health.v1.Health`, … (`unknown` for calls answered
+    /// `UNIMPLEMENTED`, so made-up names do not become label values).
+    pub service: String,
+    /// `CreateCell`, `Teach`, …
+    pub method: String,
+}
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+pub struct GrpcCodeLabels {
+    pub service: String,
+    pub method: String,
+    /// The status code's name: `OK`, `NotFound`, `InvalidArgument`, `AlreadyExists`, …
+    pub code: String,
+}
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
 pub struct PredictionLabels {
     /// `offered` or `withheld`.
     pub outcome: String,
@@ -40,6 +58,8 @@ pub struct Metrics {
     registry: Registry,
     requests: Family<RequestLabels, Counter>,
     latency: Family<RouteLabels, Histogram, fn() -> Histogram>,
+    grpc_calls: Family<GrpcCodeLabels, Counter>,
+    grpc_latency: Family<GrpcLabels, Histogram, fn() -> Histogram>,
     predictions: Family<PredictionLabels, Counter>,
 }
 
@@ -56,6 +76,10 @@ impl Metrics {
         let latency = Family::<RouteLabels, Histogram, fn() -> Histogram>::new_with_constructor(
             latency_histogram,
         );
+        let grpc_calls = Family::<GrpcCodeLabels, Counter>::default();
+        let grpc_latency = Family::<GrpcLabels, Histogram, fn() -> Histogram>::new_with_constructor(
+            latency_histogram,
+        );
         let predictions = Family::<PredictionLabels, Counter>::default();
         registry.register(
             "http_requests",
@@ -68,6 +92,16 @@ impl Metrics {
             latency.clone(),
         );
         registry.register(
+            "grpc_requests",
+            "gRPC calls by service, method and status code",
+            grpc_calls.clone(),
+        );
+        registry.register(
+            "grpc_request_duration_seconds",
+            "gRPC call latency by service and method (a stream: its whole life)",
+            grpc_latency.clone(),
+        );
+        registry.register(
             "predictions",
             "Predictions made, offered or withheld by reason",
             predictions.clone(),
@@ -76,6 +110,8 @@ impl Metrics {
             registry,
             requests,
             latency,
+            grpc_calls,
+            grpc_latency,
             predictions,
         }
     }
@@ -92,6 +128,23 @@ impl Metrics {
             .get_or_create(&RouteLabels {
                 method: method.to_string(),
                 route: route.to_string(),
+            })
+            .observe(seconds);
+    }
+
+    /// Counts a finished gRPC call (`code`: the status code's name) and observes its latency.
+    pub fn record_grpc(&self, service: &str, method: &str, code: &str, seconds: f64) {
+        self.grpc_calls
+            .get_or_create(&GrpcCodeLabels {
+                service: service.to_string(),
+                method: method.to_string(),
+                code: code.to_string(),
+            })
+            .inc();
+        self.grpc_latency
+            .get_or_create(&GrpcLabels {
+                service: service.to_string(),
+                method: method.to_string(),
             })
             .observe(seconds);
     }

@@ -12,9 +12,15 @@ pub enum AppError {
     /// A named resource that does not exist.
     #[error("{what} {name:?} does not exist")]
     NotFoundName { what: &'static str, name: String },
-    /// The request conflicts with the resource's state (a finished routine, a name taken).
+    /// The request conflicts with the resource's state (a finished routine, a second open
+    /// routine in a cell, nothing to undo).
     #[error("{0}")]
     Conflict(String),
+    /// The name of a resource being created is taken (a cell, a program, an imported
+    /// program). REST answers it like [`AppError::Conflict`] (409 `conflict`); gRPC tells the
+    /// two apart (`ALREADY_EXISTS` vs `FAILED_PRECONDITION`).
+    #[error("{0}")]
+    Exists(String),
     /// Input that is well-formed but not acceptable.
     #[error("{0}")]
     Invalid(String),
@@ -32,7 +38,7 @@ impl AppError {
     pub fn code(&self) -> &'static str {
         match self {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
-            AppError::Conflict(_) => "conflict",
+            AppError::Conflict(_) | AppError::Exists(_) => "conflict",
             AppError::Invalid(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) => "invalid_settings",

@@ -382,7 +382,7 @@ impl App {
             .await
             .map_err(|e| match AppError::from(e) {
                 AppError::Conflict(_) => {
-                    AppError::Conflict(format!("a cell named {:?} exists", input.name.trim()))
+                    AppError::Exists(format!("a cell named {:?} exists", input.name.trim()))
                 }
                 other => other,
             })?;
@@ -454,7 +454,7 @@ impl App {
             .insert_program(cell_id, input.name.trim())
             .await
             .map_err(|e| match AppError::from(e) {
-                AppError::Conflict(_) => AppError::Conflict(format!(
+                AppError::Conflict(_) => AppError::Exists(format!(
                     "cell {cell_id} already has a program named {:?}",
                     input.name.trim()
                 )),
@@ -863,7 +863,7 @@ impl App {
             .import_programs(cell_id, &programs, learn)
             .await
             .map_err(|e| match AppError::from(e) {
-                AppError::Conflict(_) => AppError::Conflict(format!(
+                AppError::Conflict(_) => AppError::Exists(format!(
                     "cell {cell_id} already has a program with one of the names {:?}",
                     programs.iter().map(|p| p.0.as_str()).collect::<Vec<_>>()
                 )),
@@ -916,8 +916,8 @@ impl App {
 
     /// Replays programs (uploaded files or a cell's stored programs) through the engine and the
     /// baselines, each program learned from scratch as in `nextpose replay`; returns the
-    /// scoreboard in the same JSON form as `nextpose replay --json`.
-    pub async fn replay(&self, input: ReplayRequest) -> Result<serde_json::Value> {
+    /// scoreboard (serialised, the JSON form of `nextpose replay --json`).
+    pub async fn replay(&self, input: ReplayRequest) -> Result<crate::replay::report::Report> {
         use crate::replay::corpus::{Program as ReplayProgram, Routine as ReplayRoutine};
         use crate::replay::report::{RunConfig, replay_all};
         use crate::replay::{Method, baselines, engine_method::EngineMethod};
@@ -985,17 +985,16 @@ impl App {
         let gate = baselines::DEFAULT_NEAREST_SEQ_GATE;
         let profile_name = crate::engine::Profile::from(profile).name();
         // The replay is CPU work (seconds for a large corpus): off the async workers.
-        let report = tokio::task::spawn_blocking(move || -> Result<serde_json::Value> {
+        let report = tokio::task::spawn_blocking(move || -> Result<_> {
             let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
                 EngineMethod::new(config.clone()).map_err(AppError::from)?,
             )];
             methods.extend(baselines::all(&config, gate));
-            let report = replay_all(
+            Ok(replay_all(
                 &programs,
                 &mut methods,
                 RunConfig::new(profile_name, config, gate),
-            );
-            serde_json::to_value(&report).map_err(|e| AppError::Internal(e.to_string()))
+            ))
         })
         .await
         .map_err(|e| AppError::Internal(format!("replay task: {e}")))??;

@@ -11,6 +11,8 @@ use crate::app::settings::{
     CellSettings, CellSettingsInput, ProfileName, ReachPolicyName, ScaleSettings,
 };
 use crate::kinematics::{RobotModel, SolverKind};
+use crate::replay::metrics::Metrics as ReplayMetricsLine;
+use crate::replay::report::{MethodMetrics, Report};
 
 type In<T> = Result<T, Status>;
 
@@ -210,6 +212,8 @@ impl From<Routine> for pb::Routine {
             finished_at: r.finished_at,
             waypoint_count: r.waypoint_count,
             created_at: r.created_at,
+            learned: r.learned,
+            imported: r.imported,
         }
     }
 }
@@ -440,6 +444,149 @@ impl From<RobotModel> for pb::Robot {
                     lower: j.lower,
                     upper: j.upper,
                     velocity: j.velocity,
+                })
+                .collect(),
+        }
+    }
+}
+
+// ---- import and replay ------------------------------------------------------------------------
+
+fn uploaded(files: Vec<pb::UploadedFile>) -> Vec<UploadedFile> {
+    files
+        .into_iter()
+        .map(|f| UploadedFile {
+            name: f.name,
+            content: f.content,
+        })
+        .collect()
+}
+
+pub fn import_request(r: pb::ImportProgramsRequest) -> ImportRequest {
+    ImportRequest {
+        files: uploaded(r.files),
+        learn: r.learn,
+    }
+}
+
+/// An empty `files` is "not given" (protobuf cannot tell the two apart), so the application's
+/// "files or cell_id" rule decides.
+pub fn replay_request(r: pb::ReplayRequest) -> In<ReplayRequest> {
+    Ok(ReplayRequest {
+        files: (!r.files.is_empty()).then(|| uploaded(r.files)),
+        cell_id: r.cell_id,
+        profile: profile_in(r.profile)?,
+        delta: r.delta,
+        phi_min: r.phi_min,
+        horizon: r.horizon.map(|h| usize_from(h, "horizon")).transpose()?,
+        scale: r.scale,
+    })
+}
+
+impl From<ImportResult> for pb::ImportResult {
+    fn from(r: ImportResult) -> pb::ImportResult {
+        pb::ImportResult {
+            programs: r
+                .programs
+                .into_iter()
+                .map(|p| pb::ImportedProgram {
+                    program: Some(p.program.into()),
+                    language: p.language,
+                    source: p.source,
+                    routines: p.routines as u64,
+                    waypoints: p.waypoints as u64,
+                })
+                .collect(),
+            skipped: r
+                .skipped
+                .into_iter()
+                .map(|s| pb::Skipped {
+                    file: s.file,
+                    line: s.line as u64,
+                    routine: s.routine,
+                    reason: s.reason,
+                    text: s.text,
+                })
+                .collect(),
+            model: Some(r.model.into()),
+        }
+    }
+}
+
+impl From<ReplayMetricsLine> for pb::ReplayMetrics {
+    fn from(m: ReplayMetricsLine) -> pb::ReplayMetrics {
+        let n = |v: usize| v as u64;
+        pb::ReplayMetrics {
+            predictable: n(m.predictable),
+            offered: n(m.offered),
+            useful: n(m.useful),
+            offered_pct: m.offered_pct,
+            useful_pct: m.useful_pct,
+            precision_pct: m.precision_pct,
+            saved_pct: m.saved_pct,
+            median_cart_mm: m.median_cart_mm,
+            median_angle_rad: m.median_angle_rad,
+            median_cart_pct_travel: m.median_cart_pct_travel,
+            median_angle_pct_travel: m.median_angle_pct_travel,
+            spearman_conf_err: m.spearman_conf_err,
+            pearson_conf_err: m.pearson_conf_err,
+            spearman_phi_err: m.spearman_phi_err,
+            predictable_n1: n(m.predictable_n1),
+            offered_n1: n(m.offered_n1),
+            useful_n1: n(m.useful_n1),
+            offered_pct_n1: m.offered_pct_n1,
+            useful_pct_n1: m.useful_pct_n1,
+            precision_pct_n1: m.precision_pct_n1,
+            saved_pct_n1: m.saved_pct_n1,
+            median_cart_mm_n1: m.median_cart_mm_n1,
+            median_angle_rad_n1: m.median_angle_rad_n1,
+            spearman_conf_err_n1: m.spearman_conf_err_n1,
+            states: m.states.map(n),
+            edges: m.edges.map(n),
+            perplexity: m.perplexity,
+            us_per_waypoint: m.us_per_waypoint,
+            reachable_pct: m.reachable_pct,
+            taught_reachable_pct: m.taught_reachable_pct,
+        }
+    }
+}
+
+fn method_metrics(m: MethodMetrics) -> Vec<pb::MethodMetrics> {
+    m.0.into_iter()
+        .map(|(method, metrics)| pb::MethodMetrics {
+            method,
+            metrics: Some(metrics.into()),
+        })
+        .collect()
+}
+
+impl From<Report> for pb::ReplayReport {
+    fn from(r: Report) -> pb::ReplayReport {
+        // Serialising plain data into a string does not fail; an empty `json` if it ever did.
+        let json = serde_json::to_string(&r.config).unwrap_or_default();
+        let c = r.config;
+        pb::ReplayReport {
+            config: Some(pb::ReplayConfig {
+                profile: c.profile,
+                delta: c.engine.delta,
+                phi_min: c.engine.phi_min,
+                horizon: c.engine.horizon as u64,
+                scale: c.engine.scale.enabled,
+                sigma_t: c.engine.sigma_t,
+                sigma_q: c.engine.sigma_q,
+                nearest_seq_gate: c.nearest_seq_gate,
+                useful_max_mm: c.useful_max_mm,
+                useful_max_rad: c.useful_max_rad,
+                json,
+            }),
+            totals: method_metrics(r.totals),
+            programs: r
+                .programs
+                .into_iter()
+                .map(|p| pb::ProgramScore {
+                    program: p.program,
+                    language: p.language,
+                    methods: method_metrics(p.methods),
                 })
                 .collect(),
         }

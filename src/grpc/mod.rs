@@ -11,6 +11,7 @@
 
 pub mod convert;
 pub mod status;
+pub mod track;
 
 use std::convert::Infallible;
 use std::pin::Pin;
@@ -30,6 +31,7 @@ use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
 use crate::app::{App, AppError};
 use crate::http::HttpOptions;
+use crate::http::middleware::{Protocol, with_request_ids};
 
 /// The generated messages, client and server of `proto/nextpose/v1/nextpose.proto`.
 pub mod pb {
@@ -206,7 +208,10 @@ impl Nextpose for Service {
                     Ok(Some(request)) => request,
                     Ok(None) => break,
                     Err(e) => {
+                        // The client went away, or sent what cannot be read (a message over
+                        // the size limit, OUT_OF_RANGE): the stream ends with that status.
                         tracing::debug!(status = %e, "teach stream ended by the client");
+                        let _ = tx.send(Err(e)).await;
                         break;
                     }
                 };
@@ -235,6 +240,20 @@ impl Nextpose for Service {
 
     async fn get_robot(&self, r: Request<pb::GetRobotRequest>) -> Reply<pb::Robot> {
         reply(self.app.robot(&r.into_inner().name))
+    }
+
+    async fn import_programs(
+        &self,
+        r: Request<pb::ImportProgramsRequest>,
+    ) -> Reply<pb::ImportResult> {
+        let r = r.into_inner();
+        let cell_id = r.cell_id;
+        reply(self.app.import(cell_id, convert::import_request(r)).await)
+    }
+
+    async fn replay(&self, r: Request<pb::ReplayRequest>) -> Reply<pb::ReplayReport> {
+        let input = convert::replay_request(r.into_inner())?;
+        reply(self.app.replay(input).await)
     }
 }
 
@@ -318,17 +337,27 @@ impl Session {
     }
 }
 
-/// The gRPC router: the API, health and reflection, behind the optional bearer token.
+/// The gRPC router: the API, health and reflection, behind the optional bearer token, with
+/// the same request ids and tracing as REST ([`crate::http::middleware::with_request_ids`])
+/// and its own call metrics ([`track`]).
+///
+/// A request message of the API may be as large as a REST body (`options.body_limit`, 2 MiB by
+/// default, instead of tonic's 4 MiB): larger ones are refused with `OUT_OF_RANGE`.
 pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Router> {
+    let metrics = app.metrics().clone();
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<NextposeServer<Service>>().await;
+    // Reflection describes the health service too, so that `grpcurl` can call it.
     let reflection = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1()?;
     let reflection_alpha = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
-    let mut routes = tonic::service::Routes::new(NextposeServer::new(Service::new(app)))
+    let api = NextposeServer::new(Service::new(app)).max_decoding_message_size(options.body_limit);
+    let mut routes = tonic::service::Routes::new(api)
         .add_service(health_service)
         .add_service(reflection)
         .add_service(reflection_alpha)
@@ -339,7 +368,8 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
             require_token,
         ));
     }
-    Ok(routes)
+    let routes = routes.layer(axum::middleware::from_fn_with_state(metrics, track::track));
+    Ok(with_request_ids(routes, Protocol::Grpc))
 }
 
 /// Requires `authorization: Bearer <token>` metadata on every call but health checks.

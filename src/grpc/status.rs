@@ -7,11 +7,13 @@ use crate::app::AppError;
 
 /// The status code of an application error.
 ///
-/// A name clash is an `AppError::Conflict` like a finished routine, so both map to
-/// `FAILED_PRECONDITION` (the REST API answers both 409).
+/// REST answers both a name taken and a state conflict (a finished routine, a second open
+/// routine, nothing to undo) with 409; gRPC has a code for each: `ALREADY_EXISTS` and
+/// `FAILED_PRECONDITION`.
 pub fn code(e: &AppError) -> Code {
     match e {
         AppError::NotFound { .. } | AppError::NotFoundName { .. } => Code::NotFound,
+        AppError::Exists(_) => Code::AlreadyExists,
         AppError::Conflict(_) => Code::FailedPrecondition,
         AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => Code::InvalidArgument,
         AppError::Internal(_) => Code::Internal,

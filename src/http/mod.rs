@@ -21,13 +21,11 @@ use std::time::Duration;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
-use axum::http::{HeaderName, Method, Request, StatusCode, header};
+use axum::http::{Method, StatusCode, header};
 use tower::ServiceBuilder;
 use tower_http::cors::{Any, CorsLayer};
 use tower_http::limit::RequestBodyLimitLayer;
-use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
 use tower_http::timeout::TimeoutLayer;
-use tower_http::trace::TraceLayer;
 use utoipa::openapi::security::{Http, HttpAuthScheme, SecurityScheme};
 use utoipa::openapi::{OpenApi as OpenApiDoc, SecurityRequirement};
 use utoipa::{Modify, OpenApi};
@@ -112,7 +110,7 @@ pub fn openapi() -> OpenApiDoc {
 /// The service's router with all its layers.
 pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
     let (routes, _) = api().split_for_parts();
-    let request_id = HeaderName::from_static("x-request-id");
+    let request_id = middleware::REQUEST_ID;
     let mut routes = routes
         .fallback(|| async { error::for_status(StatusCode::NOT_FOUND) })
         .layer(axum::middleware::from_fn_with_state(
@@ -133,22 +131,10 @@ pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
             header::AUTHORIZATION,
             request_id.clone(),
         ])
-        .expose_headers([request_id.clone()]);
-    routes
+        .expose_headers([request_id]);
+    let routes = routes
         .layer(
             ServiceBuilder::new()
-                .layer(SetRequestIdLayer::new(request_id.clone(), MakeRequestUuid))
-                .layer(
-                    TraceLayer::new_for_http().make_span_with(|req: &Request<_>| {
-                        let id = req
-                            .headers()
-                            .get("x-request-id")
-                            .and_then(|v| v.to_str().ok())
-                            .unwrap_or("-");
-                        tracing::info_span!("request", method = %req.method(), uri = %req.uri(), request_id = %id)
-                    }),
-                )
-                .layer(PropagateRequestIdLayer::new(request_id))
                 .layer(cors)
                 .layer(axum::middleware::from_fn(middleware::json_errors))
                 .layer(TimeoutLayer::with_status_code(
@@ -158,5 +144,6 @@ pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
                 .layer(RequestBodyLimitLayer::new(options.body_limit))
                 .layer(DefaultBodyLimit::max(options.body_limit)),
         )
-        .with_state(app)
+        .with_state(app);
+    middleware::with_request_ids(routes, middleware::Protocol::Rest)
 }

@@ -10,6 +10,7 @@ use super::error::extract::Json;
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::ReplayRequest;
+use crate::replay::report::Report;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new().routes(routes!(replay))
@@ -30,6 +31,6 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
 async fn replay(
     State(app): State<Arc<App>>,
     Json(body): Json<ReplayRequest>,
-) -> Result<axum::Json<serde_json::Value>, ApiError> {
+) -> Result<axum::Json<Report>, ApiError> {
     Ok(axum::Json(app.replay(body).await?))
 }

@@ -1,6 +1,7 @@
 //! The gRPC adapter through a real tonic client against the real server on its loopback port
 //! (the same port as REST): unary calls for every resource, `Teach` sessions (same predictions
-//! as the REST loop, cancellation), error mapping, token, health and reflection.
+//! as the REST loop, cancellation), import and replay (same results as REST), error mapping,
+//! metrics and request ids, token, health and reflection.
 
 use std::time::Duration;
 
@@ -10,13 +11,14 @@ use nextpose::grpc::pb::teach_request::Command;
 use nextpose::grpc::pb::teach_response::Event;
 use nextpose::http::HttpOptions;
 use reqwest::StatusCode;
-use serde_json::Value;
+use serde_json::{Value, json};
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::transport::Channel;
 use tonic::{Code, Streaming};
 
 use crate::helpers::*;
+use crate::import::upload;
 
 type Client = NextposeClient<Channel>;
 
@@ -550,8 +552,7 @@ async fn errors_map_to_status_codes() {
         .unwrap_err();
     assert_eq!(e.code(), Code::InvalidArgument);
 
-    // FAILED_PRECONDITION: a second open routine, undo with nothing taught, a finished routine,
-    // a name taken.
+    // FAILED_PRECONDITION: a second open routine, undo with nothing taught, a finished routine.
     let e = c
         .create_routine(pb::CreateRoutineRequest {
             program_id: program,
@@ -578,6 +579,8 @@ async fn errors_map_to_status_codes() {
         .unwrap_err();
     assert_eq!(e.code(), Code::FailedPrecondition);
     assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+
+    // ALREADY_EXISTS: a name taken (REST: 409 `conflict`, like the state conflicts above).
     let e = c
         .create_program(pb::CreateProgramRequest {
             cell_id: cell.id,
@@ -585,7 +588,18 @@ async fn errors_map_to_status_codes() {
         })
         .await
         .unwrap_err();
-    assert_eq!(e.code(), Code::FailedPrecondition);
+    assert_eq!(e.code(), Code::AlreadyExists, "{e:?}");
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+    let e = c
+        .create_cell(pb::CreateCellRequest {
+            name: "errors".into(),
+            settings: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::AlreadyExists, "{e:?}");
+    let r = app.post("/v1/cells", &json!({"name": "errors"})).await;
+    expect_error(r, StatusCode::CONFLICT, "conflict").await;
 
     // In a Teach session an error answers its command and the session goes on.
     let routine = app.create_routine(program).await;
@@ -723,8 +737,551 @@ async fn reflection_lists_the_service() {
     };
     let names: Vec<_> = list.service.iter().map(|s| s.name.as_str()).collect();
     assert!(names.contains(&"nextpose.v1.Nextpose"), "{names:?}");
+    // The health service is described too (grpcurl calls it by reflection).
+    assert!(names.contains(&"grpc.health.v1.Health"), "{names:?}");
 
     // A plain REST request on the same port still gets REST.
     let health = app.get_ok("/healthz").await;
     assert_eq!(health["status"], "ok");
+}
+
+fn pb_files(files: &[Value]) -> Vec<pb::UploadedFile> {
+    files
+        .iter()
+        .map(|f| pb::UploadedFile {
+            name: f["name"].as_str().expect("name").into(),
+            content: f["content"].as_str().expect("content").into(),
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn an_import_through_grpc_teaches_what_the_rest_import_teaches() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let files = upload("ravenorb__abb-robot-welder");
+
+    // Cell A imports through REST, cell B through gRPC.
+    let rest_cell = app.create_cell("rest").await;
+    let rest = app
+        .post_ok(
+            &format!("/v1/cells/{rest_cell}/imports"),
+            &json!({ "files": files }),
+            StatusCode::CREATED,
+        )
+        .await;
+    let cell = create_cell(&mut c, "grpc").await;
+    let imported = c
+        .import_programs(pb::ImportProgramsRequest {
+            cell_id: cell.id,
+            files: pb_files(&files),
+            learn: None,
+        })
+        .await
+        .expect("import")
+        .into_inner();
+
+    // The same programs, skipped items and model.
+    let rest_programs = rest["programs"].as_array().unwrap();
+    assert_eq!(imported.programs.len(), rest_programs.len());
+    for (g, r) in imported.programs.iter().zip(rest_programs) {
+        let program = g.program.as_ref().unwrap();
+        assert_eq!(program.cell_id, cell.id);
+        assert_eq!(r["program"]["name"], program.name.as_str());
+        assert_eq!(r["language"], g.language.as_str());
+        assert_eq!(r["source"], g.source.as_str());
+        assert_eq!(r["routines"], g.routines);
+        assert_eq!(r["waypoints"], g.waypoints);
+    }
+    let rest_skipped = rest["skipped"].as_array().unwrap();
+    assert_eq!(imported.skipped.len(), rest_skipped.len());
+    for (g, r) in imported.skipped.iter().zip(rest_skipped) {
+        assert_eq!(r["file"], g.file.as_str());
+        assert_eq!(r["line"], g.line);
+        assert_eq!(r["routine"].as_str(), g.routine.as_deref());
+        assert_eq!(r["reason"], g.reason.as_str());
+        assert_eq!(r["text"], g.text.as_str());
+    }
+    let model = imported.model.unwrap();
+    assert!(model.routines >= 2);
+    assert_eq!(rest["model"]["routines"], model.routines);
+    assert_eq!(rest["model"]["states"], model.states);
+    assert_eq!(rest["model"]["version"], model.version);
+    let a = app.get_ok(&format!("/v1/cells/{rest_cell}/stats")).await;
+    let b = app.get_ok(&format!("/v1/cells/{}/stats", cell.id)).await;
+    assert_eq!(a["model"], b["model"]);
+
+    // The imported routines are immutable and learned, in both adapters' words.
+    let program_id = imported.programs[0].program.as_ref().unwrap().id;
+    let routines = c
+        .list_routines(pb::ListRoutinesRequest { program_id })
+        .await
+        .unwrap()
+        .into_inner()
+        .routines;
+    let first = &routines[0];
+    assert!(first.imported && first.learned && first.finished);
+    let rest_first = &app
+        .get_ok(&format!("/v1/programs/{program_id}/routines"))
+        .await[0];
+    assert_eq!(rest_first["imported"], true);
+    assert_eq!(rest_first["learned"], true);
+
+    // Teaching an imported routine again: cell B (gRPC) predicts what cell A (REST) predicts.
+    let detail = app.get_ok(&format!("/v1/routines/{}", first.id)).await;
+    let poses: Vec<Value> = detail["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["pose"].clone())
+        .collect();
+    assert!(poses.len() >= 3);
+    let rest_program = app.create_program(rest_cell, "retaught").await;
+    let (_, rest_predictions) = app.teach_routine(rest_program, &poses).await;
+    let program = app.create_program(cell.id, "retaught").await;
+    let mut session = Teach::open(&mut c).await;
+    session.start(app.create_routine(program).await).await;
+    let mut offered = 0;
+    for (i, p) in poses.iter().enumerate() {
+        let prediction = session.waypoint(p).await.prediction.unwrap();
+        offered += usize::from(prediction.offered);
+        assert_same_prediction(&rest_predictions[i], &prediction, &format!("wp {i}"));
+    }
+    assert!(offered >= 1, "nothing offered");
+    session.finish().await;
+
+    // The same upload again: the program names are taken, nothing is imported.
+    let e = c
+        .import_programs(pb::ImportProgramsRequest {
+            cell_id: cell.id,
+            files: pb_files(&files),
+            learn: Some(false),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::AlreadyExists, "{e:?}");
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "conflict");
+}
+
+/// A REST scoreboard line (`totals.<method>`) as the gRPC message carries it; the time per
+/// waypoint is measured, so it is left out of comparisons.
+fn metrics_json(m: &pb::ReplayMetrics) -> Value {
+    json!({
+        "predictable": m.predictable, "offered": m.offered, "useful": m.useful,
+        "offered_pct": m.offered_pct, "useful_pct": m.useful_pct,
+        "precision_pct": m.precision_pct, "saved_pct": m.saved_pct,
+        "median_cart_mm": m.median_cart_mm, "median_angle_rad": m.median_angle_rad,
+        "median_cart_pct_travel": m.median_cart_pct_travel,
+        "median_angle_pct_travel": m.median_angle_pct_travel,
+        "spearman_conf_err": m.spearman_conf_err, "pearson_conf_err": m.pearson_conf_err,
+        "spearman_phi_err": m.spearman_phi_err,
+        "predictable_n1": m.predictable_n1, "offered_n1": m.offered_n1,
+        "useful_n1": m.useful_n1, "offered_pct_n1": m.offered_pct_n1,
+        "useful_pct_n1": m.useful_pct_n1, "precision_pct_n1": m.precision_pct_n1,
+        "saved_pct_n1": m.saved_pct_n1, "median_cart_mm_n1": m.median_cart_mm_n1,
+        "median_angle_rad_n1": m.median_angle_rad_n1,
+        "spearman_conf_err_n1": m.spearman_conf_err_n1,
+        "states": m.states, "edges": m.edges, "perplexity": m.perplexity,
+        "reachable_pct": m.reachable_pct, "taught_reachable_pct": m.taught_reachable_pct,
+    })
+}
+
+/// The same fields, the same integers and nulls, and the same real numbers up to the last
+/// digit or two (serde_json's default parser does not round-trip every double).
+fn assert_same_figures(rest: &Value, grpc: &Value, at: &str) {
+    let (r, g) = (rest.as_object().unwrap(), grpc.as_object().unwrap());
+    assert_eq!(
+        r.keys().collect::<Vec<_>>(),
+        g.keys().collect::<Vec<_>>(),
+        "{at}"
+    );
+    for (k, rv) in r {
+        let gv = &g[k];
+        match (rv.as_f64(), gv.as_f64()) {
+            (Some(a), Some(b)) if !(rv.is_u64() && gv.is_u64()) => {
+                assert!(
+                    (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs())),
+                    "{at}: {k}: {a} vs {b}"
+                )
+            }
+            _ => assert_eq!(rv, gv, "{at}: {k}"),
+        }
+    }
+}
+
+fn without_timing(v: &Value) -> Value {
+    let mut v = v.clone();
+    v.as_object_mut()
+        .expect("a scoreboard line")
+        .remove("us_per_waypoint")
+        .expect("us_per_waypoint");
+    v
+}
+
+/// Asserts that a gRPC scoreboard is the REST one: the same methods (in run order, engine
+/// first) with the same figures, in the totals and per program.
+fn assert_same_scoreboard(rest: &Value, grpc: &pb::ReplayReport) {
+    let same_lines = |rest: &Value, grpc: &[pb::MethodMetrics], at: &str| {
+        let rest = rest.as_object().expect("methods");
+        let names: Vec<&str> = grpc.iter().map(|m| m.method.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "engine",
+                "repeat_last",
+                "nearest_seq",
+                "nearest_seq_gated",
+                "nearest_seq_within",
+                "nearest_seq_within_gated"
+            ],
+            "{at}"
+        );
+        // (serde_json's map here is sorted by key, not in the order REST wrote it.)
+        let mut sorted = names.clone();
+        sorted.sort_unstable();
+        assert_eq!(
+            rest.keys().map(String::as_str).collect::<Vec<_>>(),
+            sorted,
+            "{at}"
+        );
+        for m in grpc {
+            let line = metrics_json(m.metrics.as_ref().expect("metrics"));
+            let rest = without_timing(&rest[&m.method]);
+            assert_same_figures(&rest, &line, &format!("{at}: {}", m.method));
+        }
+    };
+    same_lines(&rest["totals"], &grpc.totals, "totals");
+    let programs = rest["programs"].as_array().unwrap();
+    assert!(!programs.is_empty());
+    assert_eq!(programs.len(), grpc.programs.len());
+    for (r, g) in programs.iter().zip(&grpc.programs) {
+        assert_eq!(r["program"], g.program.as_str());
+        assert_eq!(r["language"], g.language.as_str());
+        same_lines(&r["methods"], &g.methods, &g.program);
+    }
+    let config = grpc.config.as_ref().unwrap();
+    let json: Value = serde_json::from_str(&config.json).unwrap();
+    assert_eq!(json, rest["config"]);
+    assert_eq!(rest["config"]["profile"], config.profile.as_str());
+    assert_eq!(rest["config"]["delta"].as_f64(), Some(config.delta));
+    assert_eq!(rest["config"]["horizon"], config.horizon);
+}
+
+#[tokio::test]
+async fn a_replay_through_grpc_is_the_rest_replay() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let files = upload("ravenorb__abb-robot-welder");
+
+    // Uploaded files, with settings.
+    let rest = app
+        .post_ok(
+            "/v1/replays",
+            &json!({ "files": files, "horizon": 2 }),
+            StatusCode::OK,
+        )
+        .await;
+    let grpc = c
+        .replay(pb::ReplayRequest {
+            files: pb_files(&files),
+            horizon: Some(2),
+            ..Default::default()
+        })
+        .await
+        .expect("replay")
+        .into_inner();
+    assert_eq!(grpc.totals[0].method, "engine");
+    assert!(grpc.totals[0].metrics.as_ref().unwrap().predictable > 10);
+    assert_eq!(grpc.config.as_ref().unwrap().horizon, 2);
+    assert_same_scoreboard(&rest, &grpc);
+
+    // A cell's stored programs.
+    let cell = app.create_cell("replayed").await;
+    app.post_ok(
+        &format!("/v1/cells/{cell}/imports"),
+        &json!({ "files": files, "learn": false }),
+        StatusCode::CREATED,
+    )
+    .await;
+    let rest = app
+        .post_ok(
+            "/v1/replays",
+            &json!({ "cell_id": cell, "profile": "seed" }),
+            StatusCode::OK,
+        )
+        .await;
+    let grpc = c
+        .replay(pb::ReplayRequest {
+            cell_id: Some(cell),
+            profile: pb::Profile::Seed.into(),
+            ..Default::default()
+        })
+        .await
+        .expect("replay")
+        .into_inner();
+    assert_eq!(grpc.config.as_ref().unwrap().profile, "seed");
+    assert_same_scoreboard(&rest, &grpc);
+}
+
+#[tokio::test]
+async fn import_and_replay_errors_map_to_status_codes() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let cell = create_cell(&mut c, "import-errors").await;
+    let import = |cell_id: i64, name: &str, content: &str| pb::ImportProgramsRequest {
+        cell_id,
+        files: vec![pb::UploadedFile {
+            name: name.into(),
+            content: content.into(),
+        }],
+        learn: None,
+    };
+
+    // A malformed robtarget: INVALID_ARGUMENT naming file, line and column; nothing imported.
+    let broken = "MODULE M\n  CONST robtarget p:=[[1,2],[1,0,0,0]];\nENDMODULE";
+    let e = c
+        .import_programs(import(cell.id, "M.mod", broken))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    assert!(e.message().contains("M.mod:2:22"), "{}", e.message());
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "invalid");
+    let programs = c
+        .list_programs(pb::ListProgramsRequest { cell_id: cell.id })
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(programs.programs.is_empty());
+    // An unsupported file, and no file at all.
+    let e = c
+        .import_programs(import(cell.id, "a.txt", "hello"))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    let e = c
+        .import_programs(pb::ImportProgramsRequest {
+            cell_id: cell.id,
+            files: vec![],
+            learn: None,
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+
+    // An unknown cell: NOT_FOUND, for an import and for a replay.
+    let empty = "MODULE M\nENDMODULE\n";
+    let e = c
+        .import_programs(import(999, "m.mod", empty))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::NotFound, "{e:?}");
+    assert_eq!(e.metadata().get("x-error-code").unwrap(), "not_found");
+    let e = c
+        .replay(pb::ReplayRequest {
+            cell_id: Some(999),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::NotFound, "{e:?}");
+
+    // Learning while a routine is being taught: FAILED_PRECONDITION (REST: 409).
+    let program = app.create_program(cell.id, "p").await;
+    app.create_routine(program).await;
+    let files = pb_files(&upload("ravenorb__abb-robot-welder"));
+    let e = c
+        .import_programs(pb::ImportProgramsRequest {
+            cell_id: cell.id,
+            files: files.clone(),
+            learn: Some(true),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::FailedPrecondition, "{e:?}");
+
+    // Replays: neither files nor a cell, both, bad settings, a broken file, an unknown profile.
+    let e = c.replay(pb::ReplayRequest::default()).await.unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    let e = c
+        .replay(pb::ReplayRequest {
+            files: files.clone(),
+            cell_id: Some(cell.id),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    let e = c
+        .replay(pb::ReplayRequest {
+            cell_id: Some(cell.id),
+            delta: Some(2.0),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    assert_eq!(
+        e.metadata().get("x-error-code").unwrap(),
+        "invalid_settings"
+    );
+    let e = c
+        .replay(pb::ReplayRequest {
+            files: import(cell.id, "M.mod", broken).files,
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    assert!(e.message().contains("M.mod:2:22"), "{}", e.message());
+    let e = c
+        .replay(pb::ReplayRequest {
+            cell_id: Some(cell.id),
+            profile: 7,
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+}
+
+#[tokio::test]
+async fn grpc_messages_are_limited_like_rest_bodies() {
+    let app = spawn_with(HttpOptions {
+        body_limit: 4096,
+        ..HttpOptions::default()
+    })
+    .await;
+    let mut c = client(&app).await;
+    let cell = create_cell(&mut c, "limits").await;
+    // A module with a malformed target on line 2, padded with a comment.
+    let request = |padding: usize| pb::ImportProgramsRequest {
+        cell_id: cell.id,
+        files: vec![pb::UploadedFile {
+            name: "M.mod".into(),
+            content: format!(
+                "MODULE M\n  CONST robtarget p:=[[1,2],[1,0,0,0]];\n!{}\nENDMODULE\n",
+                "-".repeat(padding)
+            ),
+        }],
+        learn: None,
+    };
+    let e = c.import_programs(request(8000)).await.unwrap_err();
+    assert_eq!(e.code(), Code::OutOfRange, "{e:?}");
+    assert!(e.message().contains("4096"), "{}", e.message());
+    // Under the limit the same upload reaches the importer.
+    let e = c.import_programs(request(1000)).await.unwrap_err();
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+    assert!(e.message().contains("M.mod:2:22"), "{}", e.message());
+
+    // A Teach stream ends with OUT_OF_RANGE at an oversized command.
+    let program = app.create_program(cell.id, "p").await;
+    let routine = app.create_routine(program).await;
+    let mut session = Teach::open(&mut c).await;
+    session.start(routine).await;
+    let mut big = waypoint(&pose([0.0; 3], [0.0; 3]));
+    big.name = Some("n".repeat(8000));
+    session.send(Command::Waypoint(big)).await;
+    let e = session.rx.message().await.unwrap_err();
+    assert_eq!(e.code(), Code::OutOfRange, "{e:?}");
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoint_count"], 0);
+}
+
+/// The value of a sample line of `/metrics` (`name{labels} value`), if present.
+fn sample(metrics: &str, name_and_labels: &str) -> Option<f64> {
+    metrics.lines().find_map(|l| {
+        l.strip_prefix(name_and_labels)
+            .and_then(|rest| rest.strip_prefix(' '))
+            .and_then(|v| v.trim().parse().ok())
+    })
+}
+
+#[tokio::test]
+async fn grpc_calls_are_counted_in_metrics_and_carry_request_ids() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+
+    // A call that succeeds, one that fails, a Teach stream closed by the client, and a call
+    // to a method that does not exist.
+    let response = c
+        .create_cell(pb::CreateCellRequest {
+            name: "counted".into(),
+            settings: None,
+        })
+        .await
+        .unwrap();
+    let id = response
+        .metadata()
+        .get("x-request-id")
+        .expect("a request id");
+    assert!(!id.is_empty());
+    let cell = response.into_inner();
+    let mut request = tonic::Request::new(pb::GetCellRequest { cell_id: 999 });
+    request
+        .metadata_mut()
+        .insert("x-request-id", "pendant-42".parse().unwrap());
+    let e = c.get_cell(request).await.unwrap_err();
+    assert_eq!(e.code(), Code::NotFound);
+    assert_eq!(e.metadata().get("x-request-id").unwrap(), "pendant-42");
+    c.get_cell(pb::GetCellRequest { cell_id: cell.id })
+        .await
+        .unwrap();
+
+    let program = app.create_program(cell.id, "p").await;
+    let routine = app.create_routine(program).await;
+    let mut session = Teach::open(&mut c).await;
+    session.start(routine).await;
+    let Teach { tx, mut rx, .. } = session;
+    drop(tx);
+    // The server ends the stream with its status once the client's side is closed.
+    assert!(rx.message().await.unwrap().is_none());
+
+    let mut raw = tonic::client::Grpc::new(channel(&app).await);
+    raw.ready().await.unwrap();
+    let e = raw
+        .unary::<_, pb::ListCellsResponse, _>(
+            tonic::Request::new(pb::ListCellsRequest {}),
+            "/nextpose.v1.Nextpose/NoSuchMethod".parse().unwrap(),
+            tonic_prost::ProstCodec::default(),
+        )
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), Code::Unimplemented);
+
+    let metrics = app.client.get(app.url("/metrics")).send().await.unwrap();
+    let metrics = metrics.text().await.unwrap();
+    let calls = |method: &str, code: &str| {
+        sample(
+            &metrics,
+            &format!(
+                "nextpose_grpc_requests_total{{service=\"nextpose.v1.Nextpose\",method=\"{method}\",code=\"{code}\"}}"
+            ),
+        )
+    };
+    assert_eq!(calls("CreateCell", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(calls("GetCell", "NOT_FOUND"), Some(1.0), "{metrics}");
+    assert_eq!(calls("GetCell", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(calls("Teach", "OK"), Some(1.0), "{metrics}");
+    assert_eq!(
+        sample(
+            &metrics,
+            "nextpose_grpc_request_duration_seconds_count{service=\"nextpose.v1.Nextpose\",method=\"GetCell\"}"
+        ),
+        Some(2.0),
+        "{metrics}"
+    );
+    assert_eq!(
+        sample(
+            &metrics,
+            "nextpose_grpc_requests_total{service=\"unknown\",method=\"unknown\",code=\"UNIMPLEMENTED\"}"
+        ),
+        Some(1.0),
+        "{metrics}"
+    );
+    assert!(!metrics.contains("NoSuchMethod"), "{metrics}");
+    // The REST requests of this test are counted as before.
+    assert!(
+        metrics.contains("nextpose_http_requests_total{method=\"POST\",route=\"/v1/cells/{cell_id}/programs\",status=\"201\"} 1"),
+        "{metrics}"
+    );
 }

@@ -8,7 +8,7 @@ use serde_json::{Value, json};
 use crate::helpers::*;
 
 /// The RAPID modules of one repository in the corpus, as an upload.
-fn upload(dir: &str) -> Vec<Value> {
+pub(crate) fn upload(dir: &str) -> Vec<Value> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/corpus/raw")
         .join(dir);
