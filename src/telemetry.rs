@@ -5,6 +5,7 @@
 use prometheus_client::encoding::EncodeLabelSet;
 use prometheus_client::metrics::counter::Counter;
 use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
 use prometheus_client::metrics::histogram::{Histogram, exponential_buckets};
 use prometheus_client::registry::Registry;
 
@@ -35,7 +36,7 @@ pub struct GrpcLabels {
 pub struct GrpcCodeLabels {
     pub service: String,
     pub method: String,
-    /// The status code's name: `OK`, `NotFound`, `InvalidArgument`, `AlreadyExists`, …
+    /// The status code's canonical name: `OK`, `NOT_FOUND`, `INVALID_ARGUMENT`, …
     pub code: String,
 }
 
@@ -61,6 +62,7 @@ pub struct Metrics {
     grpc_calls: Family<GrpcCodeLabels, Counter>,
     grpc_latency: Family<GrpcLabels, Histogram, fn() -> Histogram>,
     predictions: Family<PredictionLabels, Counter>,
+    teach_sessions: Gauge,
 }
 
 impl Default for Metrics {
@@ -81,6 +83,7 @@ impl Metrics {
             latency_histogram,
         );
         let predictions = Family::<PredictionLabels, Counter>::default();
+        let teach_sessions = Gauge::default();
         registry.register(
             "http_requests",
             "HTTP requests by method, route and status",
@@ -106,6 +109,11 @@ impl Metrics {
             "Predictions made, offered or withheld by reason",
             predictions.clone(),
         );
+        registry.register(
+            "grpc_teach_sessions",
+            "gRPC Teach sessions whose commands are still being applied",
+            teach_sessions.clone(),
+        );
         Metrics {
             registry,
             requests,
@@ -113,7 +121,15 @@ impl Metrics {
             grpc_calls,
             grpc_latency,
             predictions,
+            teach_sessions,
         }
+    }
+
+    /// A Teach session starts applying commands; it counts until the returned guard is dropped
+    /// (when its task has applied its last command).
+    pub fn teach_session(&self) -> TeachSession {
+        self.teach_sessions.inc();
+        TeachSession(self.teach_sessions.clone())
     }
 
     pub fn record_request(&self, method: &str, route: &str, status: u16, seconds: f64) {
@@ -170,5 +186,15 @@ impl Metrics {
         // Writing into a String cannot fail.
         let _ = prometheus_client::encoding::text::encode(&mut out, &self.registry);
         out
+    }
+}
+
+/// Counts one Teach session in `nextpose_grpc_teach_sessions` while it lives.
+#[derive(Debug)]
+pub struct TeachSession(Gauge);
+
+impl Drop for TeachSession {
+    fn drop(&mut self) {
+        self.0.dec();
     }
 }

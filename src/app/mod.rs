@@ -522,6 +522,18 @@ impl App {
         })
     }
 
+    /// A routine to go on teaching (a teach session attaching to it): its detail, or a
+    /// conflict when it is finished.
+    pub async fn resume_routine(&self, id: i64) -> Result<RoutineDetail> {
+        let detail = self.get_routine(id).await?;
+        if detail.routine.finished {
+            return Err(AppError::Conflict(format!(
+                "routine {id} is finished; a finished routine cannot change"
+            )));
+        }
+        Ok(detail)
+    }
+
     /// Deletes a routine that is being taught, with its waypoints; the model forgets it.
     pub async fn delete_routine(&self, id: i64) -> Result<()> {
         let (mut locked, r) = self.lock_open_routine(id).await?;

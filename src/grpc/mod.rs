@@ -194,10 +194,12 @@ impl Nextpose for Service {
         let mut inbound = r.into_inner();
         let (tx, rx) = mpsc::channel(TEACH_BUFFER);
         let app = self.app.clone();
+        let counted = app.metrics().teach_session();
         // The session runs in its own task, so a command being applied always completes (the
         // application applies each one atomically); between commands the task stops as soon
         // as the client goes away.
         tokio::spawn(async move {
+            let _counted = counted;
             let mut session = Session { app, routine: None };
             loop {
                 let next = tokio::select! {
@@ -304,13 +306,7 @@ impl Session {
                 "a command (start, waypoint, undo or finish) is required",
             ))),
             Some(Command::Start(s)) => {
-                let detail = app.get_routine(s.routine_id).await.map_err(app_error)?;
-                if detail.routine.finished {
-                    return Err(app_error(AppError::Conflict(format!(
-                        "routine {} is finished; a finished routine cannot change",
-                        s.routine_id
-                    ))));
-                }
+                let detail = app.resume_routine(s.routine_id).await.map_err(app_error)?;
                 self.routine = Some(s.routine_id);
                 Ok(Event::Started(pb::Started {
                     routine: Some(detail.routine.into()),

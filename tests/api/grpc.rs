@@ -3,8 +3,6 @@
 //! as the REST loop, cancellation), import and replay (same results as REST), error mapping,
 //! metrics and request ids, token, health and reflection.
 
-use std::time::Duration;
-
 use nextpose::grpc::pb;
 use nextpose::grpc::pb::nextpose_client::NextposeClient;
 use nextpose::grpc::pb::teach_request::Command;
@@ -470,7 +468,9 @@ async fn a_dropped_teach_stream_leaves_the_routine_open_and_consistent() {
     session.send(Command::Waypoint(waypoint(&seam[3]))).await;
     session.send(Command::Waypoint(waypoint(&seam[4]))).await;
     drop(session);
-    tokio::time::sleep(Duration::from_millis(200)).await;
+    // The server's session task has applied its last command once it stops counting itself.
+    app.wait_for_metric("nextpose_grpc_teach_sessions", 0.0)
+        .await;
 
     // The routine is still open, with the waypoints sent before the drop (the three answered
     // and whichever of the two in flight the server had applied), numbered without gaps.

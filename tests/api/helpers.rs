@@ -140,6 +140,37 @@ impl TestApp {
         expect(self.get(path).await, StatusCode::OK).await
     }
 
+    /// Waits until the unlabelled sample `name` of `/metrics` reads `value` (a condition the
+    /// server reaches on its own, e.g. a session task ending after its client went away).
+    /// Gives up after 30 s.
+    pub async fn wait_for_metric(&self, name: &str, value: f64) {
+        let reached = async {
+            loop {
+                let text = self
+                    .client
+                    .get(self.url("/metrics"))
+                    .send()
+                    .await
+                    .unwrap()
+                    .text()
+                    .await
+                    .unwrap();
+                let now = text.lines().find_map(|l| {
+                    l.strip_prefix(name)
+                        .and_then(|rest| rest.strip_prefix(' '))
+                        .and_then(|v| v.trim().parse::<f64>().ok())
+                });
+                if now == Some(value) {
+                    return;
+                }
+                tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+            }
+        };
+        tokio::time::timeout(std::time::Duration::from_secs(30), reached)
+            .await
+            .unwrap_or_else(|_| panic!("{name} never reached {value}"));
+    }
+
     /// A cell whose predictions are offered even where its arm (the default IRB 140 at the
     /// work-frame origin) cannot reach them, flagged: most tests are about the teaching loop,
     /// not about reach (tests/api/reach.rs is).
