@@ -69,6 +69,10 @@ pub struct SimulateArgs {
     /// given) of the same repository, taught exactly.
     #[arg(long, value_enum, default_value_t = HistoryArg::None)]
     pub history: HistoryArg,
+    /// Suggestions the arm cannot reach: withheld (the service's default) or offered flagged
+    /// (the operator then rejects them after a look).
+    #[arg(long, value_enum, default_value_t = ReachPolicyArg::Withhold)]
+    pub reach_policy: ReachPolicyArg,
     /// Keep the profiles' σ_t and σ_q instead of setting them to the operator's repeatability.
     #[arg(long)]
     pub profile_sigmas: bool,
@@ -94,6 +98,12 @@ pub struct SimulateArgs {
 pub enum OperatorArg {
     Online,
     Precise,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ReachPolicyArg {
+    Withhold,
+    Flag,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -560,6 +570,10 @@ fn run_simulate(args: &SimulateArgs) -> Result<()> {
         history: match args.history {
             HistoryArg::None => History::None,
             HistoryArg::Repository => History::Repository,
+        },
+        reach_policy: match args.reach_policy {
+            ReachPolicyArg::Withhold => crate::kinematics::ReachPolicy::Withhold,
+            ReachPolicyArg::Flag => crate::kinematics::ReachPolicy::Flag,
         },
         calibrate_sigma: !args.profile_sigmas,
     };

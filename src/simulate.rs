@@ -20,7 +20,7 @@ use tokio::task::{JoinHandle, JoinSet};
 
 use crate::app::resources::PoseDto;
 use crate::engine::Pose;
-use crate::kinematics::{bundled_robots_dir, load_robot};
+use crate::kinematics::{ReachPolicy, bundled_robots_dir, load_robot};
 use crate::replay::Program;
 use crate::sim::plan::{RoutineResult, placement, repository, waypoint_rng};
 use crate::sim::{
@@ -270,8 +270,7 @@ pub struct Session {
     pub program_index: usize,
     pub seed: u64,
     pub warmup: Warmup,
-    /// `withhold` (the default) or `flag`.
-    pub reach_policy: String,
+    pub reach_policy: ReachPolicy,
     /// Unique within the server (cells are named).
     pub cell_name: String,
 }
@@ -525,7 +524,7 @@ pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
                     program_index: i,
                     seed,
                     warmup,
-                    reach_policy: "withhold".into(),
+                    reach_policy: plan.reach_policy,
                     cell_name: format!("sim {run} {} seed {seed} program {i}", c.key),
                 });
             }

@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::SimError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Profile;
-use crate::kinematics::Cell;
+use crate::kinematics::{Cell, ReachPolicy};
 use crate::replay::Program;
 use crate::replay::reach::{ReachCheck, ReachSetup};
 
@@ -131,6 +131,8 @@ pub struct Plan {
     pub operator: OperatorModel,
     pub limits: super::arm::JogLimits,
     pub history: History,
+    /// What the service does with suggestions the arm cannot reach.
+    pub reach_policy: ReachPolicy,
     /// Set the cell's σ_t and σ_q to the operator's repeatability (as the seed set its
     /// precision matrix from the users' scatter, §4.5.1) when larger than the profile's.
     pub calibrate_sigma: bool,

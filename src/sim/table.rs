@@ -35,6 +35,10 @@ pub struct ConditionSummary {
     pub adjusted: usize,
     pub rejected: usize,
     pub dismissed: usize,
+    /// Offered suggestions marked unreachable (policy `flag` only).
+    pub offered_unreachable: usize,
+    /// Taught waypoints outside the arm's reach.
+    pub unreachable_waypoints: usize,
     pub seed: Option<SeedFigure>,
 }
 
@@ -93,6 +97,8 @@ pub fn summarise(
             adjusted: sum(|r| r.adjusted),
             rejected: sum(|r| r.rejected),
             dismissed: sum(|r| r.dismissed),
+            offered_unreachable: sum(|r| r.offered_unreachable),
+            unreachable_waypoints: sum(|r| r.unreachable_waypoints),
             seed: c.seed,
         });
     }
