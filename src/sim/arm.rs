@@ -289,7 +289,10 @@ mod tests {
         let jog = arm.cartesian_jog(&pose(3000.0, 0.0, 400.0));
         assert!(!jog.reachable);
         assert!(arm.joints().is_none());
-        assert!((jog.time_s - 2550.0 / 250.0).abs() < 1e-9, "{}", jog.time_s);
+        // At least the TCP limit's 2550 mm / 250 mm/s; the steps still in reach may be slowed
+        // by the joints.
+        assert!(jog.time_s >= 2550.0 / 250.0 - 1e-9, "{}", jog.time_s);
+        assert!(jog.time_s < 2.0 * 2550.0 / 250.0, "{}", jog.time_s);
         // Back in reach, the arm finds its joints again.
         let jog = arm.joint_move(&pose(450.0, 0.0, 400.0));
         assert!(jog.reachable);
