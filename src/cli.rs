@@ -92,6 +92,9 @@ pub struct SimulateArgs {
     /// Also write the tables as Markdown.
     #[arg(long, value_name = "OUT.md")]
     pub markdown: Option<PathBuf>,
+    /// Also write a bar chart of the change in programming time (simulated and the seed's).
+    #[arg(long, value_name = "OUT.svg")]
+    pub svg: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -620,6 +623,21 @@ fn run_simulate(args: &SimulateArgs) -> Result<()> {
         plan.history
     ));
     text.push_str(&sim::markdown(&experiment.summary));
+    let taught: usize = experiment.summary.first().map(|r| r.waypoints).unwrap_or(0);
+    let unreachable = experiment
+        .summary
+        .first()
+        .map(|r| r.unreachable_waypoints)
+        .unwrap_or(0);
+    text.push_str(&format!(
+        "\nTaught waypoints outside the arm's reach as placed (baseline): {unreachable} of {taught}; \
+         offered suggestions out of reach: {}.\n",
+        experiment
+            .summary
+            .iter()
+            .map(|r| r.offered_unreachable)
+            .sum::<usize>()
+    ));
     text.push_str("\nMean time per routine by component:\n\n");
     text.push_str(&sim::breakdown_markdown(&experiment.summary));
     print!("{text}");
@@ -628,6 +646,14 @@ fn run_simulate(args: &SimulateArgs) -> Result<()> {
     }
     if let Some(path) = &args.json {
         write_json(path, &experiment)?;
+    }
+    if let Some(path) = &args.svg {
+        let title = format!(
+            "Change in programming time per routine vs no suggestions ({} operator)",
+            plan.operator.name
+        );
+        std::fs::write(path, sim::change_chart_svg(&experiment.summary, &title))
+            .with_context(|| format!("{}: cannot write", path.display()))?;
     }
     Ok(())
 }

@@ -14,7 +14,7 @@
 //! - [`plan`]: the conditions (the seed's φ_min/h rows and our default profile), the arm's
 //!   placement per program, the random stream per waypoint, the per-routine result.
 //! - [`stats`]: mean, standard deviation, Wilcoxon rank-sum test.
-//! - [`table`]: the summary per condition, as Markdown (and JSON through serde).
+//! - [`table`]: the summary per condition, as Markdown, an SVG bar chart, and JSON (serde).
 
 pub mod arm;
 pub mod operator;
@@ -28,7 +28,7 @@ pub use arm::{Arm, Jog, JogLimits};
 pub use operator::{Decision, Feedback, Operator, OperatorModel, Step, Suggestion, Time};
 pub use plan::{Condition, History, Plan, RoutineResult, table_4_1_conditions};
 pub use stats::{RankSum, StatsError, rank_sum};
-pub use table::{ConditionSummary, breakdown_markdown, markdown, summarise};
+pub use table::{ConditionSummary, breakdown_markdown, change_chart_svg, markdown, summarise};
 
 /// Why a simulation cannot be set up or summarised.
 #[derive(Debug, Error)]

@@ -178,6 +178,99 @@ pub fn breakdown_markdown(rows: &[ConditionSummary]) -> String {
     s
 }
 
+/// A bar chart (SVG) of the change in mean programming time against the baseline, simulated
+/// beside the seed's, per condition with predictions. Written by hand (no plotting dependency).
+pub fn change_chart_svg(rows: &[ConditionSummary], title: &str) -> String {
+    let bars: Vec<(&str, Option<f64>, Option<f64>)> = rows
+        .iter()
+        .skip(1)
+        .map(|r| {
+            (
+                r.label.as_str(),
+                r.change_pct,
+                r.seed.and_then(|f| f.change_pct),
+            )
+        })
+        .collect();
+    let lowest = bars
+        .iter()
+        .flat_map(|b| [b.1, b.2])
+        .flatten()
+        .fold(-10.0f64, f64::min);
+    let y_min = (lowest / 10.0).floor() * 10.0;
+    let (w, h, left, top, bottom) = (760.0, 360.0, 70.0, 40.0, 60.0);
+    let plot_h = h - top - bottom;
+    // y = 0 at the top of the plot area, y_min at its bottom.
+    let y = |v: f64| top + plot_h * (v / y_min).clamp(0.0, 1.0);
+    let group = (w - left - 20.0) / bars.len().max(1) as f64;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="20" text-anchor="middle" font-size="14">{}</text>"#,
+        w / 2.0,
+        escape(title)
+    );
+    let mut tick = 0.0;
+    while tick >= y_min {
+        let ty = y(tick);
+        let _ = writeln!(
+            s,
+            r##"<line x1="{left}" x2="{}" y1="{ty:.1}" y2="{ty:.1}" stroke="#ddd"/><text x="{}" y="{:.1}" text-anchor="end">{tick:.0} %</text>"##,
+            w - 20.0,
+            left - 6.0,
+            ty + 4.0
+        );
+        tick -= 10.0;
+    }
+    for (i, (label, ours, seed)) in bars.iter().enumerate() {
+        let x0 = left + group * i as f64;
+        let bw = group * 0.3;
+        for (j, (v, colour)) in [(ours, "#3b6ea5"), (seed, "#aaaaaa")].iter().enumerate() {
+            let Some(v) = v else { continue };
+            let x = x0 + group * 0.15 + bw * j as f64 + 2.0 * j as f64;
+            let (ya, yb) = (y(0.0), y(v.min(0.0)));
+            let _ = writeln!(
+                s,
+                r#"<rect x="{x:.1}" y="{ya:.1}" width="{bw:.1}" height="{:.1}" fill="{colour}"/><text x="{:.1}" y="{:.1}" text-anchor="middle">{v:+.1}</text>"#,
+                (yb - ya).max(0.5),
+                x + bw / 2.0,
+                yb + 14.0
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+            x0 + group / 2.0,
+            h - bottom + 34.0,
+            escape(label)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r##"<rect x="{left}" y="{}" width="12" height="12" fill="#3b6ea5"/><text x="{}" y="{}">simulated</text><rect x="{}" y="{}" width="12" height="12" fill="#aaaaaa"/><text x="{}" y="{}">seed, Table 4.1 (lab operators)</text>"##,
+        h - 18.0,
+        left + 16.0,
+        h - 8.0,
+        left + 110.0,
+        h - 18.0,
+        left + 126.0,
+        h - 8.0
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+fn escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,6 +322,9 @@ mod tests {
         assert!(md.contains("| none | 20 | 109.5 |"), "{md}");
         assert!(md.contains("-33.88 %"), "{md}");
         assert!(breakdown_markdown(&rows).contains("| default profile | 60 |"));
+        let svg = change_chart_svg(&rows, "change <test>");
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert!(svg.contains("-33.9") && svg.contains("change &lt;test&gt;"), "{svg}");
         let missing = summarise(&conditions, &results[..1]);
         assert!(matches!(missing, Err(SimError::NoResults(_))));
     }
