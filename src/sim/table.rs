@@ -324,7 +324,10 @@ mod tests {
         assert!(breakdown_markdown(&rows).contains("| default profile | 60 |"));
         let svg = change_chart_svg(&rows, "change <test>");
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-        assert!(svg.contains("-33.9") && svg.contains("change &lt;test&gt;"), "{svg}");
+        assert!(
+            svg.contains("-33.9") && svg.contains("change &lt;test&gt;"),
+            "{svg}"
+        );
         let missing = summarise(&conditions, &results[..1]);
         assert!(matches!(missing, Err(SimError::NoResults(_))));
     }
