@@ -12,6 +12,9 @@
 //! - [`http`]: the REST adapter (axum): extraction, routing, error mapping, OpenAPI.
 //! - [`grpc`]: the gRPC adapter (tonic) on the same port: the same operations, a streaming
 //!   teach session, reflection and health.
+//! - [`sim`]: the simulated arm and operator, the experiment plan, statistics and the
+//!   programming-time table (pure, deterministic given a seed).
+//! - [`simulate`]: the driver that runs the simulated operator against a real server.
 //! - [`server`]: start-up and graceful shutdown of the service.
 //! - [`telemetry`]: Prometheus metrics.
 //! - [`cli`]: the `nextpose` command line.
@@ -29,5 +32,7 @@ pub mod import;
 pub mod kinematics;
 pub mod replay;
 pub mod server;
+pub mod sim;
+pub mod simulate;
 pub mod storage;
 pub mod telemetry;

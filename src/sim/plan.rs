@@ -1,0 +1,269 @@
+//! The experiment: conditions (the seed's Table 4.1 rows and our default profile), seeds, the
+//! arm's placement per program, the random stream per waypoint, and what one taught routine
+//! yields.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::SimError;
+use super::operator::{OperatorModel, Time};
+use crate::engine::Profile;
+use crate::kinematics::{Cell, ReachPolicy};
+use crate::replay::Program;
+use crate::replay::reach::{ReachCheck, ReachSetup};
+
+/// One row of the seed's Table 4.1.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SeedFigure {
+    pub mean_s: f64,
+    pub std_s: f64,
+    /// Change of the mean against the baseline, %.
+    pub change_pct: Option<f64>,
+    /// The seed's "Wilcoxon confidence", % (1 − p).
+    pub confidence_pct: Option<f64>,
+}
+
+/// How the service is set up for one arm of the experiment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Condition {
+    /// Short name used in cell names and JSON (`none`, `seed_phi08_h3`, …).
+    pub key: String,
+    /// What the table shows.
+    pub label: String,
+    /// Whether the operator sees suggestions. Without, the service still runs; its suggestions
+    /// are ignored and get no feedback.
+    pub predictions: bool,
+    pub profile: Profile,
+    /// Overrides of the profile's δ, φ_min and h.
+    pub delta: Option<f64>,
+    pub phi_min: Option<f64>,
+    pub horizon: Option<usize>,
+    /// The seed's figure for this row, for reference.
+    pub seed: Option<SeedFigure>,
+}
+
+/// δ of the seed's lab study (§4.5.3).
+pub const SEED_LAB_DELTA: f64 = 0.8;
+
+/// The seed's Table 4.1 rows (seed profile, δ = 0.8) and the default profile.
+pub fn table_4_1_conditions() -> Vec<Condition> {
+    let seed_row = |key: &str, label: &str, phi: f64, h: usize, fig: SeedFigure| Condition {
+        key: key.into(),
+        label: label.into(),
+        predictions: true,
+        profile: Profile::Seed,
+        delta: Some(SEED_LAB_DELTA),
+        phi_min: Some(phi),
+        horizon: Some(h),
+        seed: Some(fig),
+    };
+    vec![
+        Condition {
+            key: "none".into(),
+            label: "none".into(),
+            predictions: false,
+            profile: Profile::Default,
+            delta: None,
+            phi_min: None,
+            horizon: None,
+            seed: Some(SeedFigure {
+                mean_s: 292.2,
+                std_s: 78.61,
+                change_pct: None,
+                confidence_pct: None,
+            }),
+        },
+        seed_row(
+            "seed_phi08_h3",
+            "seed profile, φ ≥ 0.8, h = 3",
+            0.8,
+            3,
+            SeedFigure {
+                mean_s: 193.2,
+                std_s: 32.07,
+                change_pct: Some(-33.88),
+                confidence_pct: Some(99.95),
+            },
+        ),
+        seed_row(
+            "seed_phi05_h2",
+            "seed profile, φ ≥ 0.5, h = 2",
+            0.5,
+            2,
+            SeedFigure {
+                mean_s: 178.0,
+                std_s: 33.39,
+                change_pct: Some(-39.08),
+                confidence_pct: Some(99.99),
+            },
+        ),
+        Condition {
+            key: "default".into(),
+            label: "default profile".into(),
+            predictions: true,
+            profile: Profile::Default,
+            delta: None,
+            phi_min: None,
+            horizon: None,
+            seed: None,
+        },
+    ]
+}
+
+/// What the cell already knows when the operator starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum History {
+    /// An empty model: the program is new to the cell.
+    None,
+    /// The programs of the same repository that come before it (in the order given) were
+    /// taught exactly, as offline programs, in the same cell: like the seed's lab study, whose
+    /// model was built from earlier programs of the same tasks.
+    Repository,
+}
+
+/// Everything that defines a run, besides the programs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plan {
+    pub conditions: Vec<Condition>,
+    pub seeds: Vec<u64>,
+    pub operator: OperatorModel,
+    pub limits: super::arm::JogLimits,
+    pub history: History,
+    /// What the service does with suggestions the arm cannot reach.
+    pub reach_policy: ReachPolicy,
+    /// Set the cell's σ_t and σ_q to the operator's repeatability (as the seed set its
+    /// precision matrix from the users' scatter, §4.5.1) when larger than the profile's.
+    pub calibrate_sigma: bool,
+}
+
+impl Plan {
+    /// The cell's σ_t (mm) and σ_q for `profile` under this plan.
+    pub fn sigmas(&self, profile: Profile) -> (f64, f64) {
+        let base = crate::engine::EngineConfig::profile(profile);
+        if !self.calibrate_sigma {
+            return (base.sigma_t, base.sigma_q);
+        }
+        // A rotation by a small angle θ about an axis changes the quaternion's vector part by θ/2.
+        (
+            base.sigma_t.max(self.operator.sigma_axis_mm()),
+            base.sigma_q.max(0.5 * self.operator.sigma_axis_rad()),
+        )
+    }
+}
+
+/// Where the arm stands for a program: a bundled robot for the program's language, placed
+/// like the replay's reachability check (the program's median waypoint at a comfortable
+/// point in front of the base; `replay::reach`).
+pub fn placement(program: &Program) -> Result<(String, Cell), SimError> {
+    let (robot, centroid) = match program.language.as_str() {
+        // The replay's IRB 140 setup for ABB programs.
+        "rapid" => ("abb_irb140", [450.0, 0.0, 350.0]),
+        // A KR 16 (1.6 m reach) for KUKA programs, and as a stand-in for FANUC arms of its
+        // class (no FANUC model is bundled).
+        _ => ("kuka_kr16_2", [900.0, 0.0, 500.0]),
+    };
+    let check = ReachCheck::new(ReachSetup {
+        robot: robot.to_string(),
+        languages: vec![program.language.clone()],
+        centroid_in_base_mm: centroid,
+    })?;
+    let cell = check
+        .cell_for(program)
+        .ok_or_else(|| SimError::NoPlacement(program.name.clone()))?;
+    Ok((robot.to_string(), cell))
+}
+
+/// The repository a corpus program comes from (`owner__repo`, the start of its file name).
+pub fn repository(program: &Program) -> String {
+    program
+        .name
+        .splitn(3, "__")
+        .take(2)
+        .collect::<Vec<_>>()
+        .join("__")
+}
+
+fn splitmix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The random stream of one waypoint. It depends only on the seed and the waypoint's place in
+/// the corpus, not on the condition, so the operator's hand placement of a waypoint is the
+/// same in every condition (common random numbers: the conditions differ only by what the
+/// suggestions change).
+pub fn waypoint_rng(seed: u64, program: usize, routine: usize, waypoint: usize) -> ChaCha8Rng {
+    let mut h = splitmix(seed);
+    for v in [program, routine, waypoint] {
+        h = splitmix(h ^ v as u64);
+    }
+    ChaCha8Rng::seed_from_u64(h)
+}
+
+/// What teaching one routine took, in one condition, for one seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RoutineResult {
+    pub condition: String,
+    pub seed: u64,
+    pub program: String,
+    pub program_index: usize,
+    pub routine: String,
+    pub routine_index: usize,
+    pub waypoints: usize,
+    /// Simulated programming time, s.
+    pub time_s: f64,
+    pub time: Time,
+    /// Suggestions offered for waypoints of the routine (and after its last one).
+    pub offered: usize,
+    pub accepted: usize,
+    pub adjusted: usize,
+    pub rejected: usize,
+    /// Suggestions after the last waypoint, dismissed (counted in `rejected` too).
+    pub dismissed: usize,
+    /// Offered suggestions the service marked unreachable (only with `reach_policy: flag`).
+    pub offered_unreachable: usize,
+    /// Taught waypoints outside the arm's reach.
+    pub unreachable_waypoints: usize,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::Rng;
+
+    #[test]
+    fn waypoint_streams_are_reproducible_and_distinct() {
+        let a: f64 = waypoint_rng(1, 2, 3, 4).random();
+        let b: f64 = waypoint_rng(1, 2, 3, 4).random();
+        let c: f64 = waypoint_rng(1, 2, 3, 5).random();
+        let d: f64 = waypoint_rng(2, 2, 3, 4).random();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        assert_ne!(a, d);
+    }
+
+    #[test]
+    fn the_table_has_the_seed_rows() {
+        let c = table_4_1_conditions();
+        assert_eq!(c.len(), 4);
+        assert!(!c[0].predictions);
+        assert_eq!(c[1].phi_min, Some(0.8));
+        assert_eq!(c[2].horizon, Some(2));
+        assert_eq!(c[1].seed.and_then(|s| s.change_pct), Some(-33.88));
+    }
+
+    #[test]
+    fn repository_is_owner_and_repo() {
+        let p = Program {
+            name: "zwj12__AddInPackages__ZhongXun__Source__X.mod".into(),
+            source: "x".into(),
+            language: "rapid".into(),
+            routines: vec![],
+        };
+        assert_eq!(repository(&p), "zwj12__AddInPackages");
+    }
+}

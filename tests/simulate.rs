@@ -1,0 +1,305 @@
+//! The simulated operator teaching real corpus programs against the real server (loopback
+//! port, temporary SQLite file): the end-to-end test of cells, import, teaching, predictions,
+//! reachability, feedback, stats and rebuild. Times are simulated, never measured; nothing
+//! sleeps. The corpus is read from `../shared/corpus` and never written.
+
+use std::path::{Path, PathBuf};
+
+use nextpose::kinematics::ReachPolicy;
+use nextpose::replay::{Program, load_paths};
+use nextpose::sim::{
+    Condition, Decision, History, JogLimits, OperatorModel, Plan, RoutineResult,
+    table_4_1_conditions,
+};
+use nextpose::simulate::{
+    Client, LocalServer, PredictionView, Session, SessionOutcome, Warmup, run_session,
+};
+
+const TEMPLATE: &str =
+    "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20023_Module.mod.json";
+const PALLETIZING: &str = "djordjeristic04__Robotic-Palletizing-System__PlacePaths.mod.json";
+const MODULE: &str = "jvalta__Robottijarjestelmaprojekti__Module1.mod.json";
+
+fn corpus() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus")
+}
+
+fn program(name: &str) -> Program {
+    let path = corpus().join("json").join(name);
+    load_paths(&[path]).expect("corpus program").remove(0)
+}
+
+fn plan(operator: OperatorModel, policy: ReachPolicy) -> Plan {
+    Plan {
+        conditions: table_4_1_conditions(),
+        seeds: vec![1],
+        operator,
+        limits: JogLimits::default(),
+        history: History::None,
+        reach_policy: policy,
+        calibrate_sigma: true,
+    }
+}
+
+fn precise() -> OperatorModel {
+    OperatorModel::precise(JogLimits::default().tcp_mm_s)
+}
+
+fn online() -> OperatorModel {
+    OperatorModel::online(JogLimits::default().tcp_mm_s)
+}
+
+fn condition(key: &str) -> Condition {
+    table_4_1_conditions()
+        .into_iter()
+        .find(|c| c.key == key)
+        .expect("condition")
+}
+
+/// A session in its own, uniquely named cell.
+fn session(plan: &Plan, key: &str, program: &Program, seed: u64, cell: &str) -> Session {
+    Session {
+        condition: condition(key),
+        program: program.clone(),
+        program_index: 0,
+        seed,
+        warmup: Warmup::None,
+        reach_policy: plan.reach_policy,
+        cell_name: cell.to_string(),
+    }
+}
+
+fn total(o: &SessionOutcome, f: fn(&RoutineResult) -> usize) -> usize {
+    o.routines.iter().map(f).sum()
+}
+
+fn time(o: &SessionOutcome) -> f64 {
+    o.routines.iter().map(|r| r.time_s).sum()
+}
+
+/// A prediction without the id the server gave its record (a new record gets a new id).
+fn without_ids(mut ps: Vec<PredictionView>) -> Vec<PredictionView> {
+    for p in &mut ps {
+        p.id = None;
+    }
+    ps
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn three_corpus_programs_end_to_end() {
+    let server = LocalServer::start().await.expect("server");
+    let client = Client::new(&server.base, None);
+    let plan = plan(precise(), ReachPolicy::Withhold);
+    for (i, name) in [TEMPLATE, PALLETIZING, MODULE].into_iter().enumerate() {
+        let p = program(name);
+        let o = run_session(&client, &plan, &session(&plan, "default", &p, 1, name))
+            .await
+            .expect("session");
+        let (offered, accepted, adjusted, rejected) = (
+            total(&o, |r| r.offered),
+            total(&o, |r| r.accepted),
+            total(&o, |r| r.adjusted),
+            total(&o, |r| r.rejected),
+        );
+
+        // Repeated patterns are predicted, and predicted right: an accepted suggestion is within
+        // 1 mm and 0.1 rad of the waypoint the operator intended.
+        assert!(
+            accepted >= 1,
+            "{name}: offered {offered}, accepted {accepted}"
+        );
+        let shown: Vec<_> = o.predictions.iter().filter(|p| p.offered).collect();
+        assert_eq!(shown.len(), offered);
+        assert!(
+            shown.iter().all(|p| p.decision.is_some()),
+            "{name}: every offered suggestion gets a decision"
+        );
+
+        // Under the default policy nothing out of the arm's reach is offered.
+        assert!(
+            shown.iter().all(|p| p.reachable == Some(true)),
+            "{name}: an offered suggestion is not reachable"
+        );
+        assert_eq!(total(&o, |r| r.offered_unreachable), 0);
+
+        // The cell's statistics count exactly what the operator did.
+        let f = &o.stats.feedback;
+        assert_eq!(f.offered as usize, offered, "{name}");
+        assert_eq!(f.accepted as usize, accepted, "{name}");
+        assert_eq!(f.adjusted as usize, adjusted, "{name}");
+        assert_eq!(f.rejected as usize, rejected, "{name}");
+        assert_eq!(f.pending, 0, "{name}");
+        assert_eq!(offered, accepted + adjusted + rejected);
+        assert_eq!(o.stats.model.routines as usize, p.routines.len());
+
+        // The model after the session is the one a rebuild from the database gives: the same
+        // figures, and the same predictions for a routine that repeats the program's start.
+        let pid = client
+            .create_program(o.stats.cell_id, "rebuild check")
+            .await
+            .expect("program");
+        let rid = client.create_routine(pid, "again").await.expect("routine");
+        let first = &p.routines[0].waypoints;
+        for w in first.iter().take(3.min(first.len())) {
+            client.append(rid, w).await.expect("append");
+        }
+        let before_model = client.stats(o.stats.cell_id).await.expect("stats").model;
+        let before = client.predict(rid, 3).await.expect("predict");
+        let rebuilt = client.rebuild(o.stats.cell_id).await.expect("rebuild");
+        let after = client.predict(rid, 3).await.expect("predict");
+        assert_eq!(rebuilt, before_model, "{name}: the rebuilt model differs");
+        assert_eq!(without_ids(before), without_ids(after), "{name}");
+        assert_eq!(o.stats.model.routines, before_model.routines, "{name}");
+        eprintln!(
+            "{i} {name}: {offered} offered, {accepted} accepted, {adjusted} adjusted, \
+             {rejected} rejected"
+        );
+    }
+    server.stop().await.expect("stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
+    let server = LocalServer::start().await.expect("server");
+    let client = Client::new(&server.base, None);
+    let p = program(TEMPLATE);
+    let withhold = plan(precise(), ReachPolicy::Withhold);
+    let flag = plan(precise(), ReachPolicy::Flag);
+    let key = "seed_phi05_h2";
+    let w = run_session(
+        &client,
+        &withhold,
+        &session(&withhold, key, &p, 1, "withhold"),
+    )
+    .await
+    .expect("session");
+    let f = run_session(&client, &flag, &session(&flag, key, &p, 1, "flag"))
+        .await
+        .expect("session");
+    // A flagged suggestion is rejected after a look, so the operator teaches the same poses
+    // either way and the service makes the same predictions; only the offering differs.
+    let withheld: Vec<(usize, usize)> = w
+        .predictions
+        .iter()
+        .filter(|p| p.withheld.as_deref() == Some("unreachable"))
+        .map(|p| (p.routine_index, p.after_waypoints))
+        .collect();
+    let flagged: Vec<(usize, usize)> = f
+        .predictions
+        .iter()
+        .filter(|p| p.offered && p.reachable == Some(false))
+        .map(|p| (p.routine_index, p.after_waypoints))
+        .collect();
+    assert!(
+        !withheld.is_empty(),
+        "this program has suggestions out of reach"
+    );
+    assert_eq!(withheld, flagged);
+    assert!(
+        w.predictions
+            .iter()
+            .filter(|p| p.offered)
+            .all(|p| p.reachable == Some(true))
+    );
+    assert!(
+        f.predictions
+            .iter()
+            .filter(|p| p.offered && p.reachable == Some(false))
+            .all(|p| p.decision == Some(Decision::Reject) || p.decision == Some(Decision::Dismiss))
+    );
+    assert_eq!(total(&f, |r| r.offered_unreachable), flagged.len());
+    assert_eq!(
+        total(&f, |r| r.offered),
+        total(&w, |r| r.offered) + flagged.len()
+    );
+    // Looking at a suggestion that cannot be reached costs time.
+    assert!(time(&f) > time(&w));
+    server.stop().await.expect("stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sessions_are_deterministic_given_a_seed() {
+    let server = LocalServer::start().await.expect("server");
+    let client = Client::new(&server.base, None);
+    let plan = plan(online(), ReachPolicy::Withhold);
+    let p = program(MODULE);
+    let key = "seed_phi05_h2";
+    let a = run_session(&client, &plan, &session(&plan, key, &p, 7, "a"))
+        .await
+        .expect("session");
+    let b = run_session(&client, &plan, &session(&plan, key, &p, 7, "b"))
+        .await
+        .expect("session");
+    let c = run_session(&client, &plan, &session(&plan, key, &p, 8, "c"))
+        .await
+        .expect("session");
+    assert_eq!(a.routines, b.routines);
+    assert_eq!(a.predictions, b.predictions);
+    assert_eq!(a.stats.model, b.stats.model);
+    assert_eq!(a.stats.feedback, b.stats.feedback);
+    assert_ne!(
+        time(&a),
+        time(&c),
+        "another seed places the waypoints differently"
+    );
+    assert!(total(&a, |r| r.offered) > 0);
+    server.stop().await.expect("stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn suggestions_save_time_only_when_shown() {
+    let server = LocalServer::start().await.expect("server");
+    let client = Client::new(&server.base, None);
+    let plan = plan(precise(), ReachPolicy::Withhold);
+    let p = program(PALLETIZING);
+    let none = run_session(&client, &plan, &session(&plan, "none", &p, 1, "none"))
+        .await
+        .expect("session");
+    let default = run_session(&client, &plan, &session(&plan, "default", &p, 1, "default"))
+        .await
+        .expect("session");
+    // Without suggestions the operator gives no feedback; the service's suggestions stay
+    // pending, and every waypoint is taught by hand.
+    assert_eq!(total(&none, |r| r.accepted + r.adjusted + r.rejected), 0);
+    assert_eq!(none.stats.feedback.pending, none.stats.feedback.offered);
+    assert!(none.predictions.iter().all(|p| p.decision.is_none()));
+    assert!(none.routines.iter().all(|r| r.time.look_s == 0.0));
+    // With them, accepted suggestions replace the aiming: the program takes less time.
+    assert!(total(&default, |r| r.accepted) > 0);
+    assert!(
+        time(&default) < time(&none),
+        "{} vs {}",
+        time(&default),
+        time(&none)
+    );
+    server.stop().await.expect("stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_imported_offline_program_seeds_the_cell() {
+    let server = LocalServer::start().await.expect("server");
+    let client = Client::new(&server.base, None);
+    let plan = plan(precise(), ReachPolicy::Withhold);
+    let raw = corpus()
+        .join("raw/zwj12__AddInPackages/ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20014_Module.mod");
+    let text = std::fs::read_to_string(&raw).expect("raw program");
+    let p = program(TEMPLATE);
+    let fresh = run_session(&client, &plan, &session(&plan, "default", &p, 1, "fresh"))
+        .await
+        .expect("session");
+    let mut s = session(&plan, "default", &p, 1, "seeded");
+    s.warmup = Warmup::Import(vec![("Template_20014_Module.mod".into(), text)]);
+    let seeded = run_session(&client, &plan, &s).await.expect("session");
+    // The imported routines are learned before the operator starts.
+    assert!(seeded.stats.model.routines > fresh.stats.model.routines);
+    let first_routine = |o: &SessionOutcome| o.routines[0].offered;
+    eprintln!(
+        "first routine offered: fresh {}, seeded {}; total fresh {}, seeded {}",
+        first_routine(&fresh),
+        first_routine(&seeded),
+        total(&fresh, |r| r.offered),
+        total(&seeded, |r| r.offered)
+    );
+    assert!(seeded.stats.feedback.pending == 0);
+    server.stop().await.expect("stop");
+}
