@@ -911,12 +911,18 @@ where
             colour.mix(0.55).filled(),
         )))?;
     }
+    let right_edge = xr.end - 0.1 * (xr.end - xr.start);
     chart.draw_series(labelled.iter().map(|&&(_, n, at)| {
-        // Above the circle.
+        // Left of circles near the right edge, right of the others.
+        let dx = if at.0 > right_edge {
+            -radius(n) - 40
+        } else {
+            radius(n) + 3
+        };
         EmptyElement::at(at)
             + Text::new(
                 format!("{n}"),
-                (-12, -radius(n) - 18),
+                (dx, -8),
                 (FONT, 14).into_font().color(&BLACK),
             )
     }))?;
