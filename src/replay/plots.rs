@@ -841,7 +841,7 @@ where
             .iter()
             .filter(|c| c.0 == colour && c.1 >= 10)
             .collect();
-        mine.sort_by(|a, b| b.1.cmp(&a.1));
+        mine.sort_by_key(|c| std::cmp::Reverse(c.1));
         labelled.extend(mine.into_iter().take(3));
     }
 
