@@ -1,7 +1,7 @@
 //! The `nextpose` command line.
 //!
 //! - `nextpose replay <PATHS>...` replays corpus programs through the engine and the baselines
-//!   and prints the scoreboard (optionally writes it as JSON).
+//!   and prints the scoreboard (optionally writes it as JSON, and plots as PNG and SVG).
 //! - `nextpose sweep <PATHS>...` replays the engine over a grid of δ, φ_min and h.
 //!
 //! Engine settings start from a named profile; each flag overrides one field, and the result is
@@ -19,6 +19,7 @@ use crate::engine::config::{MergeRule, RecallGate};
 use crate::engine::{EngineConfig, Profile};
 use crate::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use crate::replay::engine_method::EngineMethod;
+use crate::replay::plots::{PlotGrid, plot_data, write_plots};
 use crate::replay::report::{RunConfig, replay_all};
 use crate::replay::sweep::{sweep, sweep_table};
 use crate::replay::{Method, load_paths};
@@ -162,7 +163,8 @@ pub struct ServeArgs {
 
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
-    /// Corpus JSON files, or directories of them (all *.json, sorted by name).
+    /// Corpus JSON files or raw program files (RAPID, KRL, FANUC TP; all raw files named are one
+    /// upload), or directories of them (all *.json sorted by name; else the raw files).
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     #[command(flatten)]
@@ -177,11 +179,18 @@ pub struct ReplayArgs {
     /// Print only the totals table (no per-program table).
     #[arg(long)]
     pub quiet: bool,
+    /// Also write the plots (offered/useful % vs phi_min, median error vs delta, median error
+    /// vs moves assimilated, confidence vs error) into this directory, each as PNG and SVG,
+    /// with the plotted numbers in plots.json.
+    /// The two sweeps replay the engine 31 more times.
+    #[arg(long, value_name = "DIR")]
+    pub plots: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// Corpus JSON files, or directories of them (all *.json, sorted by name).
+    /// Corpus JSON files or raw program files (RAPID, KRL, FANUC TP; all raw files named are one
+    /// upload), or directories of them (all *.json sorted by name; else the raw files).
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     /// Base engine settings; --delta, --phi-min and --horizon are replaced by the grid.
@@ -517,7 +526,7 @@ fn run_replay(args: &ReplayArgs) -> Result<()> {
         EngineMethod::new(config.clone()).context("invalid engine settings")?,
     )];
     methods.extend(baselines::all(&config, args.gate));
-    let run_config = RunConfig::new(args.engine.profile_name(), config, args.gate);
+    let run_config = RunConfig::new(args.engine.profile_name(), config.clone(), args.gate);
     let report = replay_all(&programs, &mut methods, run_config);
 
     let mut out = std::io::stdout().lock();
@@ -527,6 +536,22 @@ fn run_replay(args: &ReplayArgs) -> Result<()> {
     write!(out, "{}", report.totals_table())?;
     if let Some(path) = &args.json {
         write_json(path, &report)?;
+    }
+    if let Some(dir) = &args.plots {
+        let data = plot_data(
+            &programs,
+            args.engine.profile_name(),
+            &config,
+            &PlotGrid::default(),
+        )
+        .context("invalid plot sweep settings")?;
+        let written = write_plots(dir, &data)?;
+        writeln!(
+            out,
+            "wrote {} plot files to {}",
+            written.len(),
+            dir.display()
+        )?;
     }
     Ok(())
 }

@@ -171,6 +171,7 @@ fn rec(n: usize, offered: Option<(f64, f64)>, travel_mm: f64, conf: Option<f64>)
         confidence: conf,
         phi: None,
         psi: None,
+        assimilated: None,
         micros: 2.0,
     }
 }
@@ -195,6 +196,7 @@ fn metrics_arithmetic_on_hand_made_records() {
             states: 4,
             edges: 6,
             perplexity: 1.5,
+            observations: 9,
         }),
     };
     let m = Metrics::of_program(&record);
@@ -230,6 +232,7 @@ fn metrics_arithmetic_on_hand_made_records() {
         states: 6,
         edges: 1,
         perplexity: 2.5,
+        observations: 9,
     });
     let t = Metrics::of_programs([&record, &other]);
     assert_eq!((t.predictable, t.offered, t.useful), (10, 8, 4));

@@ -67,6 +67,7 @@ impl Method for EngineMethod {
             states: s.states,
             edges: s.edges,
             perplexity: s.perplexity,
+            observations: s.observations,
         })
     }
 }

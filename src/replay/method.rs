@@ -24,6 +24,8 @@ pub struct ModelSummary {
     pub edges: usize,
     /// Mean out-degree of states.
     pub perplexity: f64,
+    /// Moves (waypoint to waypoint) assimilated into the model so far.
+    pub observations: u64,
 }
 
 /// A predictor under replay.

@@ -52,6 +52,9 @@ pub struct WaypointRecord {
     pub phi: Option<f64>,
     /// Engine only: ψ̂.
     pub psi: Option<f64>,
+    /// Moves the method's model had assimilated when it made this prediction, all routines of
+    /// the program so far (`None` for methods without a model). The x axis of the learning curve.
+    pub assimilated: Option<u64>,
     /// Wall-clock time of `predict` + `observe` for this waypoint, µs. Measured, never asserted.
     pub micros: f64,
 }
@@ -89,6 +92,7 @@ pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramReco
                 method.observe(&w[..1]);
                 continue;
             }
+            let assimilated = method.summary().map(|s| s.observations);
             let start = Instant::now();
             let guess = method.predict(&w[..n]);
             method.observe(&w[..=n]);
@@ -105,6 +109,7 @@ pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramReco
                 confidence: guess.as_ref().and_then(|g| g.confidence),
                 phi: guess.as_ref().and_then(|g| g.phi),
                 psi: guess.as_ref().and_then(|g| g.psi),
+                assimilated,
                 micros,
             });
         }

@@ -24,6 +24,7 @@ pub struct SweepRow {
     pub offered_pct: Option<f64>,
     pub precision_pct: Option<f64>,
     pub median_cart_mm: Option<f64>,
+    pub median_angle_rad: Option<f64>,
     /// Summed over programs.
     pub states: Option<usize>,
 }
@@ -72,6 +73,7 @@ pub fn sweep(
                 offered_pct: m.offered_pct,
                 precision_pct: m.precision_pct,
                 median_cart_mm: m.median_cart_mm,
+                median_angle_rad: m.median_angle_rad,
                 states: m.states,
             })
         })

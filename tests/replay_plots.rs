@@ -1,0 +1,121 @@
+//! `nextpose replay --plots DIR` and the plots library on a small subset of the shared corpus:
+//! every figure is written as a PNG that decodes to the documented size and as an SVG document.
+
+use std::path::{Path, PathBuf};
+
+use clap::Parser;
+use nextpose::cli::{Cli, run_cli};
+use nextpose::engine::EngineConfig;
+use nextpose::replay::load_paths;
+use nextpose::replay::plots::{
+    Figure, PlotGrid, learning_curve, plot_data, render_svg, write_plots,
+};
+
+/// Two 60-waypoint RAPID programs of one cell (similar templates: the engine offers guesses).
+fn subset() -> Vec<PathBuf> {
+    let dir = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/corpus/json"
+    ));
+    [
+        "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_10014_Module.mod.json",
+        "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_10023_Module.mod.json",
+    ]
+    .iter()
+    .map(|f| dir.join(f))
+    .collect()
+}
+
+/// A valid PNG of the figure's size: signature, header and every chunk (CRCs, zlib stream) decode.
+fn assert_png(path: &Path, size: (u32, u32)) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{}", path.display());
+    let decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let frame = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!((frame.width, frame.height), size, "{}", path.display());
+    // Not a blank canvas: some pixels are neither white nor one flat colour.
+    let distinct: std::collections::BTreeSet<&[u8]> =
+        pixels[..frame.buffer_size()].chunks(3).collect();
+    assert!(
+        distinct.len() > 10,
+        "{}: {} colours",
+        path.display(),
+        distinct.len()
+    );
+}
+
+fn assert_svg(path: &Path) {
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.starts_with("<svg"), "{}", path.display());
+    assert!(text.trim_end().ends_with("</svg>"), "{}", path.display());
+    assert!(text.contains("<text"), "{}: no text", path.display());
+}
+
+#[test]
+fn library_writes_every_figure_as_png_and_svg() {
+    let programs = load_paths(&subset()).unwrap();
+    let config = EngineConfig::default();
+    let grid = PlotGrid {
+        phi_mins: vec![0.0, 0.5, 0.9],
+        deltas: vec![0.5, 0.9],
+    };
+    let data = plot_data(&programs, "default", &config, &grid).unwrap();
+    assert_eq!(data.phi_sweep.len(), 3);
+    assert_eq!(data.delta_sweep.len(), 2);
+    // The learning curve has points: the model learns as the programs are taught.
+    let bins = learning_curve(&data.records);
+    assert!(bins.iter().any(|b| b.offered > 0), "{bins:?}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plots");
+    let written = write_plots(&out, &data).unwrap();
+    assert_eq!(written.len(), 2 * Figure::ALL.len() + 1);
+    let numbers: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plots.json")).unwrap()).unwrap();
+    assert_eq!(numbers["phi_sweep"].as_array().map(Vec::len), Some(3));
+    assert_eq!(
+        numbers["learning_curve"].as_array().map(Vec::len),
+        Some(bins.len())
+    );
+    for figure in Figure::ALL {
+        assert_png(
+            &out.join(format!("{}.png", figure.file_stem())),
+            figure.size(),
+        );
+        assert_svg(&out.join(format!("{}.svg", figure.file_stem())));
+    }
+    // The captions say what is plotted.
+    let svg = render_svg(Figure::PhiMin, &data).unwrap();
+    assert!(svg.contains("φ_min"), "{svg}");
+}
+
+#[test]
+fn replay_cli_writes_plots_into_the_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("nested").join("plots");
+    let mut args: Vec<String> = vec!["nextpose".into(), "replay".into(), "--quiet".into()];
+    args.extend(subset().iter().map(|p| p.display().to_string()));
+    args.extend(["--plots".into(), out.display().to_string()]);
+    run_cli(Cli::try_parse_from(args).unwrap()).unwrap();
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut expected: Vec<String> = Figure::ALL
+        .iter()
+        .flat_map(|f| ["png", "svg"].map(|ext| format!("{}.{ext}", f.file_stem())))
+        .collect();
+    expected.push("plots.json".into());
+    expected.sort();
+    assert_eq!(names, expected);
+    for figure in Figure::ALL {
+        assert_png(
+            &out.join(format!("{}.png", figure.file_stem())),
+            figure.size(),
+        );
+        assert_svg(&out.join(format!("{}.svg", figure.file_stem())));
+    }
+}
