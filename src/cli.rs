@@ -164,7 +164,8 @@ pub struct ServeArgs {
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
     /// Corpus JSON files or raw program files (RAPID, KRL, FANUC TP; all raw files named are one
-    /// upload), or directories of them (all *.json sorted by name; else the raw files).
+    /// upload), or directories of them (all *.json sorted by name; else the raw files as one
+    /// upload; else each subdirectory in turn).
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     #[command(flatten)]
@@ -190,7 +191,8 @@ pub struct ReplayArgs {
 #[derive(Debug, Args)]
 pub struct SweepArgs {
     /// Corpus JSON files or raw program files (RAPID, KRL, FANUC TP; all raw files named are one
-    /// upload), or directories of them (all *.json sorted by name; else the raw files).
+    /// upload), or directories of them (all *.json sorted by name; else the raw files as one
+    /// upload; else each subdirectory in turn).
     #[arg(required = true)]
     pub paths: Vec<PathBuf>,
     /// Base engine settings; --delta, --phi-min and --horizon are replaced by the grid.

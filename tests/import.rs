@@ -309,6 +309,20 @@ fn every_raw_file_parses() {
 }
 
 #[test]
+fn the_raw_corpus_directory_replays_as_one_upload_per_repository() {
+    // `nextpose replay ../shared/corpus/raw`: the folder holds one folder per repository.
+    let programs = nextpose::replay::corpus::load_paths(&[corpus().join("raw")]).unwrap();
+    let imported: usize = uploads()
+        .iter()
+        .map(|(_, upload)| import(upload).programs.len())
+        .sum();
+    assert_eq!(programs.len(), imported);
+    assert_eq!(programs.len(), 36);
+    let waypoints: usize = programs.iter().map(|p| p.waypoint_count()).sum();
+    assert!(waypoints > 3000, "{waypoints}");
+}
+
+#[test]
 fn readings_agree_except_the_listed_ones() {
     let c = compare();
     let listed = listed();

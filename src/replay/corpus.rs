@@ -117,7 +117,7 @@ struct RawWaypoint {
 }
 
 /// Loads programs from files and directories, in the order given; a directory contributes all
-/// its `*.json` files sorted by file name (not recursive), so replay order is reproducible.
+/// its `*.json` files sorted by file name (see [`load_dir`]), so replay order is reproducible.
 ///
 /// Raw program files (see [`is_raw_program`]) named here are imported together as one upload,
 /// their programs taking the place of the first of them; a directory without `*.json` files
@@ -145,7 +145,8 @@ pub fn load_paths<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<Program>, CorpusErr
 }
 
 /// Loads every `*.json` file of a directory, sorted by file name; without any, imports the
-/// directory's raw program files as one upload.
+/// directory's raw program files as one upload; without those either, loads each
+/// subdirectory in name order (so `corpus/raw/` gives one upload per repository folder).
 pub fn load_dir(dir: &Path) -> Result<Vec<Program>, CorpusError> {
     let io_error = |source| CorpusError::Io {
         path: dir.to_path_buf(),
@@ -153,17 +154,28 @@ pub fn load_dir(dir: &Path) -> Result<Vec<Program>, CorpusError> {
     };
     let mut files = Vec::new();
     let mut raw = Vec::new();
+    let mut dirs = Vec::new();
     for entry in fs::read_dir(dir).map_err(io_error)? {
         let path = entry.map_err(io_error)?.path();
         if path.is_file() && has_json_extension(&path) {
             files.push(path);
         } else if path.is_file() && is_raw_program(&path) {
             raw.push(path);
+        } else if path.is_dir() {
+            dirs.push(path);
         }
     }
     if files.is_empty() && !raw.is_empty() {
         raw.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
         return load_raw(&raw);
+    }
+    if files.is_empty() && !dirs.is_empty() {
+        dirs.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+        let mut programs = Vec::new();
+        for d in &dirs {
+            programs.extend(load_dir(d)?);
+        }
+        return Ok(programs);
     }
     if files.is_empty() {
         return Err(CorpusError::EmptyDirectory {
@@ -183,6 +195,11 @@ pub fn is_raw_program(path: &Path) -> bool {
 }
 
 /// Imports raw program files as one upload (see [`crate::import::parse_files`]).
+///
+/// A `__` in a file name stands for a directory separator, as in the shared corpus's flattened
+/// layout (`raw/<owner>__<repo>/<dir>__<file>`): the importer groups FANUC listings and pairs
+/// KRL files by directory, so `a__FOLGE011.LS` and `b__FOLGE020.LS` are two programs, as they
+/// were in their repository.
 pub fn load_raw(paths: &[PathBuf]) -> Result<Vec<Program>, CorpusError> {
     let mut files = Vec::with_capacity(paths.len());
     for path in paths {
@@ -190,16 +207,25 @@ pub fn load_raw(paths: &[PathBuf]) -> Result<Vec<Program>, CorpusError> {
             path: path.clone(),
             source,
         })?;
-        files.push((
-            path.to_string_lossy().into_owned(),
-            import::decode_text(&bytes),
-        ));
+        files.push((upload_name(path), import::decode_text(&bytes)));
     }
     let refs: Vec<(&str, &str)> = files
         .iter()
         .map(|(n, t)| (n.as_str(), t.as_str()))
         .collect();
     Ok(import::parse_files(&refs)?.to_replay())
+}
+
+/// The name a raw file has in its upload: its path, with `__` in the file name read as `/`.
+fn upload_name(path: &Path) -> String {
+    let file = path
+        .file_name()
+        .map(|n| n.to_string_lossy().replace("__", "/"))
+        .unwrap_or_default();
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) => format!("{}/{file}", dir.display()),
+        None => file,
+    }
 }
 
 /// Loads one corpus JSON file.
