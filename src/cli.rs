@@ -84,6 +84,10 @@ pub struct SimulateArgs {
     /// Bearer token, when the server requires one.
     #[arg(long, env = "NEXTPOSE_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
+    /// How the operator's pendant talks to the service: the REST API, or gRPC (unary calls and
+    /// a `Teach` stream per session). Both give the same results for the same seeds.
+    #[arg(long, value_enum, default_value_t = TransportArg::Rest)]
+    pub transport: TransportArg,
     /// Sessions run at once (each in its own cell).
     #[arg(long, default_value_t = 2)]
     pub jobs: usize,
@@ -102,6 +106,12 @@ pub struct SimulateArgs {
 pub enum OperatorArg {
     Online,
     Precise,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TransportArg {
+    Rest,
+    Grpc,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -600,7 +610,7 @@ fn run_sweep(args: &SweepArgs) -> Result<()> {
 
 fn run_simulate(args: &SimulateArgs) -> Result<()> {
     use crate::sim::{self, History, JogLimits, OperatorModel, Plan};
-    use crate::simulate::{Client, LocalServer, run_experiment};
+    use crate::simulate::{Driver, LocalServer, Transport, run_experiment};
 
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
@@ -646,19 +656,30 @@ fn run_simulate(args: &SimulateArgs) -> Result<()> {
             (None, Some(l)) => l.base.clone(),
             (None, None) => bail!("no server"),
         };
-        let client = Client::new(&base, args.token.clone());
+        let transport = match args.transport {
+            TransportArg::Rest => Transport::Rest,
+            TransportArg::Grpc => Transport::Grpc,
+        };
         let sessions = plan.conditions.len() * plan.seeds.len() * programs.len();
         eprintln!(
-            "simulating {} programs x {} seeds x {} conditions ({sessions} sessions) against {base}",
+            "simulating {} programs x {} seeds x {} conditions ({sessions} sessions) against {base} over {}",
             programs.len(),
             plan.seeds.len(),
-            plan.conditions.len()
-        );
-        let result = run_experiment(&client, &plan, &programs, args.jobs, |done, total| {
-            if done % 20 == 0 || done == total {
-                eprintln!("  {done}/{total} sessions");
+            plan.conditions.len(),
+            match transport {
+                Transport::Rest => "REST",
+                Transport::Grpc => "gRPC",
             }
-        })
+        );
+        let result = async {
+            let client = Driver::connect(transport, &base, args.token.clone()).await?;
+            run_experiment(&client, &plan, &programs, args.jobs, |done, total| {
+                if done % 20 == 0 || done == total {
+                    eprintln!("  {done}/{total} sessions");
+                }
+            })
+            .await
+        }
         .await;
         if let Some(l) = local {
             l.stop().await?;

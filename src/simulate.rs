@@ -1,5 +1,5 @@
 //! The driver of `nextpose simulate`: the simulated operator ([`crate::sim`]) teaching corpus
-//! programs against a real nextpose server over its REST API.
+//! programs against a real nextpose server over its REST API or over gRPC ([`Transport`]).
 //!
 //! This is an adapter, like a pendant: it creates a cell per session with the condition's
 //! settings and the arm's placement, optionally teaches the cell a history first, then teaches
@@ -7,6 +7,14 @@
 //! waypoint → the operator's decision → the waypoint taught → feedback), finishes the routines,
 //! and collects the simulated times and counts. [`LocalServer`] starts the real application on
 //! a loopback port with a temporary SQLite file for the command and the tests.
+//!
+//! The session logic is written once against [`Driver`] (the calls a session makes) and
+//! [`Teacher`] (teaching one routine after another): over REST each is an HTTP request
+//! ([`Client`]); over gRPC ([`grpc`]) the cells, programs, routines, feedback and stats are
+//! unary calls and the waypoints go through one `Teach` stream per session. Both read the
+//! answers into the same views, so a seed gives the same session either way.
+
+pub mod grpc;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -19,7 +27,7 @@ use tokio::sync::oneshot;
 use tokio::task::{JoinHandle, JoinSet};
 
 use crate::app::resources::PoseDto;
-use crate::engine::Pose;
+use crate::engine::{Pose, Profile};
 use crate::kinematics::{ReachPolicy, bundled_robots_dir, load_robot};
 use crate::replay::Program;
 use crate::sim::plan::{RoutineResult, placement, repository, waypoint_rng};
@@ -27,6 +35,7 @@ use crate::sim::{
     Arm, Condition, ConditionSummary, Decision, Feedback, History, Operator, Plan, Suggestion,
     Time, summarise,
 };
+pub use grpc::{GrpcClient, TeachStream};
 
 // ---- the client -------------------------------------------------------------------------------
 
@@ -301,43 +310,256 @@ pub struct SessionOutcome {
     pub routine_ids: Vec<i64>,
 }
 
-fn cell_settings(
-    plan: &Plan,
-    session: &Session,
-    robot: &str,
-    frames: &crate::kinematics::Cell,
-) -> Value {
-    let c = &session.condition;
-    let (sigma_t, sigma_q) = plan.sigmas(c.profile);
-    let mut s = json!({
-        "profile": c.profile.name(),
-        "sigma_t_mm": sigma_t,
-        "sigma_q": sigma_q,
-        "robot": robot,
-        "base": PoseDto::from(&frames.base),
-        "tool": PoseDto::from(&frames.tool),
-        "reach_policy": session.reach_policy,
-    });
-    for (key, v) in [("delta", c.delta), ("phi_min", c.phi_min)] {
-        if let Some(v) = v {
-            s[key] = json!(v);
+/// A cell's settings as a session creates it: the condition's profile and overrides, the
+/// σs of the plan, the arm and its placement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellSetup {
+    pub profile: Profile,
+    pub delta: Option<f64>,
+    pub phi_min: Option<f64>,
+    pub horizon: Option<usize>,
+    pub sigma_t_mm: f64,
+    pub sigma_q: f64,
+    pub robot: String,
+    pub base: Pose,
+    pub tool: Pose,
+    pub reach_policy: ReachPolicy,
+}
+
+impl CellSetup {
+    fn new(
+        plan: &Plan,
+        session: &Session,
+        robot: &str,
+        frames: &crate::kinematics::Cell,
+    ) -> CellSetup {
+        let c = &session.condition;
+        let (sigma_t_mm, sigma_q) = plan.sigmas(c.profile);
+        CellSetup {
+            profile: c.profile,
+            delta: c.delta,
+            phi_min: c.phi_min,
+            horizon: c.horizon,
+            sigma_t_mm,
+            sigma_q,
+            robot: robot.to_string(),
+            base: frames.base,
+            tool: frames.tool,
+            reach_policy: session.reach_policy,
         }
     }
-    if let Some(h) = c.horizon {
-        s["horizon"] = json!(h);
+
+    /// The `settings` object of `POST /v1/cells`.
+    pub fn json(&self) -> Value {
+        let mut s = json!({
+            "profile": self.profile.name(),
+            "sigma_t_mm": self.sigma_t_mm,
+            "sigma_q": self.sigma_q,
+            "robot": self.robot,
+            "base": PoseDto::from(&self.base),
+            "tool": PoseDto::from(&self.tool),
+            "reach_policy": self.reach_policy,
+        });
+        for (key, v) in [("delta", self.delta), ("phi_min", self.phi_min)] {
+            if let Some(v) = v {
+                s[key] = json!(v);
+            }
+        }
+        if let Some(h) = self.horizon {
+            s["horizon"] = json!(h);
+        }
+        s
     }
-    s
+}
+
+// ---- the transports ---------------------------------------------------------------------------
+
+/// How the driver talks to the server.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// The REST API (JSON over HTTP).
+    #[default]
+    Rest,
+    /// The gRPC API on the same port: unary calls and a `Teach` stream per session.
+    Grpc,
+}
+
+/// The calls a session makes, over one transport.
+#[derive(Debug, Clone)]
+pub enum Driver {
+    Rest(Client),
+    Grpc(GrpcClient),
+}
+
+impl From<Client> for Driver {
+    fn from(c: Client) -> Driver {
+        Driver::Rest(c)
+    }
+}
+
+impl From<GrpcClient> for Driver {
+    fn from(c: GrpcClient) -> Driver {
+        Driver::Grpc(c)
+    }
+}
+
+impl Driver {
+    /// A client of the server at `base` (`http://host:port`) over `transport`.
+    pub async fn connect(
+        transport: Transport,
+        base: &str,
+        token: Option<String>,
+    ) -> Result<Driver> {
+        Ok(match transport {
+            Transport::Rest => Driver::Rest(Client::new(base, token)),
+            Transport::Grpc => Driver::Grpc(GrpcClient::connect(base, token).await?),
+        })
+    }
+
+    pub fn transport(&self) -> Transport {
+        match self {
+            Driver::Rest(_) => Transport::Rest,
+            Driver::Grpc(_) => Transport::Grpc,
+        }
+    }
+
+    pub fn base(&self) -> &str {
+        match self {
+            Driver::Rest(c) => c.base(),
+            Driver::Grpc(c) => c.base(),
+        }
+    }
+
+    pub async fn create_cell(&self, name: &str, setup: &CellSetup) -> Result<i64> {
+        match self {
+            Driver::Rest(c) => c.create_cell(name, &setup.json()).await,
+            Driver::Grpc(c) => c.create_cell(name, setup).await,
+        }
+    }
+
+    pub async fn create_program(&self, cell: i64, name: &str) -> Result<i64> {
+        match self {
+            Driver::Rest(c) => c.create_program(cell, name).await,
+            Driver::Grpc(c) => c.create_program(cell, name).await,
+        }
+    }
+
+    pub async fn create_routine(&self, program: i64, name: &str) -> Result<i64> {
+        match self {
+            Driver::Rest(c) => c.create_routine(program, name).await,
+            Driver::Grpc(c) => c.create_routine(program, name).await,
+        }
+    }
+
+    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<()> {
+        match self {
+            Driver::Rest(c) => c.feedback(prediction, feedback).await,
+            Driver::Grpc(c) => c.feedback(prediction, feedback).await,
+        }
+    }
+
+    pub async fn stats(&self, cell: i64) -> Result<CellStatsView> {
+        match self {
+            Driver::Rest(c) => c.stats(cell).await,
+            Driver::Grpc(c) => c.stats(cell).await,
+        }
+    }
+
+    pub async fn rebuild(&self, cell: i64) -> Result<ModelView> {
+        match self {
+            Driver::Rest(c) => c.rebuild(cell).await,
+            Driver::Grpc(c) => c.rebuild(cell).await,
+        }
+    }
+
+    /// Open-loop completion of up to `k` waypoints for an open routine.
+    pub async fn predict(&self, routine: i64, k: usize) -> Result<Vec<PredictionView>> {
+        match self {
+            Driver::Rest(c) => c.predict(routine, k).await,
+            Driver::Grpc(c) => c.predict(routine, k).await,
+        }
+    }
+
+    /// Imports offline program files (`(name, text)`) into a cell and learns them.
+    pub async fn import(&self, cell: i64, files: &[(String, String)]) -> Result<()> {
+        match self {
+            Driver::Rest(c) => c.import(cell, files).await.map(|_| ()),
+            Driver::Grpc(c) => c.import(cell, files).await,
+        }
+    }
+
+    /// Ready to teach routines, one at a time (over gRPC: opens a `Teach` stream).
+    pub async fn teacher(&self) -> Result<Teacher> {
+        Ok(match self {
+            Driver::Rest(c) => Teacher::Rest {
+                client: c.clone(),
+                routine: None,
+            },
+            Driver::Grpc(c) => Teacher::Grpc(c.teach().await?),
+        })
+    }
+}
+
+/// Teaches routines one after another: `start`, `waypoint`s, `finish`.
+#[derive(Debug)]
+pub enum Teacher {
+    /// REST: each waypoint and the finish are requests on the routine started.
+    Rest {
+        client: Client,
+        routine: Option<i64>,
+    },
+    /// gRPC: the commands of one `Teach` stream.
+    Grpc(TeachStream),
+}
+
+impl Teacher {
+    /// Selects the open routine the following waypoints go to.
+    pub async fn start(&mut self, routine_id: i64) -> Result<()> {
+        match self {
+            Teacher::Rest { routine, .. } => {
+                *routine = Some(routine_id);
+                Ok(())
+            }
+            Teacher::Grpc(s) => s.start(routine_id).await,
+        }
+    }
+
+    /// Teaches a waypoint: the stored waypoint and the prediction for the next one.
+    pub async fn waypoint(&mut self, pose: &Pose) -> Result<TaughtView> {
+        match self {
+            Teacher::Rest {
+                client,
+                routine: Some(r),
+            } => client.append(*r, pose).await,
+            Teacher::Rest { routine: None, .. } => bail!("a waypoint before start"),
+            Teacher::Grpc(s) => s.waypoint(pose).await,
+        }
+    }
+
+    /// Finishes the routine started.
+    pub async fn finish(&mut self) -> Result<()> {
+        match self {
+            Teacher::Rest { client, routine } => match routine.take() {
+                Some(r) => client.finish(r).await,
+                None => bail!("finish before start"),
+            },
+            Teacher::Grpc(s) => s.finish().await,
+        }
+    }
 }
 
 /// Teaches a program's routines exactly (no operator, no time): a cell's history.
-async fn teach_exactly(client: &Client, cell: i64, program: &Program, name: &str) -> Result<()> {
+async fn teach_exactly(client: &Driver, cell: i64, program: &Program, name: &str) -> Result<()> {
     let pid = client.create_program(cell, name).await?;
+    let mut teacher = client.teacher().await?;
     for r in &program.routines {
         let rid = client.create_routine(pid, &r.name).await?;
+        teacher.start(rid).await?;
         for w in &r.waypoints {
-            client.append(rid, w).await?;
+            teacher.waypoint(w).await?;
         }
-        client.finish(rid).await?;
+        teacher.finish().await?;
     }
     Ok(())
 }
@@ -356,7 +578,7 @@ fn suggestion_of(p: &PredictionView) -> Result<Option<(i64, Suggestion)>> {
 
 /// Runs one session against the server.
 pub async fn run_session(
-    client: &Client,
+    client: &Driver,
     plan: &Plan,
     session: &Session,
 ) -> Result<SessionOutcome> {
@@ -366,7 +588,7 @@ pub async fn run_session(
     let cell = client
         .create_cell(
             &session.cell_name,
-            &cell_settings(plan, session, &robot_name, &frames),
+            &CellSetup::new(plan, session, &robot_name, &frames),
         )
         .await?;
     match &session.warmup {
@@ -393,12 +615,14 @@ pub async fn run_session(
         Arm::new(robot, frames, plan.limits, first),
     );
     let pid = client.create_program(cell, &program.name).await?;
+    let mut teacher = client.teacher().await?;
     let c = &session.condition;
     let mut routines = Vec::with_capacity(program.routines.len());
     let mut predictions: Vec<PredictionSeen> = Vec::new();
     let mut routine_ids = Vec::with_capacity(program.routines.len());
     for (ri, routine) in program.routines.iter().enumerate() {
         let rid = client.create_routine(pid, &routine.name).await?;
+        teacher.start(rid).await?;
         routine_ids.push(rid);
         let mut result = RoutineResult {
             condition: c.key.clone(),
@@ -427,7 +651,7 @@ pub async fn run_session(
                 None
             };
             let step = operator.teach(target, shown.map(|(_, s)| s), &mut rng);
-            let taught = client.append(rid, &step.pose).await?;
+            let taught = teacher.waypoint(&step.pose).await?;
             if let (Some((id, _)), Some(fb)) = (shown, step.feedback.as_ref()) {
                 client.feedback(*id, fb).await?;
                 match fb {
@@ -471,7 +695,7 @@ pub async fn run_session(
                 seen.decision = Some(Decision::Dismiss);
             }
         }
-        client.finish(rid).await?;
+        teacher.finish().await?;
         result.time_s = result.time.total();
         routines.push(result);
     }
@@ -537,7 +761,7 @@ pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
 /// results do not depend on the interleaving), and summarises. `progress` is told after each
 /// session how many are done of how many.
 pub async fn run_experiment(
-    client: &Client,
+    client: &Driver,
     plan: &Plan,
     programs: &[Program],
     jobs: usize,

@@ -1,6 +1,6 @@
 //! The simulated operator teaching real corpus programs against the real server (loopback
 //! port, temporary SQLite file): the end-to-end test of cells, import, teaching, predictions,
-//! reachability, feedback, stats and rebuild. Times are simulated, never measured; nothing
+//! reachability, feedback, stats and rebuild, over REST and over gRPC. Times are simulated, never measured; nothing
 //! sleeps. The corpus is read from `../shared/corpus` and never written.
 
 use std::path::{Path, PathBuf};
@@ -12,7 +12,8 @@ use nextpose::sim::{
     table_4_1_conditions,
 };
 use nextpose::simulate::{
-    Client, LocalServer, PredictionView, Session, SessionOutcome, Warmup, run_session,
+    Client, Driver, LocalServer, PredictionView, Session, SessionOutcome, Transport, Warmup,
+    run_session,
 };
 
 const TEMPLATE: &str =
@@ -89,10 +90,11 @@ fn without_ids(mut ps: Vec<PredictionView>) -> Vec<PredictionView> {
 async fn three_corpus_programs_end_to_end() {
     let server = LocalServer::start().await.expect("server");
     let client = Client::new(&server.base, None);
+    let driver = Driver::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     for (i, name) in [TEMPLATE, PALLETIZING, MODULE].into_iter().enumerate() {
         let p = program(name);
-        let o = run_session(&client, &plan, &session(&plan, "default", &p, 1, name))
+        let o = run_session(&driver, &plan, &session(&plan, "default", &p, 1, name))
             .await
             .expect("session");
         let (offered, accepted, adjusted, rejected) = (
@@ -162,18 +164,19 @@ async fn three_corpus_programs_end_to_end() {
 async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
     let server = LocalServer::start().await.expect("server");
     let client = Client::new(&server.base, None);
+    let driver = Driver::from(client.clone());
     let p = program(TEMPLATE);
     let withhold = plan(precise(), ReachPolicy::Withhold);
     let flag = plan(precise(), ReachPolicy::Flag);
     let key = "seed_phi05_h2";
     let w = run_session(
-        &client,
+        &driver,
         &withhold,
         &session(&withhold, key, &p, 1, "withhold"),
     )
     .await
     .expect("session");
-    let f = run_session(&client, &flag, &session(&flag, key, &p, 1, "flag"))
+    let f = run_session(&driver, &flag, &session(&flag, key, &p, 1, "flag"))
         .await
         .expect("session");
     // A flagged suggestion is rejected after a look, so the operator teaches the same poses
@@ -221,16 +224,17 @@ async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
 async fn sessions_are_deterministic_given_a_seed() {
     let server = LocalServer::start().await.expect("server");
     let client = Client::new(&server.base, None);
+    let driver = Driver::from(client.clone());
     let plan = plan(online(), ReachPolicy::Withhold);
     let p = program(MODULE);
     let key = "seed_phi05_h2";
-    let a = run_session(&client, &plan, &session(&plan, key, &p, 7, "a"))
+    let a = run_session(&driver, &plan, &session(&plan, key, &p, 7, "a"))
         .await
         .expect("session");
-    let b = run_session(&client, &plan, &session(&plan, key, &p, 7, "b"))
+    let b = run_session(&driver, &plan, &session(&plan, key, &p, 7, "b"))
         .await
         .expect("session");
-    let c = run_session(&client, &plan, &session(&plan, key, &p, 8, "c"))
+    let c = run_session(&driver, &plan, &session(&plan, key, &p, 8, "c"))
         .await
         .expect("session");
     assert_eq!(a.routines, b.routines);
@@ -250,12 +254,13 @@ async fn sessions_are_deterministic_given_a_seed() {
 async fn suggestions_save_time_only_when_shown() {
     let server = LocalServer::start().await.expect("server");
     let client = Client::new(&server.base, None);
+    let driver = Driver::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     let p = program(PALLETIZING);
-    let none = run_session(&client, &plan, &session(&plan, "none", &p, 1, "none"))
+    let none = run_session(&driver, &plan, &session(&plan, "none", &p, 1, "none"))
         .await
         .expect("session");
-    let default = run_session(&client, &plan, &session(&plan, "default", &p, 1, "default"))
+    let default = run_session(&driver, &plan, &session(&plan, "default", &p, 1, "default"))
         .await
         .expect("session");
     // Without suggestions the operator gives no feedback; the service's suggestions stay
@@ -279,17 +284,18 @@ async fn suggestions_save_time_only_when_shown() {
 async fn an_imported_offline_program_seeds_the_cell() {
     let server = LocalServer::start().await.expect("server");
     let client = Client::new(&server.base, None);
+    let driver = Driver::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     let raw = corpus()
         .join("raw/zwj12__AddInPackages/ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20014_Module.mod");
     let text = std::fs::read_to_string(&raw).expect("raw program");
     let p = program(TEMPLATE);
-    let fresh = run_session(&client, &plan, &session(&plan, "default", &p, 1, "fresh"))
+    let fresh = run_session(&driver, &plan, &session(&plan, "default", &p, 1, "fresh"))
         .await
         .expect("session");
     let mut s = session(&plan, "default", &p, 1, "seeded");
     s.warmup = Warmup::Import(vec![("Template_20014_Module.mod".into(), text)]);
-    let seeded = run_session(&client, &plan, &s).await.expect("session");
+    let seeded = run_session(&driver, &plan, &s).await.expect("session");
     // The imported routines are learned before the operator starts.
     assert!(seeded.stats.model.routines > fresh.stats.model.routines);
     let first_routine = |o: &SessionOutcome| o.routines[0].offered;
@@ -301,5 +307,66 @@ async fn an_imported_offline_program_seeds_the_cell() {
         total(&seeded, |r| r.offered)
     );
     assert!(seeded.stats.feedback.pending == 0);
+    server.stop().await.expect("stop");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rest_and_grpc_teach_the_same_session() {
+    let server = LocalServer::start().await.expect("server");
+    let rest = Driver::connect(Transport::Rest, &server.base, None)
+        .await
+        .expect("rest");
+    let grpc = Driver::connect(Transport::Grpc, &server.base, None)
+        .await
+        .expect("grpc");
+    assert_eq!(grpc.transport(), Transport::Grpc);
+    // The flagging policy and the online operator give every kind of decision: accepted,
+    // fine-tuned, rejected (out of reach too) and dismissed suggestions.
+    let plan = plan(online(), ReachPolicy::Flag);
+    let p = program(TEMPLATE);
+    let key = "seed_phi05_h2";
+    let r = run_session(&rest, &plan, &session(&plan, key, &p, 3, "over rest"))
+        .await
+        .expect("rest session");
+    let g = run_session(&grpc, &plan, &session(&plan, key, &p, 3, "over grpc"))
+        .await
+        .expect("grpc session");
+    assert_ne!(r.cell_id, g.cell_id, "two cells");
+
+    // The same session, whichever way the pendant talks: the same predictions seen, the same
+    // decisions, the same simulated times and counts, the same feedback recorded and model.
+    assert_eq!(r.routines, g.routines);
+    assert_eq!(r.predictions, g.predictions);
+    assert_eq!(r.stats.feedback, g.stats.feedback);
+    assert_eq!(r.stats.model, g.stats.model);
+    assert_eq!(r.routine_ids.len(), g.routine_ids.len());
+
+    // The session exercised the stream: waypoints taught, predictions offered and judged.
+    let offered = total(&g, |x| x.offered);
+    assert!(offered > 0, "nothing offered");
+    assert!(total(&g, |x| x.accepted + x.adjusted) > 0);
+    assert!(total(&g, |x| x.rejected) > 0);
+    let f = &g.stats.feedback;
+    assert_eq!(f.offered as usize, offered);
+    assert_eq!(f.accepted as usize, total(&g, |x| x.accepted));
+    assert_eq!(f.adjusted as usize, total(&g, |x| x.adjusted));
+    assert_eq!(f.rejected as usize, total(&g, |x| x.rejected));
+    assert_eq!(f.pending, 0);
+    assert_eq!(g.stats.model.routines as usize, p.routines.len());
+
+    // Each cell read over the other transport answers the same, and a rebuild over gRPC gives
+    // the model the session left.
+    assert_eq!(
+        grpc.stats(r.cell_id).await.expect("stats"),
+        rest.stats(r.cell_id).await.expect("stats")
+    );
+    assert_eq!(
+        rest.stats(g.cell_id).await.expect("stats"),
+        grpc.stats(g.cell_id).await.expect("stats")
+    );
+    let rebuilt = grpc.rebuild(g.cell_id).await.expect("rebuild");
+    assert_eq!(rebuilt, g.stats.model);
+    let rebuilt = rest.rebuild(r.cell_id).await.expect("rebuild");
+    assert_eq!(rebuilt, r.stats.model);
     server.stop().await.expect("stop");
 }
