@@ -1187,15 +1187,6 @@ async fn grpc_messages_are_limited_like_rest_bodies() {
     assert_eq!(detail["waypoint_count"], 0);
 }
 
-/// The value of a sample line of `/metrics` (`name{labels} value`), if present.
-fn sample(metrics: &str, name_and_labels: &str) -> Option<f64> {
-    metrics.lines().find_map(|l| {
-        l.strip_prefix(name_and_labels)
-            .and_then(|rest| rest.strip_prefix(' '))
-            .and_then(|v| v.trim().parse().ok())
-    })
-}
-
 #[tokio::test]
 async fn grpc_calls_are_counted_in_metrics_and_carry_request_ids() {
     let app = spawn_app().await;

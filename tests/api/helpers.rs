@@ -155,12 +155,7 @@ impl TestApp {
                     .text()
                     .await
                     .unwrap();
-                let now = text.lines().find_map(|l| {
-                    l.strip_prefix(name)
-                        .and_then(|rest| rest.strip_prefix(' '))
-                        .and_then(|v| v.trim().parse::<f64>().ok())
-                });
-                if now == Some(value) {
+                if sample(&text, name) == Some(value) {
                     return;
                 }
                 tokio::time::sleep(std::time::Duration::from_millis(5)).await;
@@ -298,4 +293,13 @@ pub fn u_seam(origin: [f64; 3], yaw: f64) -> Vec<Value> {
 pub fn distance(a: &Value, b: &Value) -> f64 {
     let d = |k: &str| a[k].as_f64().expect(k) - b[k].as_f64().expect(k);
     (d("x").powi(2) + d("y").powi(2) + d("z").powi(2)).sqrt()
+}
+
+/// The value of a sample line of `/metrics` (`name{labels} value`), if present.
+pub fn sample(metrics: &str, name_and_labels: &str) -> Option<f64> {
+    metrics.lines().find_map(|l| {
+        l.strip_prefix(name_and_labels)
+            .and_then(|rest| rest.strip_prefix(' '))
+            .and_then(|v| v.trim().parse().ok())
+    })
 }
