@@ -105,6 +105,8 @@ impl Application {
         let result = axum::serve(listener, self.router)
             .with_graceful_shutdown(shutdown)
             .await;
+        // Operations whose callers went away run on; the database closes after them.
+        self.app.finish_operations().await;
         self.app.store().close().await;
         result
     }

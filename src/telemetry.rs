@@ -63,6 +63,7 @@ pub struct Metrics {
     grpc_latency: Family<GrpcLabels, Histogram, fn() -> Histogram>,
     predictions: Family<PredictionLabels, Counter>,
     teach_sessions: Gauge,
+    divergences: Counter,
 }
 
 impl Default for Metrics {
@@ -84,6 +85,7 @@ impl Metrics {
         );
         let predictions = Family::<PredictionLabels, Counter>::default();
         let teach_sessions = Gauge::default();
+        let divergences = Counter::default();
         registry.register(
             "http_requests",
             "HTTP requests by method, route and status",
@@ -114,6 +116,12 @@ impl Metrics {
             "gRPC Teach sessions whose commands are still being applied",
             teach_sessions.clone(),
         );
+        registry.register(
+            "model_divergences",
+            "Rebuilds that found a cell's model in memory different from the one rebuilt from \
+             the database (a bug: it should stay 0)",
+            divergences.clone(),
+        );
         Metrics {
             registry,
             requests,
@@ -122,7 +130,13 @@ impl Metrics {
             grpc_latency,
             predictions,
             teach_sessions,
+            divergences,
         }
+    }
+
+    /// A rebuild found the model in memory out of step with the database.
+    pub fn record_divergence(&self) {
+        self.divergences.inc();
     }
 
     /// A Teach session starts applying commands; it counts until the returned guard is dropped

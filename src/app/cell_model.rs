@@ -85,6 +85,15 @@ impl CellModel {
         })
     }
 
+    /// What a rebuild from the database must reproduce: the learned model, the routine being
+    /// taught and the arm's joint trail.
+    pub fn in_step_with(&self, other: &CellModel) -> bool {
+        self.info() == other.info()
+            && self.open == other.open
+            && self.teacher.routine() == other.teacher.routine()
+            && self.arm.as_ref().map(Arm::trail) == other.arm.as_ref().map(Arm::trail)
+    }
+
     pub fn info(&self) -> ModelInfo {
         let s = self.teacher.stats();
         ModelInfo {

@@ -10,6 +10,11 @@
 //! read of the routine's state to the last write, so the model and the database never diverge;
 //! different cells proceed in parallel. A cell has at most one routine being taught (one arm,
 //! one operator); the database enforces it too.
+//!
+//! **Cancellation.** Every operation that changes a cell's model runs to completion on a task of
+//! its own ([`App::to_completion`]): a caller that goes away (a client hanging up, a REST
+//! timeout, a cancelled gRPC call) stops waiting for the answer, not the operation, so the
+//! model and the database change together or not at all. Shutdown waits for these tasks.
 
 mod cell_model;
 pub mod error;
@@ -18,9 +23,11 @@ pub mod resources;
 pub mod settings;
 
 use std::collections::HashMap;
+use std::future::Future;
 use std::sync::{Arc, Mutex};
 
 use tokio::sync::{Mutex as AsyncMutex, OwnedMutexGuard};
+use tokio_util::task::TaskTracker;
 
 use crate::engine::{PredictOptions, Prediction, Withheld};
 use crate::kinematics::{Joints, ReachPolicy, Reachability, RobotModel};
@@ -43,16 +50,19 @@ pub const MAX_NAME: usize = 200;
 type Result<T> = std::result::Result<T, AppError>;
 type Slot = Arc<AsyncMutex<Option<CellModel>>>;
 
-/// The application: storage, the cells' models and the metrics.
-#[derive(Debug)]
+/// The application: storage, the cells' models and the metrics. Cloning is cheap (shared
+/// handles), so an operation can own a copy on its own task.
+#[derive(Debug, Clone)]
 pub struct App {
     store: Store,
-    models: Mutex<HashMap<i64, Slot>>,
+    models: Arc<Mutex<HashMap<i64, Slot>>>,
     metrics: Arc<Metrics>,
     robots: Arc<Robots>,
     /// Routine id → cell id (a routine never changes cell), so the hot path finds the cell to
-    /// lock without a query.
-    routine_cells: Mutex<HashMap<i64, i64>>,
+    /// lock without a query. Deleting a routine removes its entry.
+    routine_cells: Arc<Mutex<HashMap<i64, i64>>>,
+    /// The operations running to completion (see [`App::to_completion`]).
+    tasks: TaskTracker,
 }
 
 /// A prediction after the reachability check.
@@ -254,11 +264,34 @@ impl App {
     pub fn new(store: Store, metrics: Arc<Metrics>, robots: Arc<Robots>) -> App {
         App {
             store,
-            models: Mutex::new(HashMap::new()),
+            models: Arc::default(),
             metrics,
             robots,
-            routine_cells: Mutex::new(HashMap::new()),
+            routine_cells: Arc::default(),
+            tasks: TaskTracker::new(),
         }
+    }
+
+    /// Runs an operation on a task of its own and waits for its answer. The caller may go
+    /// away (its future dropped): the operation still completes, so a cell's model and the
+    /// database change together or not at all.
+    async fn to_completion<T, F>(&self, op: impl FnOnce(App) -> F) -> Result<T>
+    where
+        F: Future<Output = Result<T>> + Send + 'static,
+        T: Send + 'static,
+    {
+        self.tasks
+            .spawn(op(self.clone()))
+            .await
+            .map_err(|e| AppError::Internal(format!("operation task: {e}")))?
+    }
+
+    /// Waits for the operations still running (their callers may have gone away); new
+    /// operations can still start. Shutdown calls it once the listener has stopped.
+    pub async fn finish_operations(&self) {
+        self.tasks.close();
+        self.tasks.wait().await;
+        self.tasks.reopen();
     }
 
     /// The robot models cells can use.
@@ -287,6 +320,52 @@ impl App {
     /// Health: the database answers.
     pub async fn health(&self) -> Result<()> {
         Ok(self.store.ping().await?)
+    }
+
+    // ---- operations that change a cell's model: each runs to completion ------------------
+
+    pub async fn create_routine(&self, program_id: i64, input: CreateRoutine) -> Result<Routine> {
+        self.to_completion(
+            move |app| async move { app.create_routine_now(program_id, input).await },
+        )
+        .await
+    }
+
+    pub async fn delete_routine(&self, id: i64) -> Result<()> {
+        self.to_completion(move |app| async move { app.delete_routine_now(id).await })
+            .await
+    }
+
+    pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
+        self.to_completion(move |app| async move { app.finish_routine_now(id).await })
+            .await
+    }
+
+    pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+        self.to_completion(
+            move |app| async move { app.append_waypoint_now(routine_id, input).await },
+        )
+        .await
+    }
+
+    pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
+        self.to_completion(move |app| async move { app.undo_now(routine_id).await })
+            .await
+    }
+
+    pub async fn predict(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
+        self.to_completion(move |app| async move { app.predict_now(routine_id, q).await })
+            .await
+    }
+
+    pub async fn import(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
+        self.to_completion(move |app| async move { app.import_now(cell_id, input).await })
+            .await
+    }
+
+    pub async fn rebuild(&self, id: i64) -> Result<ModelInfo> {
+        self.to_completion(move |app| async move { app.rebuild_now(id).await })
+            .await
     }
 
     // ---- locking ----------------------------------------------------------------------------
@@ -435,11 +514,17 @@ impl App {
     }
 
     /// Re-learns the cell's model from the stored routines, in the order they were finished.
-    pub async fn rebuild(&self, id: i64) -> Result<ModelInfo> {
+    async fn rebuild_now(&self, id: i64) -> Result<ModelInfo> {
         let cell = self.cell_row(id).await?;
         let mut guard = self.slot(id).lock_owned().await;
         let model = CellModel::load(&self.store, &cell, &self.robots).await?;
         let info = model.info();
+        if let Some(previous) = guard.as_ref()
+            && !previous.in_step_with(&model)
+        {
+            tracing::error!(cell = id, before = ?previous.info(), rebuilt = ?info, "the cell's model in memory differed from the database");
+            self.metrics.record_divergence();
+        }
         *guard = Some(model);
         Ok(info)
     }
@@ -482,7 +567,7 @@ impl App {
 
     /// Starts a routine at the end of a program. The cell must not have another routine
     /// being taught.
-    pub async fn create_routine(&self, program_id: i64, input: CreateRoutine) -> Result<Routine> {
+    async fn create_routine_now(&self, program_id: i64, input: CreateRoutine) -> Result<Routine> {
         if let Some(n) = &input.name {
             check_name("routine name", n)?;
         }
@@ -535,9 +620,10 @@ impl App {
     }
 
     /// Deletes a routine that is being taught, with its waypoints; the model forgets it.
-    pub async fn delete_routine(&self, id: i64) -> Result<()> {
+    async fn delete_routine_now(&self, id: i64) -> Result<()> {
         let (mut locked, r) = self.lock_open_routine(id).await?;
         self.store.delete_open_routine(r.id).await?;
+        lock_map(&self.routine_cells).remove(&r.id);
         let model = locked.model()?;
         model.teacher.abandon_routine();
         if let Some(arm) = model.arm.as_mut() {
@@ -548,7 +634,7 @@ impl App {
     }
 
     /// Finishes a routine: it becomes immutable and the cell's model assimilates it.
-    pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
+    async fn finish_routine_now(&self, id: i64) -> Result<Finished> {
         let (mut locked, r) = self.lock_open_routine(id).await?;
         self.store.finish_routine(r.cell_id, r.id).await?;
         let model = locked.model()?;
@@ -587,7 +673,7 @@ impl App {
     }
 
     /// Appends a taught waypoint to an open routine and predicts the next one.
-    pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+    async fn append_waypoint_now(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
         // Everything the client can get wrong is checked before anything changes.
         let joints = Self::validate_waypoint(&input)?;
         let pose = input.pose.to_pose()?;
@@ -639,7 +725,7 @@ impl App {
     }
 
     /// Removes the last waypoint of an open routine; the prediction rolls back with it.
-    pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
+    async fn undo_now(&self, routine_id: i64) -> Result<Undone> {
         let (mut locked, r) = self.lock_open_routine(routine_id).await?;
         let Some(removed) = self.store.delete_last_waypoint(r.id).await? else {
             return Err(AppError::Conflict(format!(
@@ -671,7 +757,7 @@ impl App {
 
     /// The prediction for an open routine as it stands, with per-request overrides; `k > 1`
     /// asks for an open-loop completion of up to k waypoints.
-    pub async fn predict(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
+    async fn predict_now(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
         let k = q.k.unwrap_or(1);
         if !(1..=MAX_COMPLETION).contains(&k) {
             return Err(AppError::Invalid(format!(
@@ -818,7 +904,7 @@ impl App {
     /// Imports offline programs (RAPID, KRL, FANUC TP) into a cell as new programs whose
     /// routines are immutable; with `learn` (default) the model learns them in program order.
     /// All of it is one transaction: a syntax error or a name clash imports nothing.
-    pub async fn import(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
+    async fn import_now(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
         if input.files.is_empty() {
             return Err(AppError::Invalid("no files to import".into()));
         }

@@ -139,6 +139,11 @@ impl Arm {
         self.config.policy
     }
 
+    /// The joints followed along the open routine, one entry per taught waypoint.
+    pub fn trail(&self) -> &[Option<Joints>] {
+        &self.trail
+    }
+
     pub fn previous(&self) -> Option<&Joints> {
         self.trail.last().and_then(Option::as_ref)
     }
