@@ -33,6 +33,16 @@ pub(crate) fn stored_pose_columns(p: &PoseColumns) -> Result<Pose, AppError> {
         .map_err(|e| AppError::Internal(format!("stored pose is invalid: {e}")))
 }
 
+/// The joints of a stored waypoint (validated when taught: a failure here means the database
+/// was edited behind our back).
+pub(crate) fn stored_joints(w: &WaypointRow) -> Result<Option<Vec<f64>>, AppError> {
+    w.joints
+        .as_deref()
+        .map(serde_json::from_str)
+        .transpose()
+        .map_err(|e| AppError::Internal(format!("stored joints of waypoint {}: {e}", w.id)))
+}
+
 pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
     serde_json::from_str(&cell.settings)
         .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
@@ -40,49 +50,63 @@ pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
 
 impl CellModel {
     /// Learns the cell's finished routines in the order they were finished, then takes up the
-    /// routine being taught, exactly as incremental teaching did.
+    /// routine being taught, exactly as incremental teaching did. The database is read first;
+    /// the learning (CPU work) runs on a blocking thread.
     pub async fn load(
         store: &Store,
         cell: &CellRow,
         robots: &Robots,
     ) -> Result<CellModel, AppError> {
         let settings = parse_settings(cell)?;
-        let mut arm = match robots.get(&settings.robot) {
+        let arm = match robots.get(&settings.robot) {
             Some(robot) => Some(Arm::new(robot, &settings)?),
             None => {
                 tracing::warn!(cell = cell.id, robot = %settings.robot, "robot model not installed; predictions are not checked for reachability");
                 None
             }
         };
-        let mut teacher = Teacher::new(settings.engine_config())?;
-        let mut version = 0;
+        let mut finished = Vec::new();
         for r in store.finished_routines(cell.id).await? {
-            for w in store.waypoints(r.id).await? {
-                teacher.teach(stored_pose(&w)?);
-            }
-            teacher.finish_routine();
-            version += 1;
+            let poses = store
+                .waypoints(r.id)
+                .await?
+                .iter()
+                .map(stored_pose)
+                .collect::<Result<Vec<_>, _>>()?;
+            finished.push(poses);
         }
         let open = store.open_routine(cell.id).await?;
+        let mut taught = Vec::new();
         if let Some(r) = &open {
             for w in store.waypoints(r.id).await? {
-                let pose = stored_pose(&w)?;
-                teacher.teach(pose);
-                if let Some(arm) = arm.as_mut() {
-                    let joints: Option<Vec<f64>> = w
-                        .joints
-                        .as_deref()
-                        .and_then(|j| serde_json::from_str(j).ok());
-                    arm.taught(&pose, joints.as_deref());
-                }
+                taught.push((stored_pose(&w)?, stored_joints(&w)?));
             }
         }
-        Ok(CellModel {
-            arm,
-            teacher,
-            open: open.map(|r| r.id),
-            version,
+        let config = settings.engine_config();
+        let open = open.map(|r| r.id);
+        super::blocking(move || -> Result<CellModel, AppError> {
+            let mut teacher = Teacher::new(config)?;
+            for routine in &finished {
+                for pose in routine {
+                    teacher.teach(*pose);
+                }
+                teacher.finish_routine();
+            }
+            let mut arm = arm;
+            for (pose, joints) in &taught {
+                teacher.teach(*pose);
+                if let Some(arm) = arm.as_mut() {
+                    arm.taught(pose, joints.as_deref());
+                }
+            }
+            Ok(CellModel {
+                arm,
+                teacher,
+                open,
+                version: finished.len() as i64,
+            })
         })
+        .await?
     }
 
     /// What a rebuild from the database must reproduce: the learned model, the routine being

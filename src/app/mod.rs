@@ -15,6 +15,9 @@
 //! its own ([`App::to_completion`]): a caller that goes away (a client hanging up, a REST
 //! timeout, a cancelled gRPC call) stops waiting for the answer, not the operation, so the
 //! model and the database change together or not at all. Shutdown waits for these tasks.
+//! CPU-heavy work (predictions on request, open-loop completions, parsing and learning
+//! imports, learning a model from the database) runs on blocking threads ([`blocking`]), so one
+//! cell's import does not stall other cells' requests.
 
 mod cell_model;
 pub mod error;
@@ -71,6 +74,15 @@ struct Checked {
     reach: Option<Reachability>,
     /// Withheld because the arm cannot reach it (policy `withhold`).
     unreachable: bool,
+}
+
+/// Runs CPU-heavy work on a blocking thread, off the async workers.
+pub(crate) async fn blocking<T: Send + 'static>(
+    work: impl FnOnce() -> T + Send + 'static,
+) -> Result<T> {
+    tokio::task::spawn_blocking(work)
+        .await
+        .map_err(|e| AppError::Internal(format!("blocking task: {e}")))
 }
 
 impl Checked {
@@ -185,21 +197,27 @@ fn pose_dto(p: &PoseColumns) -> PoseDto {
     }
 }
 
-fn waypoint(w: WaypointRow) -> Waypoint {
-    Waypoint {
+/// A stored waypoint as clients see it. Its joints and motion were validated when taught, so
+/// one that does not read back is an internal error, like a bad stored pose.
+fn waypoint(w: WaypointRow) -> Result<Waypoint> {
+    let joints = cell_model::stored_joints(&w)?;
+    let motion = match w.motion.as_deref() {
+        None => None,
+        Some(m) => Some(MotionType::parse(m).ok_or_else(|| {
+            AppError::Internal(format!("stored motion {m:?} of waypoint {}", w.id))
+        })?),
+    };
+    Ok(Waypoint {
         id: w.id,
         routine_id: w.routine_id,
         seq: w.seq,
         pose: pose_dto(&w.pose),
-        joints: w
-            .joints
-            .as_deref()
-            .and_then(|j| serde_json::from_str(j).ok()),
-        motion: w.motion.as_deref().and_then(MotionType::parse),
+        joints,
+        motion,
         name: w.name,
         reachable: w.reachable,
         created_at: w.created_at,
-    }
+    })
 }
 
 fn routine(r: RoutineRow) -> Routine {
@@ -603,7 +621,7 @@ impl App {
         let waypoints = self.store.waypoints(id).await?;
         Ok(RoutineDetail {
             routine: routine(r),
-            waypoints: waypoints.into_iter().map(waypoint).collect(),
+            waypoints: waypoints.into_iter().map(waypoint).collect::<Result<_>>()?,
         })
     }
 
@@ -719,7 +737,7 @@ impl App {
         let prediction = self.dto(model.arm.as_ref(), &checked, &opts, id, after, version);
         self.metrics.record_prediction(checked.reason());
         Ok(Taught {
-            waypoint: waypoint(row),
+            waypoint: waypoint(row)?,
             prediction,
         })
     }
@@ -750,7 +768,7 @@ impl App {
             None => None,
         };
         Ok(Undone {
-            removed: waypoint(removed),
+            removed: waypoint(removed)?,
             prediction: self.dto(model.arm.as_ref(), &checked, &opts, id, after, version),
         })
     }
@@ -776,32 +794,41 @@ impl App {
         {
             return Err(AppError::Invalid("phi_min must be between 0 and 1".into()));
         }
-        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
+        let (locked, r) = self.lock_open_routine(routine_id).await?;
+        // Up to k predictions, each checked for reach: CPU work, on a blocking thread (with
+        // the cell's lock).
+        let (mut locked, opts, checked) = blocking(move || -> Result<_> {
+            let mut locked = locked;
+            let model = locked.model()?;
+            let mut opts = PredictOptions::from_config(model.teacher.config());
+            if let Some(h) = q.horizon {
+                opts.horizon = h;
+            }
+            if let Some(phi) = q.phi_min {
+                opts.phi_min = phi;
+            }
+            if let Some(s) = q.scale {
+                opts.scale.enabled = s;
+            }
+            let arm = model.arm.as_ref();
+            let mut previous = arm.and_then(|a| a.previous()).copied();
+            let mut checked = Vec::new();
+            for p in model.teacher.complete(k, &opts) {
+                let c = check(arm, p, previous.as_ref());
+                previous = c.reach.as_ref().and_then(|r| r.chosen).or(previous);
+                let stop = !c.offered();
+                checked.push(c);
+                if stop {
+                    break;
+                }
+            }
+            Ok((locked, opts, checked))
+        })
+        .await??;
         let model = locked.model()?;
-        let mut opts = PredictOptions::from_config(model.teacher.config());
-        if let Some(h) = q.horizon {
-            opts.horizon = h;
-        }
-        if let Some(phi) = q.phi_min {
-            opts.phi_min = phi;
-        }
-        if let Some(s) = q.scale {
-            opts.scale.enabled = s;
-        }
         let version = model.version;
         let taught = model.teacher.routine().len() as i64;
         let arm = model.arm.as_ref();
-        let mut previous = arm.and_then(|a| a.previous()).copied();
-        let mut checked = Vec::new();
-        for p in model.teacher.complete(k, &opts) {
-            let c = check(arm, p, previous.as_ref());
-            previous = c.reach.as_ref().and_then(|r| r.chosen).or(previous);
-            let stop = !c.offered();
-            checked.push(c);
-            if stop {
-                break;
-            }
-        }
         let mut out = Vec::with_capacity(checked.len());
         for (i, c) in checked.iter().enumerate() {
             let after = taught + i as i64;
@@ -912,13 +939,26 @@ impl App {
             check_name("file name", &f.name)?;
         }
         let learn = input.learn.unwrap_or(true);
-        let files: Vec<(&str, &str)> = input
-            .files
-            .iter()
-            .map(|f| (f.name.as_str(), f.content.as_str()))
-            .collect();
-        let report = crate::import::parse_files(&files)
-            .map_err(|e| AppError::Invalid(format!("cannot import: {e}")))?;
+        // Parsing is CPU work (seconds for large uploads): off the async workers.
+        let n_files = input.files.len();
+        tracing::info!(cell = cell_id, files = n_files, "parsing an upload");
+        let report = blocking(move || {
+            let files: Vec<(&str, &str)> = input
+                .files
+                .iter()
+                .map(|f| (f.name.as_str(), f.content.as_str()))
+                .collect();
+            crate::import::parse_files(&files)
+        })
+        .await?
+        .map_err(|e| AppError::Invalid(format!("cannot import: {e}")))?;
+        tracing::info!(
+            cell = cell_id,
+            files = n_files,
+            programs = report.programs.len(),
+            skipped = report.skipped.len(),
+            "parsed an upload"
+        );
         let mut programs = Vec::with_capacity(report.programs.len());
         let mut poses = Vec::new();
         for p in &report.programs {
@@ -967,17 +1007,22 @@ impl App {
                 )),
                 other => other,
             })?;
-        if learn {
-            for routine in &poses {
-                for pose in routine {
-                    model.teacher.teach(*pose);
+        // Learning is CPU work too: on a blocking thread, with the cell's lock.
+        let info = blocking(move || -> Result<ModelInfo> {
+            let mut locked = locked;
+            let model = locked.model()?;
+            if learn {
+                for routine in &poses {
+                    for pose in routine {
+                        model.teacher.teach(*pose);
+                    }
+                    model.teacher.finish_routine();
+                    model.version += 1;
                 }
-                model.teacher.finish_routine();
-                model.version += 1;
             }
-        }
-        let info = model.info();
-        drop(locked);
+            Ok(model.info())
+        })
+        .await??;
         let out = stored
             .into_iter()
             .zip(&report.programs)

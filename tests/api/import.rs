@@ -279,3 +279,140 @@ async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
         .await;
     expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid_settings").await;
 }
+
+/// Which phase of an import the server is in, read off its log events.
+mod phases {
+    use std::sync::OnceLock;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use tokio::sync::Notify;
+    use tracing::field::{Field, Visit};
+    use tracing_subscriber::layer::{Context, SubscriberExt};
+
+    /// Counts the "parsing an upload" and "parsed an upload" events of uploads of [`FILES`]
+    /// files (other tests' uploads are smaller).
+    pub struct Phases {
+        pub parsing: AtomicUsize,
+        pub parsed: AtomicUsize,
+        pub changed: Notify,
+    }
+
+    pub const FILES: u64 = 21;
+
+    #[derive(Default)]
+    struct Message {
+        text: Option<String>,
+        files: Option<u64>,
+    }
+
+    impl Visit for Message {
+        fn record_debug(&mut self, field: &Field, value: &dyn std::fmt::Debug) {
+            if field.name() == "message" {
+                self.text = Some(format!("{value:?}"));
+            }
+        }
+
+        fn record_u64(&mut self, field: &Field, value: u64) {
+            if field.name() == "files" {
+                self.files = Some(value);
+            }
+        }
+    }
+
+    struct Layer;
+
+    impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Layer {
+        fn on_event(&self, event: &tracing::Event<'_>, _: Context<'_, S>) {
+            let mut m = Message::default();
+            event.record(&mut m);
+            if m.files != Some(FILES) {
+                return;
+            }
+            let p = phases();
+            match m.text.as_deref() {
+                Some("parsing an upload") => p.parsing.fetch_add(1, Ordering::SeqCst),
+                Some("parsed an upload") => p.parsed.fetch_add(1, Ordering::SeqCst),
+                _ => return,
+            };
+            p.changed.notify_waiters();
+        }
+    }
+
+    /// The binary's phase counters (installing the log layer on first use).
+    pub fn phases() -> &'static Phases {
+        static PHASES: OnceLock<Phases> = OnceLock::new();
+        static INSTALLED: OnceLock<()> = OnceLock::new();
+        let p = PHASES.get_or_init(|| Phases {
+            parsing: AtomicUsize::new(0),
+            parsed: AtomicUsize::new(0),
+            changed: Notify::new(),
+        });
+        INSTALLED.get_or_init(|| {
+            let subscriber = tracing_subscriber::registry().with(Layer);
+            tracing::subscriber::set_global_default(subscriber).expect("one global subscriber");
+        });
+        p
+    }
+}
+
+/// Parsing a large upload runs off the async workers: on this single-threaded test runtime
+/// (the server's too), a request is answered between the server's "parsing" and "parsed" log
+/// events. When the parse ran on the runtime's thread, nothing could be answered in between.
+#[tokio::test(flavor = "current_thread")]
+async fn a_large_import_does_not_stall_other_requests() {
+    use std::sync::atomic::Ordering;
+    let phases = phases::phases();
+    let app = spawn_with(nextpose::http::HttpOptions {
+        body_limit: 4 << 20,
+        ..Default::default()
+    })
+    .await;
+    let cell = app.create_cell("large upload").await;
+    // The welder's modules three times under other module names: about 2 MB of RAPID (the
+    // body limit raised to take it).
+    let mut files = Vec::new();
+    for copy in 0..3 {
+        for f in upload("ravenorb__abb-robot-welder") {
+            let name = format!("c{copy}_{}", f["name"].as_str().unwrap());
+            let text =
+                f["content"]
+                    .as_str()
+                    .unwrap()
+                    .replacen("MODULE ", &format!("MODULE C{copy}_"), 1);
+            files.push(json!({ "name": name, "content": text }));
+        }
+    }
+    assert_eq!(files.len() as u64, phases::FILES);
+    let before = phases.parsed.load(Ordering::SeqCst);
+    let started = phases.parsing.load(Ordering::SeqCst);
+    let import = tokio::spawn({
+        let url = app.url(&format!("/v1/cells/{cell}/imports"));
+        let client = app.client.clone();
+        async move {
+            client
+                .post(url)
+                .json(&json!({ "files": files, "learn": false }))
+                .send()
+                .await
+                .expect("import")
+                .status()
+        }
+    });
+    // Wait for the server to start parsing, then ask it something else.
+    loop {
+        let changed = phases.changed.notified();
+        if phases.parsing.load(Ordering::SeqCst) > started {
+            break;
+        }
+        changed.await;
+    }
+    let health = app.get("/healthz").await;
+    assert_eq!(health.status(), StatusCode::OK);
+    assert_eq!(
+        phases.parsed.load(Ordering::SeqCst),
+        before,
+        "the server answered only after the parse had finished"
+    );
+    assert_eq!(import.await.unwrap(), StatusCode::CREATED);
+    assert_eq!(phases.parsed.load(Ordering::SeqCst), before + 1);
+}
