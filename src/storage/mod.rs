@@ -410,7 +410,7 @@ impl Store {
         };
         let mut tx = self.pool.begin().await?;
         let row = insert.fetch_one(&mut *tx).await.map_err(classify)?;
-        let pid = insert_prediction(&mut tx, pr).await?;
+        let pid = insert_prediction(&mut tx, pr, Some(row.id)).await?;
         tx.commit().await?;
         Ok((row, Some(pid)))
     }
@@ -434,17 +434,27 @@ impl Store {
 
     // ---- predictions and feedback -----------------------------------------------------------
 
-    /// Records an offered prediction unless the same one (same routine state, same pose) is
-    /// already recorded; returns its id either way.
+    /// Records an offered prediction unless the same one is already recorded: made after the
+    /// same waypoint (ids are never reused, so after an undo and a re-teach it is a new one),
+    /// by the same model version, at the same pose. Returns its id either way.
     pub async fn record_prediction(&self, pr: &NewPrediction) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
+        let (last,): (Option<i64>,) = sqlx::query_as(
+            "SELECT (SELECT id FROM waypoints WHERE routine_id = ? ORDER BY seq DESC LIMIT 1)",
+        )
+        .bind(pr.routine_id)
+        .fetch_one(&mut *tx)
+        .await?;
         let existing: Option<(i64,)> = sqlx::query_as(
             "SELECT id FROM predictions WHERE routine_id = ? AND after_seq = ? \
+             AND after_waypoint_id IS ? AND model_version = ? \
              AND x = ? AND y = ? AND z = ? AND qw = ? AND qx = ? AND qy = ? AND qz = ? \
              ORDER BY id LIMIT 1",
         )
         .bind(pr.routine_id)
         .bind(pr.after_seq)
+        .bind(last)
+        .bind(pr.model_version)
         .bind(pr.pose.x)
         .bind(pr.pose.y)
         .bind(pr.pose.z)
@@ -456,7 +466,7 @@ impl Store {
         .await?;
         let id = match existing {
             Some((id,)) => id,
-            None => insert_prediction(&mut tx, pr).await?,
+            None => insert_prediction(&mut tx, pr, last).await?,
         };
         tx.commit().await?;
         Ok(id)
@@ -535,18 +545,21 @@ fn match_routine_sql(columns: &str, tail: &str) -> String {
     format!("SELECT {columns} FROM routines r {tail}")
 }
 
+/// Inserts a prediction made after the waypoint `after_waypoint` (None: nothing taught yet).
 async fn insert_prediction(
     tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
     pr: &NewPrediction,
+    after_waypoint: Option<i64>,
 ) -> Result<i64> {
     let (id,): (i64,) = sqlx::query_as(
-        "INSERT INTO predictions (cell_id, routine_id, after_seq, x, y, z, qw, qx, qy, qz, \
-           phi, psi, misfit, end_probability, model_version) \
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
+           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) \
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
     )
     .bind(pr.cell_id)
     .bind(pr.routine_id)
     .bind(pr.after_seq)
+    .bind(after_waypoint)
     .bind(pr.pose.x)
     .bind(pr.pose.y)
     .bind(pr.pose.z)

@@ -154,3 +154,110 @@ async fn acknowledged_waypoints_survive_kill_9() {
     child.wait().ok();
     assert_eq!(after, before);
 }
+
+/// A database written before ids were made never-reusable (migrations 1–3) upgrades in place:
+/// every row keeps its id and contents, feedback stays attached, and new ids continue after
+/// the largest id present (the old schema kept no record of deleted ones) and are never reused
+/// from then on.
+#[tokio::test]
+async fn an_older_database_upgrades_with_its_ids_and_rows() {
+    use sqlx::sqlite::{SqliteConnectOptions, SqlitePoolOptions};
+
+    let dir = tempfile::tempdir().unwrap();
+    let old = dir.path().join("migrations");
+    std::fs::create_dir(&old).unwrap();
+    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+    for name in [
+        "0001_init.sql",
+        "0002_waypoint_reachable.sql",
+        "0003_imported_routines.sql",
+    ] {
+        std::fs::copy(here.join(name), old.join(name)).unwrap();
+    }
+    let db = dir.path().join("old.db");
+    let pool = SqlitePoolOptions::new()
+        .max_connections(1)
+        .connect_with(
+            SqliteConnectOptions::new()
+                .filename(&db)
+                .create_if_missing(true)
+                .foreign_keys(true),
+        )
+        .await
+        .unwrap();
+    sqlx::migrate::Migrator::new(old.as_path())
+        .await
+        .unwrap()
+        .run(&pool)
+        .await
+        .unwrap();
+    let settings = nextpose::app::settings::CellSettingsInput::default()
+        .resolve()
+        .unwrap();
+    let settings = serde_json::to_string(&settings).unwrap();
+    for sql in [
+        format!("INSERT INTO cells (id, name, settings) VALUES (1, 'c', '{settings}')"),
+        "INSERT INTO programs (id, cell_id, name) VALUES (1, 1, 'p')".to_string(),
+        "INSERT INTO routines (id, program_id, cell_id, position, finish_seq, finished_at) \
+         VALUES (1, 1, 1, 1, 1, 'then')"
+            .to_string(),
+        "INSERT INTO routines (id, program_id, cell_id, position) VALUES (2, 1, 1, 2)".to_string(),
+        "INSERT INTO waypoints (id, routine_id, seq, x, y, z, qw, qx, qy, qz, reachable) VALUES \
+         (1, 1, 1, 400, 0, 300, 0, 0, 1, 0, 1), (2, 1, 2, 450, 0, 300, 0, 0, 1, 0, 1), \
+         (3, 1, 3, 450, 50, 300, 0, 0, 1, 0, 1), (4, 2, 1, 400, 100, 300, 0, 0, 1, 0, NULL), \
+         (9, 2, 2, 450, 100, 300, 0, 0, 1, 0, NULL)"
+            .to_string(),
+        "INSERT INTO predictions (id, cell_id, routine_id, after_seq, x, y, z, qw, qx, qy, qz, \
+         phi, psi, end_probability, model_version) VALUES \
+         (7, 1, 2, 2, 450, 150, 300, 0, 0, 1, 0, 0.9, 1, 0, 1)"
+            .to_string(),
+        "INSERT INTO feedback (prediction_id, verdict, adjustment_mm) VALUES (7, 'accepted', 0)"
+            .to_string(),
+        // Deleted before the upgrade: the old schema forgets id 9.
+        "DELETE FROM waypoints WHERE id = 9".to_string(),
+    ] {
+        sqlx::query(sqlx::AssertSqlSafe(sql))
+            .execute(&pool)
+            .await
+            .unwrap();
+    }
+    pool.close().await;
+
+    let app = spawn_on(db).await;
+    let cells = app.get_ok("/v1/cells").await;
+    assert_eq!(cells[0]["id"], 1);
+    assert_eq!(cells[0]["name"], "c");
+    let finished = app.get_ok("/v1/routines/1").await;
+    assert_eq!(finished["finished"], true);
+    let seqs: Vec<i64> = finished["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(seqs, [1, 2, 3]);
+    assert_eq!(finished["waypoints"][2]["pose"]["y"], 50.0);
+    assert_eq!(finished["waypoints"][2]["reachable"], true, "{finished}");
+    let stats = app.get_ok("/v1/cells/1/stats").await;
+    assert_eq!(stats["feedback"]["offered"], 1);
+    assert_eq!(stats["feedback"]["accepted"], 1);
+    assert_eq!(stats["model"]["routines"], 1);
+    // The open routine goes on; new ids come after the largest present, and an undone one is
+    // not given again.
+    let p = json!({"x": 450.0, "y": 100.0, "z": 300.0, "qw": 0.0, "qx": 0.0, "qy": 1.0, "qz": 0.0});
+    let taught = app.append(2, &p).await;
+    assert_eq!(taught["waypoint"]["seq"], 2);
+    assert_eq!(taught["waypoint"]["id"], 5);
+    let r = app.delete("/v1/routines/2/waypoints/last").await;
+    expect(r, StatusCode::OK).await;
+    let taught = app.append(2, &p).await;
+    assert_eq!(taught["waypoint"]["seq"], 2);
+    assert_eq!(taught["waypoint"]["id"], 6);
+    let again = app
+        .post(
+            &format!("/v1/predictions/{}/feedback", 7),
+            &json!({"verdict": "rejected"}),
+        )
+        .await;
+    expect_error(again, StatusCode::CONFLICT, "conflict").await;
+}

@@ -34,6 +34,11 @@ pub async fn spawn_with(http: HttpOptions) -> TestApp {
     app
 }
 
+/// The application on an existing database file (kept by the caller).
+pub async fn spawn_on(db: PathBuf) -> TestApp {
+    start(db, HttpOptions::default()).await
+}
+
 async fn start(db: PathBuf, http: HttpOptions) -> TestApp {
     let token = http.token.clone();
     let settings = ServerSettings {

@@ -133,14 +133,45 @@ async fn completion_predicts_the_next_k_waypoints() {
         assert!(distance(&p["pose"], &copy[4 + i]) < 1e-6);
         assert_eq!(p["after_waypoints"], 4 + i as i64);
     }
-    // Per-request overrides: φ_min = 1 withholds what the cell's settings offer.
-    let strict = app
-        .get_ok(&format!("/v1/routines/{routine}/prediction?phi_min=1.0"))
-        .await;
-    let p = &strict["predictions"][0];
-    if p["phi"].as_f64().unwrap() < 1.0 {
-        assert_eq!(p["withheld"]["reason"], "low_confidence");
+    // Per-request overrides of φ_min. A second program whose seam turns the other way after
+    // the same start leaves the model short of certainty about what follows (φ ≈ 0.68, below
+    // the default φ_min = 0.7): a lower φ_min lets it pass that gate, φ_min = 1 does not.
+    let r = app.delete(&format!("/v1/routines/{routine}")).await;
+    expect(r, StatusCode::NO_CONTENT).await;
+    let other = app.create_program(cell, "q").await;
+    let mut turned = u_seam([0.0; 3], 0.0);
+    for w in &mut turned[4..] {
+        w["y"] = json!(-w["y"].as_f64().unwrap());
     }
+    app.teach_routine(other, &turned).await;
+    let routine = app.create_routine(other).await;
+    for p in &copy[..4] {
+        app.append(routine, p).await;
+    }
+    let at = |phi_min: &str| format!("/v1/routines/{routine}/prediction{phi_min}");
+    let usual = app.get_ok(&at("")).await;
+    let phi = usual["predictions"][0]["phi"].as_f64().unwrap();
+    assert!(
+        phi > 0.5 && phi < 0.7,
+        "the setup needs 0.5 < φ < 0.7: φ = {phi}"
+    );
+    assert_eq!(
+        usual["predictions"][0]["withheld"]["reason"],
+        "low_confidence"
+    );
+    // With φ_min = 0.5 the φ gate passes (the next gate, on the spread of what followed,
+    // still withholds it).
+    let lenient = app.get_ok(&at("?phi_min=0.5")).await;
+    assert_eq!(lenient["predictions"][0]["phi"], phi);
+    assert_eq!(
+        lenient["predictions"][0]["withheld"]["reason"],
+        "wide_spread"
+    );
+    let strict = app.get_ok(&at("?phi_min=1.0")).await;
+    let p = &strict["predictions"][0];
+    assert_eq!(p["phi"], phi);
+    assert_eq!(p["offered"], false);
+    assert_eq!(p["withheld"]["reason"], "low_confidence");
     let r = app
         .get(&format!("/v1/routines/{routine}/prediction?k=0"))
         .await;
@@ -195,14 +226,16 @@ async fn feedback_is_counted_in_the_cell_stats() {
     // Once per prediction; `adjusted` needs the pose; unknown prediction is 404.
     let again = app.post(&fb(ids[0]), &json!({"verdict": "rejected"})).await;
     expect_error(again, StatusCode::CONFLICT, "conflict").await;
-    if let Some(&id) = ids.get(3) {
-        let r = app.post(&fb(id), &json!({"verdict": "adjusted"})).await;
-        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
-        let r = app
-            .post(&fb(id), &json!({"verdict": "accepted", "pose": poses[0]}))
-            .await;
-        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
-    }
+    assert!(ids.len() >= 4, "{} offered", ids.len());
+    let r = app.post(&fb(ids[3]), &json!({"verdict": "adjusted"})).await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    let r = app
+        .post(
+            &fb(ids[3]),
+            &json!({"verdict": "accepted", "pose": poses[0]}),
+        )
+        .await;
+    expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
     let r = app
         .post(&fb(999_999), &json!({"verdict": "accepted"}))
         .await;
@@ -218,16 +251,116 @@ async fn feedback_is_counted_in_the_cell_stats() {
     assert!((f["median_adjustment_mm"].as_f64().unwrap() - 5.0).abs() < 1e-9);
     assert!((f["acceptance"].as_f64().unwrap() - 2.0 / 3.0).abs() < 1e-12);
 
-    // A GET of the same prediction refers to the same record (not counted twice).
+    // A GET of the same prediction refers to the same record (not counted twice): undo the
+    // last waypoint so that a prediction is offered again.
+    let r = app
+        .delete(&format!("/v1/routines/{routine}/waypoints/last"))
+        .await;
+    let undone = expect(r, StatusCode::OK).await;
+    assert_eq!(undone["prediction"]["offered"], true, "{undone}");
     let now = app
         .get_ok(&format!("/v1/routines/{routine}/prediction"))
         .await;
-    if let Some(id) = now["predictions"][0]["id"].as_i64() {
-        let again = app
-            .get_ok(&format!("/v1/routines/{routine}/prediction"))
-            .await;
-        assert_eq!(again["predictions"][0]["id"], id);
+    let id = now["predictions"][0]["id"]
+        .as_i64()
+        .expect("an offered prediction");
+    assert_eq!(undone["prediction"]["id"], id);
+    let again = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction"))
+        .await;
+    assert_eq!(again["predictions"][0]["id"], id);
+}
+
+/// After an undo and the same waypoint taught again, the prediction is a new one: the old
+/// one, judged already, is not handed out again (it was, matched on its pose alone, and the
+/// operator's feedback was refused with 409).
+#[tokio::test]
+async fn a_prediction_after_undo_and_reteach_is_a_new_one() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("reteach").await;
+    let program = app.create_program(cell, "p").await;
+    app.teach_routine(program, &u_seam([0.0; 3], 0.0)).await;
+    let copy = u_seam([50.0, 50.0, 0.0], 0.2);
+    let routine = app.create_routine(program).await;
+    for p in &copy[..4] {
+        app.append(routine, p).await;
     }
+    let first = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction"))
+        .await;
+    let first_id = first["predictions"][0]["id"].as_i64().expect("offered");
+    let fb = |id: i64| format!("/v1/predictions/{id}/feedback");
+    app.post_ok(
+        &fb(first_id),
+        &json!({"verdict": "rejected"}),
+        StatusCode::CREATED,
+    )
+    .await;
+    let r = app
+        .delete(&format!("/v1/routines/{routine}/waypoints/last"))
+        .await;
+    expect(r, StatusCode::OK).await;
+    let retaught = app.append(routine, &copy[3]).await;
+    let again = app
+        .get_ok(&format!("/v1/routines/{routine}/prediction"))
+        .await;
+    let p = &again["predictions"][0];
+    assert_eq!(
+        p["pose"], first["predictions"][0]["pose"],
+        "same state, same pose"
+    );
+    let id = p["id"].as_i64().expect("offered");
+    assert_ne!(id, first_id, "the judged prediction came back");
+    assert_eq!(retaught["prediction"]["id"], id, "the append's own record");
+    app.post_ok(
+        &fb(id),
+        &json!({"verdict": "accepted"}),
+        StatusCode::CREATED,
+    )
+    .await;
+}
+
+/// Ids are never handed out twice: a routine deleted in one cell does not give its id to a
+/// routine of another cell (which then answered 500 on every call, until a restart).
+#[tokio::test]
+async fn ids_of_deleted_resources_are_never_reused() {
+    let app = spawn_app().await;
+    let a = app.create_cell("a").await;
+    let b = app.create_cell("b").await;
+    let pa = app.create_program(a, "p").await;
+    let pb = app.create_program(b, "p").await;
+    let r = app.create_routine(pa).await;
+    let taught = app.append(r, &u_seam([0.0; 3], 0.0)[0]).await;
+    let waypoint = taught["waypoint"]["id"].as_i64().unwrap();
+    let r2 = app.delete(&format!("/v1/routines/{r}")).await;
+    expect(r2, StatusCode::NO_CONTENT).await;
+    let other = app.create_routine(pb).await;
+    assert_ne!(other, r, "a deleted routine's id was reused");
+    let t = app.append(other, &u_seam([0.0; 3], 0.0)[0]).await;
+    assert_ne!(t["waypoint"]["id"].as_i64().unwrap(), waypoint);
+    assert_eq!(t["waypoint"]["seq"], 1);
+    // The routine works in its cell: undo, predict, finish; the deleted one stays gone.
+    let r3 = app
+        .delete(&format!("/v1/routines/{other}/waypoints/last"))
+        .await;
+    expect(r3, StatusCode::OK).await;
+    for p in &u_seam([0.0; 3], 0.0)[..3] {
+        app.append(other, p).await;
+    }
+    app.get_ok(&format!("/v1/routines/{other}/prediction"))
+        .await;
+    app.finish(other).await;
+    let gone = app.get(&format!("/v1/routines/{r}")).await;
+    expect_error(gone, StatusCode::NOT_FOUND, "not_found").await;
+    // Undo's deleted waypoint id is not reused either.
+    let again = app.create_routine(pa).await;
+    let w1 = app.append(again, &u_seam([0.0; 3], 0.0)[0]).await["waypoint"]["id"].clone();
+    let r4 = app
+        .delete(&format!("/v1/routines/{again}/waypoints/last"))
+        .await;
+    expect(r4, StatusCode::OK).await;
+    let w2 = app.append(again, &u_seam([0.0; 3], 0.0)[0]).await["waypoint"]["id"].clone();
+    assert_ne!(w1, w2);
 }
 
 #[tokio::test]
