@@ -413,13 +413,20 @@ fn run_import(args: ImportArgs) -> Result<()> {
         };
         let answer = |r: reqwest::Response| async move {
             let status = r.status();
-            let body: serde_json::Value = r.json().await.unwrap_or_default();
+            let text = r.text().await.context("reading the server's answer")?;
+            let body: serde_json::Value = match serde_json::from_str(&text) {
+                Ok(v) => v,
+                Err(e) if status.is_success() => {
+                    bail!("server answered {status} with a body that is not JSON ({e}): {text}")
+                }
+                Err(_) => bail!("server answered {status}: {text}"),
+            };
             if status.is_success() {
                 Ok(body)
             } else {
                 bail!(
                     "server answered {status}: {}",
-                    body["error"]["message"].as_str().unwrap_or("(no message)")
+                    body["error"]["message"].as_str().unwrap_or(&text)
                 )
             }
         };
@@ -539,7 +546,8 @@ fn run_replay(args: &ReplayArgs) -> Result<()> {
     )];
     methods.extend(baselines::all(&config, args.gate));
     let run_config = RunConfig::new(args.engine.profile_name(), config.clone(), args.gate);
-    let report = replay_all(&programs, &mut methods, run_config);
+    let report = replay_all(&programs, &mut methods, run_config)
+        .context("loading the arm of the reachability figures")?;
 
     let mut out = std::io::stdout().lock();
     if !args.quiet {

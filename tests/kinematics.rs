@@ -546,7 +546,8 @@ fn replay_report_gains_reachability_figures() {
         &[program("rapid"), program("fanuc")],
         &mut methods,
         RunConfig::new("default", EngineConfig::default(), 1.0),
-    );
+    )
+    .expect("the bundled arm loads");
     let json = serde_json::to_value(&report).unwrap();
     assert_eq!(json["config"]["reachability"]["robot"], "abb_irb140");
     let rapid = &json["programs"][0]["methods"]["repeat_last"];

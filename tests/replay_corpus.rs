@@ -29,6 +29,7 @@ fn scoreboard(profile: Profile) -> Report {
         &mut methods,
         RunConfig::new(profile.name(), config, DEFAULT_NEAREST_SEQ_GATE),
     )
+    .expect("the bundled arm loads")
 }
 
 fn totals<'a>(r: &'a Report, method: &str) -> &'a Metrics {

@@ -339,7 +339,8 @@ fn report_json_has_the_stable_shape() {
         &[prog],
         &mut methods,
         RunConfig::new("default", config, 1.0),
-    );
+    )
+    .expect("the bundled arm loads");
     let json = serde_json::to_value(&report).unwrap();
 
     assert_eq!(json["config"]["horizon"], 3);

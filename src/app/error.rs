@@ -28,7 +28,11 @@ pub enum AppError {
     Pose(#[from] PoseError),
     #[error("invalid settings: {0}")]
     Config(#[from] ConfigError),
-    /// A failure of ours (database, corrupted stored data).
+    /// The database failed. The storage error is kept as the source, so the edge logs the
+    /// whole chain (down to sqlx's) once.
+    #[error("the database failed")]
+    Storage(#[source] StorageError),
+    /// A failure of ours (corrupted stored data, a task that died).
     #[error("internal error: {0}")]
     Internal(String),
 }
@@ -42,8 +46,20 @@ impl AppError {
             AppError::Invalid(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) => "invalid_settings",
-            AppError::Internal(_) => "internal",
+            AppError::Storage(_) | AppError::Internal(_) => "internal",
         }
+    }
+
+    /// The error and every source under it, for the log: `a: b: c`.
+    pub fn chain(&self) -> String {
+        let mut out = self.to_string();
+        let mut source = std::error::Error::source(self);
+        while let Some(e) = source {
+            out.push_str(": ");
+            out.push_str(&e.to_string());
+            source = e.source();
+        }
+        out
     }
 
     pub(crate) fn not_found(what: &'static str, id: i64) -> AppError {
@@ -55,8 +71,34 @@ impl From<StorageError> for AppError {
     fn from(e: StorageError) -> AppError {
         match e {
             StorageError::Conflict(m) => AppError::Conflict(m),
-            StorageError::NotFound => AppError::Internal("a stored row vanished".into()),
-            other => AppError::Internal(other.to_string()),
+            other => AppError::Storage(other),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A database failure keeps the storage error as its typed source (it was flattened into
+    /// a string), and the log line carries the whole chain.
+    #[test]
+    fn database_failures_keep_their_source() {
+        let e = AppError::from(StorageError::Database(sqlx::Error::PoolClosed));
+        let source = std::error::Error::source(&e).expect("a source");
+        assert!(source.downcast_ref::<StorageError>().is_some());
+        assert_eq!(e.code(), "internal");
+        let chain = e.chain();
+        assert!(
+            chain.starts_with("the database failed: database error: "),
+            "{chain}"
+        );
+        assert!(
+            chain.contains(&sqlx::Error::PoolClosed.to_string()),
+            "{chain}"
+        );
+        // A name taken stays a conflict the client can act on.
+        let taken = AppError::from(StorageError::Conflict("UNIQUE".into()));
+        assert!(matches!(taken, AppError::Conflict(_)));
     }
 }

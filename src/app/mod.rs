@@ -165,6 +165,12 @@ fn check_name(what: &str, name: &str) -> Result<()> {
     if name.trim().is_empty() {
         return Err(AppError::Invalid(format!("{what} must not be empty")));
     }
+    if let Some(c) = name.chars().find(|c| c.is_control()) {
+        return Err(AppError::Invalid(format!(
+            "{what} must not contain control characters (found U+{:04X})",
+            c as u32
+        )));
+    }
     if name.chars().count() > MAX_NAME {
         return Err(AppError::Invalid(format!(
             "{what} is longer than {MAX_NAME} characters"
@@ -701,6 +707,9 @@ impl App {
         let pose = stored.to_pose()?;
         let (mut locked, r) = self.lock_open_routine(routine_id).await?;
         let model = locked.model()?;
+        if let (Some(arm), Some(j)) = (&model.arm, &input.joints) {
+            arm.check_joints(j)?;
+        }
         model.teacher.teach(pose);
         let taught_reach = model
             .arm
@@ -1128,20 +1137,19 @@ impl App {
         let gate = baselines::DEFAULT_NEAREST_SEQ_GATE;
         let profile_name = crate::engine::Profile::from(profile).name();
         // The replay is CPU work (seconds for a large corpus): off the async workers.
-        let report = tokio::task::spawn_blocking(move || -> Result<_> {
+        blocking(move || -> Result<_> {
             let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
                 EngineMethod::new(config.clone()).map_err(AppError::from)?,
             )];
             methods.extend(baselines::all(&config, gate));
-            Ok(replay_all(
+            replay_all(
                 &programs,
                 &mut methods,
                 RunConfig::new(profile_name, config, gate),
-            ))
+            )
+            .map_err(|e| AppError::Internal(format!("the replay's arm model: {e}")))
         })
-        .await
-        .map_err(|e| AppError::Internal(format!("replay task: {e}")))??;
-        Ok(report)
+        .await?
     }
 
     // ---- feedback ---------------------------------------------------------------------------

@@ -152,8 +152,22 @@ impl Arm {
         check_reach(&self.robot, &self.frames, pose, previous, &self.config)
     }
 
+    /// Taught joints must be one value per joint of the arm (they were cut or padded
+    /// silently before).
+    pub fn check_joints(&self, joints: &[f64]) -> Result<(), AppError> {
+        if joints.len() == kinematics::DOF {
+            return Ok(());
+        }
+        Err(AppError::Invalid(format!(
+            "joints must hold {} values, one per joint of the cell's {}, not {}",
+            kinematics::DOF,
+            self.robot.name(),
+            joints.len()
+        )))
+    }
+
     /// A taught waypoint: checks it and follows the arm's joints (the taught ones when the
-    /// pendant sent all six).
+    /// pendant sent them, checked by [`Arm::check_joints`]).
     pub fn taught(&mut self, pose: &Pose, joints: Option<&[f64]>) -> Reachability {
         let reach = self.check(pose, self.previous());
         let taught: Option<Joints> = joints.and_then(|j| j.try_into().ok());

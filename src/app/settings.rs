@@ -106,6 +106,11 @@ pub struct CellSettingsInput {
 
 /// Largest horizon a cell or a request may ask for.
 pub const MAX_HORIZON: usize = 50;
+/// Translation repeatability σ_t a cell may have (mm): a micrometre to a metre. Outside it the
+/// precision matrix over- or underflows and the cell could not be used.
+pub const SIGMA_T_MM: std::ops::RangeInclusive<f64> = 1e-3..=1e3;
+/// Quaternion-component repeatability σ_q a cell may have (a component lies in [-1, 1]).
+pub const SIGMA_Q: std::ops::RangeInclusive<f64> = 1e-6..=1.0;
 
 fn identity() -> PoseDto {
     (&Pose::identity()).into()
@@ -155,6 +160,18 @@ impl CellSettings {
 
     pub fn validate(&self) -> Result<(), AppError> {
         self.engine_config().validate()?;
+        for (name, value, range) in [
+            ("sigma_t_mm", self.sigma_t_mm, SIGMA_T_MM),
+            ("sigma_q", self.sigma_q, SIGMA_Q),
+        ] {
+            if !range.contains(&value) {
+                return Err(AppError::Invalid(format!(
+                    "{name} = {value} is outside {} to {}",
+                    range.start(),
+                    range.end()
+                )));
+            }
+        }
         if self.horizon > MAX_HORIZON {
             return Err(AppError::Invalid(format!(
                 "horizon {} is above the maximum of {MAX_HORIZON}",
@@ -166,6 +183,8 @@ impl CellSettings {
         }
         self.base.to_pose()?;
         self.tool.to_pose()?;
+        // Whatever passes must give a working model (as creating a routine will build it).
+        crate::engine::Teacher::new(self.engine_config())?;
         Ok(())
     }
 }
@@ -211,6 +230,23 @@ mod tests {
             },
             CellSettingsInput {
                 robot: Some(" ".into()),
+                ..Default::default()
+            },
+            // Each made a cell that answered 422 to everything afterwards.
+            CellSettingsInput {
+                sigma_t_mm: Some(1e300),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                sigma_t_mm: Some(1e-300),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                sigma_q: Some(1e300),
+                ..Default::default()
+            },
+            CellSettingsInput {
+                sigma_q: Some(1e-300),
                 ..Default::default()
             },
         ] {

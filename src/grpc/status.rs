@@ -16,14 +16,14 @@ pub fn code(e: &AppError) -> Code {
         AppError::Exists(_) => Code::AlreadyExists,
         AppError::Conflict(_) => Code::FailedPrecondition,
         AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => Code::InvalidArgument,
-        AppError::Internal(_) => Code::Internal,
+        AppError::Storage(_) | AppError::Internal(_) => Code::Internal,
     }
 }
 
 /// The message a client sees: internal details stay in the server log.
 pub fn message(e: &AppError) -> String {
     if code(e) == Code::Internal {
-        tracing::error!(error = %e, "gRPC request failed");
+        tracing::error!(error = %e.chain(), "gRPC request failed");
         "internal error; see the server log".to_string()
     } else {
         e.to_string()

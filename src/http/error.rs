@@ -70,10 +70,10 @@ impl From<AppError> for ApiError {
             AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => {
                 StatusCode::UNPROCESSABLE_ENTITY
             }
-            AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+            AppError::Storage(_) | AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
         if status.is_server_error() {
-            tracing::error!(error = %e, "request failed");
+            tracing::error!(error = %e.chain(), "request failed");
             return ApiError::new(status, e.code(), "internal error; see the server log");
         }
         ApiError::new(status, e.code(), e.to_string())

@@ -88,17 +88,19 @@ pub struct Report {
 }
 
 /// Replays every program through every method and computes per-program and pooled figures.
-/// Each method sees each program from an empty model (`reset`).
+/// Each method sees each program from an empty model (`reset`). The arm of the reachability
+/// figures, when the configuration asks for them, must load: an error, not a report without
+/// them.
 pub fn replay_all(
     programs: &[Program],
     methods: &mut [Box<dyn Method>],
     config: RunConfig,
-) -> Report {
-    // The arm of the reachability figures; a setup that does not load means no figures.
+) -> Result<Report, crate::kinematics::KinematicsError> {
     let check = config
         .reachability
         .clone()
-        .and_then(|setup| ReachCheck::new(setup).ok());
+        .map(ReachCheck::new)
+        .transpose()?;
     let cells: Vec<_> = programs
         .iter()
         .map(|p| check.as_ref().and_then(|c| c.cell_for(p)))
@@ -158,11 +160,11 @@ pub fn replay_all(
             ),
         })
         .collect();
-    Report {
+    Ok(Report {
         config,
         totals,
         programs,
-    }
+    })
 }
 
 impl Report {
@@ -325,5 +327,20 @@ mod tests {
         assert_eq!(lines[0], "name          µs");
         assert_eq!(lines[2], "a            1.5");
         assert_eq!(lines[3], "long name  12.25");
+    }
+
+    /// An arm that does not load is an error, not a report without reach figures.
+    #[test]
+    fn a_missing_arm_is_an_error() {
+        let config = crate::engine::EngineConfig::default();
+        let mut run = RunConfig::new("default", config, 0.0);
+        run.reachability = Some(ReachSetup {
+            robot: "no_such_robot".into(),
+            ..ReachSetup::default()
+        });
+        let mut methods: Vec<Box<dyn Method>> = Vec::new();
+        assert!(replay_all(&[], &mut methods, run.clone()).is_err());
+        run.reachability = Some(ReachSetup::default());
+        assert!(replay_all(&[], &mut methods, run).is_ok());
     }
 }

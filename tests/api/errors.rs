@@ -251,3 +251,71 @@ async fn bearer_token_guards_everything_but_healthz() {
     assert!(r.status().is_success(), "{}", r.status());
     assert!(r.headers().contains_key("access-control-allow-origin"));
 }
+
+/// Settings that would make a cell unusable, names with control characters and joint lists
+/// that do not fit the cell's arm are refused up front, and nothing is created.
+#[tokio::test]
+async fn unusable_settings_control_characters_and_wrong_joint_counts_are_refused() {
+    let app = spawn_app().await;
+    for (field, value) in [
+        ("sigma_t_mm", 1e300),
+        ("sigma_t_mm", 1e-300),
+        ("sigma_q", 1e300),
+        ("sigma_q", 1e-300),
+    ] {
+        let r = app
+            .post(
+                "/v1/cells",
+                &json!({ "name": "tight", "settings": { field: value } }),
+            )
+            .await;
+        let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        assert!(message.contains(field), "{message}");
+    }
+    // The name was not taken by any of them.
+    let cell = app.create_cell("tight").await;
+    let r = app.get(&format!("/v1/cells/{cell}/stats")).await;
+    expect(r, StatusCode::OK).await;
+
+    for name in ["nul\u{0}name", "line\nbreak"] {
+        let r = app.post("/v1/cells", &json!({ "name": name })).await;
+        let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        assert!(message.contains("control characters"), "{message}");
+        let r = app
+            .post(
+                &format!("/v1/cells/{cell}/programs"),
+                &json!({ "name": name }),
+            )
+            .await;
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    }
+    let cells = app.get_ok("/v1/cells").await;
+    assert_eq!(cells.as_array().unwrap().len(), 1);
+
+    // The cell's IRB 140 has six joints: five or seven values are refused, six are kept.
+    let program = app.create_program(cell, "p").await;
+    let routine = app.create_routine(program).await;
+    let p = pose([400.0, 0.0, 300.0], [std::f64::consts::PI, 0.0, 0.0]);
+    for n in [1, 5, 7, 12] {
+        let r = app
+            .post(
+                &format!("/v1/routines/{routine}/waypoints"),
+                &json!({ "pose": p, "joints": vec![0.1; n] }),
+            )
+            .await;
+        let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        assert!(message.contains("6 values"), "{message}");
+    }
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoint_count"], 0);
+    let six = [0.1, -0.2, 0.3, 0.0, 0.5, 0.0];
+    let t = app
+        .post_ok(
+            &format!("/v1/routines/{routine}/waypoints"),
+            &json!({ "pose": p, "joints": six }),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(t["waypoint"]["joints"], json!(six));
+    assert_eq!(t["waypoint"]["seq"], 1);
+}
