@@ -143,6 +143,18 @@ impl Teacher {
     /// is not offered (it is included, so the caller sees why the completion stopped). The
     /// model is not changed: proposed moves are conditioned on, never learned.
     pub fn complete(&self, k: usize, opts: &PredictOptions) -> Vec<Prediction> {
+        self.complete_while(k, opts, |_| true)
+    }
+
+    /// [`Teacher::complete`] with a further gate of the caller's (e.g. the arm reaches it):
+    /// the completion stops after the first prediction that is withheld or that `accept`
+    /// refuses. That prediction is the last one returned.
+    pub fn complete_while(
+        &self,
+        k: usize,
+        opts: &PredictOptions,
+        mut accept: impl FnMut(&Prediction) -> bool,
+    ) -> Vec<Prediction> {
         let mut out = Vec::with_capacity(k.min(64));
         let Some(mut last) = self.routine.last().copied() else {
             if k > 0 {
@@ -157,7 +169,7 @@ impl Teacher {
         for _ in 0..k {
             let p = predict_move(&self.graph, &moves, opts).place(&last);
             let next = match (&p.pose, &p.relative) {
-                (Some(pose), Some(x)) if p.offered() => Some((*pose, *x)),
+                (Some(pose), Some(x)) if p.offered() && accept(&p) => Some((*pose, *x)),
                 _ => None,
             };
             out.push(p);

@@ -1,0 +1,103 @@
+//! Cells: create, list, read, statistics, and rebuilding a cell's model from the database.
+
+use super::cell_model::{CellModel, parse_settings};
+use super::error::AppError;
+use super::resources::*;
+use super::{App, Result, check_name};
+use crate::storage::CellRow;
+
+impl App {
+    fn cell(&self, row: CellRow) -> Result<Cell> {
+        Ok(Cell {
+            settings: parse_settings(&row)?,
+            id: row.id,
+            name: row.name,
+            created_at: row.created_at,
+        })
+    }
+
+    pub async fn create_cell(&self, input: CreateCell) -> Result<Cell> {
+        check_name("cell name", &input.name)?;
+        let settings = input.settings.resolve()?;
+        self.robots.require(&settings.robot)?;
+        let json = serde_json::to_string(&settings)
+            .map_err(|e| AppError::Internal(format!("settings: {e}")))?;
+        let row = self
+            .store
+            .insert_cell(input.name.trim(), &json)
+            .await
+            .map_err(|e| match AppError::from(e) {
+                AppError::Conflict(_) => {
+                    AppError::Exists(format!("a cell named {:?} exists", input.name.trim()))
+                }
+                other => other,
+            })?;
+        self.cell(row)
+    }
+
+    pub async fn cells(&self) -> Result<Vec<Cell>> {
+        self.store
+            .cells()
+            .await?
+            .into_iter()
+            .map(|r| self.cell(r))
+            .collect()
+    }
+
+    pub async fn get_cell(&self, id: i64) -> Result<Cell> {
+        let row = self.cell_row(id).await?;
+        self.cell(row)
+    }
+
+    pub async fn cell_stats(&self, id: i64) -> Result<CellStats> {
+        self.cell_row(id).await?;
+        let model = {
+            let mut locked = self.lock_cell_id(id).await?;
+            locked.model()?.info()
+        };
+        let counts = self.store.feedback_counts(id).await?;
+        let judged = counts.accepted + counts.adjusted + counts.rejected;
+        let mut adj = counts.adjustments_mm.clone();
+        adj.sort_by(f64::total_cmp);
+        let median = match adj.len() {
+            0 => None,
+            n if n % 2 == 1 => Some(adj[n / 2]),
+            n => Some(0.5 * (adj[n / 2 - 1] + adj[n / 2])),
+        };
+        Ok(CellStats {
+            cell_id: id,
+            model,
+            feedback: FeedbackStats {
+                offered: counts.offered,
+                accepted: counts.accepted,
+                adjusted: counts.adjusted,
+                rejected: counts.rejected,
+                pending: counts.offered - judged,
+                acceptance: (judged > 0)
+                    .then(|| (counts.accepted + counts.adjusted) as f64 / judged as f64),
+                median_adjustment_mm: median,
+            },
+        })
+    }
+
+    /// Re-learns the cell's model from the stored routines, in the order they were finished.
+    pub async fn rebuild(&self, id: i64) -> Result<ModelInfo> {
+        self.to_completion(move |app| async move { app.rebuild_now(id).await })
+            .await
+    }
+
+    async fn rebuild_now(&self, id: i64) -> Result<ModelInfo> {
+        let cell = self.cell_row(id).await?;
+        let mut guard = self.slot(id).lock_owned().await;
+        let model = CellModel::load(&self.store, &cell, &self.robots).await?;
+        let info = model.info();
+        if let Some(previous) = guard.as_ref()
+            && !previous.in_step_with(&model)
+        {
+            tracing::error!(cell = id, before = ?previous.info(), rebuilt = ?info, "the cell's model in memory differed from the database");
+            self.metrics.record_divergence();
+        }
+        *guard = Some(model);
+        Ok(info)
+    }
+}

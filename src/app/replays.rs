@@ -1,0 +1,97 @@
+//! Replaying uploaded files or a cell's stored programs through the engine and the baselines:
+//! the scoreboard of `nextpose replay`, served.
+
+use super::error::AppError;
+use super::registry::blocking;
+use super::resources::*;
+use super::settings::MAX_HORIZON;
+use super::{App, Result};
+use super::{cell_model, settings};
+
+impl App {
+    /// Replays programs (uploaded files or a cell's stored programs) through the engine and the
+    /// baselines, each program learned from scratch as in `nextpose replay`; returns the
+    /// scoreboard (serialised, the JSON form of `nextpose replay --json`).
+    pub async fn replay(&self, input: ReplayRequest) -> Result<crate::replay::report::Report> {
+        use crate::replay::corpus::{Program as ReplayProgram, Routine as ReplayRoutine};
+        use crate::replay::report::{RunConfig, replay_all};
+        use crate::replay::{Method, baselines, engine_method::EngineMethod};
+
+        let profile = input.profile.unwrap_or(settings::ProfileName::Default);
+        let mut config = crate::engine::EngineConfig::profile(profile.into());
+        if let Some(v) = input.delta {
+            config.delta = v;
+        }
+        if let Some(v) = input.phi_min {
+            config.phi_min = v;
+        }
+        if let Some(v) = input.horizon {
+            if v > MAX_HORIZON {
+                return Err(AppError::Invalid(format!(
+                    "horizon must be between 1 and {MAX_HORIZON}"
+                )));
+            }
+            config.horizon = v;
+        }
+        if let Some(v) = input.scale {
+            config.scale.enabled = v;
+        }
+        config.validate()?;
+        let programs: Vec<ReplayProgram> = match (&input.files, input.cell_id) {
+            (Some(files), None) if !files.is_empty() => {
+                let files: Vec<(&str, &str)> = files
+                    .iter()
+                    .map(|f| (f.name.as_str(), f.content.as_str()))
+                    .collect();
+                crate::import::parse_files(&files)
+                    .map_err(|e| AppError::Invalid(format!("cannot read the programs: {e}")))?
+                    .to_replay()
+            }
+            (None, Some(cell)) => {
+                self.cell_row(cell).await?;
+                let mut out = Vec::new();
+                for p in self.store.programs(cell).await? {
+                    let mut routines = Vec::new();
+                    for r in self.store.routines(p.id).await? {
+                        let mut waypoints = Vec::new();
+                        for w in self.store.waypoints(r.id).await? {
+                            waypoints.push(cell_model::stored_pose(&w)?);
+                        }
+                        routines.push(ReplayRoutine {
+                            name: r.name.unwrap_or_else(|| format!("routine {}", r.position)),
+                            waypoints,
+                        });
+                    }
+                    out.push(ReplayProgram {
+                        name: p.name,
+                        source: std::path::PathBuf::from(format!("cell {cell}")),
+                        language: "stored".into(),
+                        routines,
+                    });
+                }
+                out
+            }
+            _ => {
+                return Err(AppError::Invalid(
+                    "give either non-empty `files` or `cell_id`".into(),
+                ));
+            }
+        };
+        let gate = baselines::DEFAULT_NEAREST_SEQ_GATE;
+        let profile_name = crate::engine::Profile::from(profile).name();
+        // The replay is CPU work (seconds for a large corpus): off the async workers.
+        blocking(move || -> Result<_> {
+            let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
+                EngineMethod::new(config.clone()).map_err(AppError::from)?,
+            )];
+            methods.extend(baselines::all(&config, gate));
+            replay_all(
+                &programs,
+                &mut methods,
+                RunConfig::new(profile_name, config, gate),
+            )
+            .map_err(|e| AppError::Internal(format!("the replay's arm model: {e}")))
+        })
+        .await?
+    }
+}

@@ -1,0 +1,80 @@
+//! Stored rows as the resources clients see, and back.
+
+use super::Result;
+use super::cell_model;
+use super::error::AppError;
+use super::resources::*;
+use crate::storage::{PoseColumns, ProgramRow, RoutineRow, WaypointRow};
+
+pub(super) fn pose_columns(p: &PoseDto) -> PoseColumns {
+    PoseColumns {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+        qw: p.qw,
+        qx: p.qx,
+        qy: p.qy,
+        qz: p.qz,
+    }
+}
+
+pub(super) fn pose_dto(p: &PoseColumns) -> PoseDto {
+    PoseDto {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+        qw: p.qw,
+        qx: p.qx,
+        qy: p.qy,
+        qz: p.qz,
+    }
+}
+
+/// A stored waypoint as clients see it. Its joints and motion were validated when taught, so
+/// one that does not read back is an internal error, like a bad stored pose.
+pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
+    let joints = cell_model::stored_joints(&w)?;
+    let motion = match w.motion.as_deref() {
+        None => None,
+        Some(m) => Some(MotionType::parse(m).ok_or_else(|| {
+            AppError::Internal(format!("stored motion {m:?} of waypoint {}", w.id))
+        })?),
+    };
+    Ok(Waypoint {
+        id: w.id,
+        routine_id: w.routine_id,
+        seq: w.seq,
+        pose: pose_dto(&w.pose),
+        joints,
+        motion,
+        name: w.name,
+        reachable: w.reachable,
+        created_at: w.created_at,
+    })
+}
+
+pub(super) fn routine(r: RoutineRow) -> Routine {
+    Routine {
+        id: r.id,
+        program_id: r.program_id,
+        cell_id: r.cell_id,
+        position: r.position,
+        finished: r.finished(),
+        learned: r.learned(),
+        imported: r.imported,
+        name: r.name,
+        finish_seq: r.finish_seq,
+        finished_at: r.finished_at,
+        waypoint_count: r.waypoints,
+        created_at: r.created_at,
+    }
+}
+
+pub(super) fn program(p: ProgramRow) -> Program {
+    Program {
+        id: p.id,
+        cell_id: p.cell_id,
+        name: p.name,
+        created_at: p.created_at,
+    }
+}

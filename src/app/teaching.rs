@@ -1,0 +1,200 @@
+//! Teaching: append a waypoint and get the prediction for the next one, undo, predict again
+//! with per-request overrides or an open-loop completion.
+
+use super::error::AppError;
+use super::offer::{self, check};
+use super::registry::blocking;
+use super::resources::*;
+use super::rows::{pose_columns, waypoint};
+use super::settings::MAX_HORIZON;
+use super::{App, MAX_COMPLETION, Result, check_name};
+use crate::engine::PredictOptions;
+use crate::kinematics::Reachability;
+use crate::storage::NewWaypoint;
+
+impl App {
+    fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
+        if let Some(n) = &input.name {
+            check_name("waypoint name", n)?;
+        }
+        match &input.joints {
+            None => Ok(None),
+            Some(j) if j.is_empty() || j.len() > 12 => Err(AppError::Invalid(format!(
+                "joints must hold 1 to 12 values, not {}",
+                j.len()
+            ))),
+            Some(j) if j.iter().any(|v| !v.is_finite()) => {
+                Err(AppError::Invalid("joint values must be finite".into()))
+            }
+            Some(j) => serde_json::to_string(j)
+                .map(Some)
+                .map_err(|e| AppError::Internal(e.to_string())),
+        }
+    }
+
+    /// Appends a taught waypoint to an open routine and predicts the next one.
+    pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+        self.to_completion(
+            move |app| async move { app.append_waypoint_now(routine_id, input).await },
+        )
+        .await
+    }
+
+    async fn append_waypoint_now(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+        // Everything the client can get wrong is checked before anything changes.
+        let joints = Self::validate_waypoint(&input)?;
+        let pose = input.pose.to_pose()?;
+        let stored = PoseDto::from(&pose);
+        // The model learns the pose as it will be read back from the database, so a rebuild
+        // gives bit-identical results.
+        let pose = stored.to_pose()?;
+        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
+        let model = locked.model()?;
+        if let (Some(arm), Some(j)) = (&model.arm, &input.joints) {
+            arm.check_joints(j)?;
+        }
+        model.teacher.teach(pose);
+        let taught_reach = model
+            .arm
+            .as_mut()
+            .map(|arm| arm.taught(&pose, input.joints.as_deref()));
+        let opts = PredictOptions::from_config(model.teacher.config());
+        let checked = check(
+            model.arm.as_ref(),
+            model.teacher.predict_with(&opts),
+            model.arm.as_ref().and_then(|a| a.previous()),
+        );
+        let after = model.teacher.routine().len() as i64;
+        let record = offer::record(&r, after, model.version, &checked);
+        let wp = NewWaypoint {
+            routine_id,
+            seq: after,
+            pose: pose_columns(&stored),
+            joints,
+            motion: input.motion.map(|m| m.as_str().to_string()),
+            name: input.name.map(|n| n.trim().to_string()),
+            reachable: taught_reach.as_ref().map(Reachability::is_reachable),
+        };
+        let (row, id) = match self.store.append_waypoint(&wp, record.as_ref()).await {
+            Ok(done) => done,
+            Err(e) => {
+                model.teacher.undo();
+                if let Some(arm) = model.arm.as_mut() {
+                    arm.undo();
+                }
+                return Err(e.into());
+            }
+        };
+        let version = model.version;
+        let prediction = offer::dto(model.arm.as_ref(), &checked, &opts, id, after, version);
+        self.metrics.record_prediction(checked.reason());
+        Ok(Taught {
+            waypoint: waypoint(row)?,
+            prediction,
+        })
+    }
+
+    /// Removes the last waypoint of an open routine; the prediction rolls back with it.
+    pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
+        self.to_completion(move |app| async move { app.undo_now(routine_id).await })
+            .await
+    }
+
+    async fn undo_now(&self, routine_id: i64) -> Result<Undone> {
+        let (mut locked, r) = self.lock_open_routine(routine_id).await?;
+        let Some(removed) = self.store.delete_last_waypoint(r.id).await? else {
+            return Err(AppError::Conflict(format!(
+                "routine {routine_id} has no waypoint to undo"
+            )));
+        };
+        let model = locked.model()?;
+        model.teacher.undo();
+        if let Some(arm) = model.arm.as_mut() {
+            arm.undo();
+        }
+        let opts = PredictOptions::from_config(model.teacher.config());
+        let checked = check(
+            model.arm.as_ref(),
+            model.teacher.predict_with(&opts),
+            model.arm.as_ref().and_then(|a| a.previous()),
+        );
+        let after = model.teacher.routine().len() as i64;
+        let version = model.version;
+        let id = match offer::record(&r, after, version, &checked) {
+            Some(np) => Some(self.store.record_prediction(&np).await?),
+            None => None,
+        };
+        Ok(Undone {
+            removed: waypoint(removed)?,
+            prediction: offer::dto(model.arm.as_ref(), &checked, &opts, id, after, version),
+        })
+    }
+
+    /// The prediction for an open routine as it stands, with per-request overrides; `k > 1`
+    /// asks for an open-loop completion of up to k waypoints.
+    pub async fn predict(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
+        self.to_completion(move |app| async move { app.predict_now(routine_id, q).await })
+            .await
+    }
+
+    async fn predict_now(&self, routine_id: i64, q: PredictQuery) -> Result<PredictionSet> {
+        let k = q.k.unwrap_or(1);
+        if !(1..=MAX_COMPLETION).contains(&k) {
+            return Err(AppError::Invalid(format!(
+                "k must be between 1 and {MAX_COMPLETION}"
+            )));
+        }
+        if let Some(h) = q.horizon
+            && !(1..=MAX_HORIZON).contains(&h)
+        {
+            return Err(AppError::Invalid(format!(
+                "horizon must be between 1 and {MAX_HORIZON}"
+            )));
+        }
+        if let Some(phi) = q.phi_min
+            && !(0.0..=1.0).contains(&phi)
+        {
+            return Err(AppError::Invalid("phi_min must be between 0 and 1".into()));
+        }
+        let (locked, r) = self.lock_open_routine(routine_id).await?;
+        // Up to k predictions, each checked for reach: CPU work, on a blocking thread (with
+        // the cell's lock).
+        let (mut locked, opts, checked) = blocking(move || -> Result<_> {
+            let mut locked = locked;
+            let model = locked.model()?;
+            let mut opts = PredictOptions::from_config(model.teacher.config());
+            if let Some(h) = q.horizon {
+                opts.horizon = h;
+            }
+            if let Some(phi) = q.phi_min {
+                opts.phi_min = phi;
+            }
+            if let Some(s) = q.scale {
+                opts.scale.enabled = s;
+            }
+            let arm = model.arm.as_ref();
+            let checked = offer::complete(&model.teacher, arm, k, &opts);
+            Ok((locked, opts, checked))
+        })
+        .await??;
+        let model = locked.model()?;
+        let version = model.version;
+        let taught = model.teacher.routine().len() as i64;
+        let arm = model.arm.as_ref();
+        let mut out = Vec::with_capacity(checked.len());
+        for (i, c) in checked.iter().enumerate() {
+            let after = taught + i as i64;
+            // The first prediction is recorded (once) so that feedback can refer to it.
+            let id = match (i, offer::record(&r, after, version, c)) {
+                (0, Some(np)) => Some(self.store.record_prediction(&np).await?),
+                _ => None,
+            };
+            out.push(offer::dto(arm, c, &opts, id, after, version));
+        }
+        drop(locked);
+        Ok(PredictionSet {
+            routine_id,
+            predictions: out,
+        })
+    }
+}
