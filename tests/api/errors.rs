@@ -3,6 +3,7 @@
 use std::time::Duration;
 
 use nextpose::http::HttpOptions;
+use nextpose::server::{Application, Database, ServerSettings};
 use reqwest::StatusCode;
 use serde_json::json;
 
@@ -239,6 +240,25 @@ async fn bearer_token_guards_everything_but_healthz() {
         .await
         .unwrap();
     expect_error(r, StatusCode::UNAUTHORIZED, "unauthorized").await;
+    // The scheme is case-insensitive (RFC 7235); the token and the space after the scheme are
+    // not optional.
+    for (authorization, status) in [
+        ("bearer s3cret", StatusCode::OK),
+        ("BEARER s3cret", StatusCode::OK),
+        ("Bearer  s3cret", StatusCode::OK),
+        ("Bearers3cret", StatusCode::UNAUTHORIZED),
+        ("Bearer S3CRET", StatusCode::UNAUTHORIZED),
+        ("Basic s3cret", StatusCode::UNAUTHORIZED),
+    ] {
+        let r = app
+            .client
+            .get(app.url("/v1/cells"))
+            .header("authorization", authorization)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), status, "{authorization}");
+    }
     // A browser pendant's CORS preflight is answered without the token.
     let r = app
         .client
@@ -250,4 +270,42 @@ async fn bearer_token_guards_everything_but_healthz() {
         .unwrap();
     assert!(r.status().is_success(), "{}", r.status());
     assert!(r.headers().contains_key("access-control-allow-origin"));
+}
+
+#[tokio::test]
+async fn an_empty_token_is_refused_at_start_up() {
+    // An empty token used to turn authentication off without a word.
+    for token in ["", "   "] {
+        let settings = ServerSettings {
+            database: Database::Memory,
+            addr: "127.0.0.1:0".into(),
+            http: HttpOptions {
+                token: Some(token.into()),
+                ..HttpOptions::default()
+            },
+            ..ServerSettings::default()
+        };
+        let e = Application::build(settings)
+            .await
+            .err()
+            .unwrap_or_else(|| panic!("a server started with the token {token:?}"));
+        assert!(e.to_string().contains("empty"), "{e:#}");
+    }
+    // The same through `nextpose serve` with NEXTPOSE_TOKEN set to "". The database is in a
+    // folder that does not exist, so a server that let the token pass stops there (with
+    // another message) instead of serving.
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .args(["serve", "--addr", "127.0.0.1:0", "--db"])
+        .arg(dir.path().join("missing").join("nextpose.db"))
+        .env("NEXTPOSE_TOKEN", "")
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "served with an empty token: {stderr}"
+    );
+    assert!(stderr.contains("NEXTPOSE_TOKEN"), "{stderr}");
 }
