@@ -27,6 +27,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 201, description = "Created", body = Cell),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 409, description = "Name taken", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid settings or unknown fields", body = ErrorBody),
     ))]
 async fn create_cell(

@@ -29,6 +29,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 404, description = "No such cell", body = ErrorBody),
         (status = 409, description = "A program name is taken, or the cell is teaching a routine", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Unsupported file or syntax error (file:line:column)", body = ErrorBody),
     ))]
 async fn import_programs(

@@ -36,6 +36,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such program", body = ErrorBody),
         (status = 409, description = "Another routine of the cell is being taught", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
     ))]
 async fn create_routine(
@@ -106,8 +108,8 @@ async fn delete_routine(
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 404, description = "No such routine", body = ErrorBody),
         (status = 409, description = "The routine is finished", body = ErrorBody),
-        (status = 413, description = "Body too large", body = ErrorBody),
-        (status = 415, description = "Not JSON", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid pose (non-finite, quaternion far from unit), joints or unknown fields", body = ErrorBody),
     ))]
 async fn append_waypoint(
@@ -183,6 +185,8 @@ async fn predict(
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such prediction", body = ErrorBody),
         (status = 409, description = "Feedback already given", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Pose missing for `adjusted`, or invalid", body = ErrorBody),
     ))]
 async fn feedback(
