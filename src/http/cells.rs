@@ -7,7 +7,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path};
+use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo};
@@ -58,7 +58,7 @@ async fn list_cells(State(app): State<Arc<App>>) -> Result<axum::Json<Vec<Cell>>
     ))]
 async fn get_cell(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<Cell>, ApiError> {
     Ok(axum::Json(app.get_cell(cell_id).await?))
 }
@@ -73,7 +73,7 @@ async fn get_cell(
     ))]
 async fn cell_stats(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<CellStats>, ApiError> {
     Ok(axum::Json(app.cell_stats(cell_id).await?))
 }
@@ -89,7 +89,7 @@ async fn cell_stats(
     ))]
 async fn rebuild_model(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<ModelInfo>, ApiError> {
     Ok(axum::Json(app.rebuild(cell_id).await?))
 }

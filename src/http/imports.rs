@@ -7,7 +7,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path};
+use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{ImportRequest, ImportResult};
@@ -34,7 +34,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
     ))]
 async fn import_programs(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
     Json(body): Json<ImportRequest>,
 ) -> Result<(StatusCode, axum::Json<ImportResult>), ApiError> {
     Ok((

@@ -14,6 +14,7 @@ mod programs;
 mod replays;
 mod robots;
 mod routines;
+pub mod strict;
 mod system;
 
 use std::sync::Arc;

@@ -8,7 +8,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path, Query};
+use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{
@@ -42,7 +42,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
     ))]
 async fn create_routine(
     State(app): State<Arc<App>>,
-    Path(program_id): Path<i64>,
+    Path(Id(program_id)): Path<Id>,
     Json(body): Json<CreateRoutine>,
 ) -> Result<(StatusCode, axum::Json<Routine>), ApiError> {
     Ok((
@@ -61,7 +61,7 @@ async fn create_routine(
     ))]
 async fn list_routines(
     State(app): State<Arc<App>>,
-    Path(program_id): Path<i64>,
+    Path(Id(program_id)): Path<Id>,
 ) -> Result<axum::Json<Vec<Routine>>, ApiError> {
     Ok(axum::Json(app.routines(program_id).await?))
 }
@@ -76,7 +76,7 @@ async fn list_routines(
     ))]
 async fn get_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<RoutineDetail>, ApiError> {
     Ok(axum::Json(app.get_routine(routine_id).await?))
 }
@@ -92,7 +92,7 @@ async fn get_routine(
     ))]
 async fn delete_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<StatusCode, ApiError> {
     app.delete_routine(routine_id).await?;
     Ok(StatusCode::NO_CONTENT)
@@ -114,7 +114,7 @@ async fn delete_routine(
     ))]
 async fn append_waypoint(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
     Json(body): Json<NewWaypointDto>,
 ) -> Result<(StatusCode, axum::Json<Taught>), ApiError> {
     Ok((
@@ -134,7 +134,7 @@ async fn append_waypoint(
     ))]
 async fn undo_waypoint(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<Undone>, ApiError> {
     Ok(axum::Json(app.undo(routine_id).await?))
 }
@@ -150,7 +150,7 @@ async fn undo_waypoint(
     ))]
 async fn finish_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<Finished>, ApiError> {
     Ok(axum::Json(app.finish_routine(routine_id).await?))
 }
@@ -169,7 +169,7 @@ async fn finish_routine(
     ))]
 async fn predict(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
     Query(q): Query<PredictQuery>,
 ) -> Result<axum::Json<PredictionSet>, ApiError> {
     Ok(axum::Json(app.predict(routine_id, q).await?))
@@ -191,7 +191,7 @@ async fn predict(
     ))]
 async fn feedback(
     State(app): State<Arc<App>>,
-    Path(prediction_id): Path<i64>,
+    Path(Id(prediction_id)): Path<Id>,
     Json(body): Json<FeedbackDto>,
 ) -> Result<(StatusCode, axum::Json<FeedbackRecorded>), ApiError> {
     Ok((
