@@ -8,4 +8,5 @@ mod helpers;
 mod import;
 mod openapi;
 mod reach;
+mod schemathesis;
 mod teaching;
