@@ -12,6 +12,7 @@
 //! - [`http`]: the REST adapter (axum): extraction, routing, error mapping, OpenAPI.
 //! - [`grpc`]: the gRPC adapter (tonic) on the same port: the same operations, a streaming
 //!   teach session, reflection and health.
+//! - [`auth`]: the optional bearer token, checked the same way by both adapters.
 //! - [`sim`]: the simulated arm and operator, the experiment plan, statistics and the
 //!   programming-time table (pure, deterministic given a seed).
 //! - [`simulate`]: the driver that runs the simulated operator against a real server.
@@ -24,6 +25,7 @@
 //! The engine never imports the web or the database.
 
 pub mod app;
+pub mod auth;
 pub mod cli;
 pub mod engine;
 pub mod grpc;

@@ -14,6 +14,7 @@ use tokio::net::TcpListener;
 
 use crate::app::App;
 use crate::app::reach::Robots;
+use crate::auth::BearerToken;
 use crate::grpc;
 use crate::http::{self, HttpOptions};
 use crate::storage::{Durability, Store};
@@ -54,10 +55,15 @@ pub struct Application {
     listener: TcpListener,
     app: Arc<App>,
     router: axum::Router,
+    /// Whether a bearer token is required (logged when serving starts).
+    authenticated: bool,
 }
 
 impl Application {
     pub async fn build(settings: ServerSettings) -> anyhow::Result<Application> {
+        // Before anything else: a token that is set but unusable is a start-up error.
+        let token = BearerToken::from_setting(settings.http.token.as_deref())?;
+        let authenticated = token.is_some();
         let store = match &settings.database {
             Database::File(path) => Store::open(path, settings.durability)
                 .await
@@ -69,8 +75,8 @@ impl Application {
         let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
         // REST and gRPC on one port: gRPC calls are told apart by their content type.
         let router = grpc::beside(
-            http::router(app.clone(), &settings.http),
-            grpc::router(app.clone(), &settings.http).await?,
+            http::router(app.clone(), &settings.http, token.clone()),
+            grpc::router(app.clone(), &settings.http, token).await?,
         );
         let listener = TcpListener::bind(&settings.addr)
             .await
@@ -79,6 +85,7 @@ impl Application {
             listener,
             app,
             router,
+            authenticated,
         })
     }
 
@@ -95,6 +102,13 @@ impl Application {
         self,
         shutdown: impl Future<Output = ()> + Send + 'static,
     ) -> std::io::Result<()> {
+        // Logged here rather than in `build`, so that `nextpose serve`'s first line on stdout
+        // stays the one that gives the address.
+        if self.authenticated {
+            tracing::info!("bearer-token authentication is on (every route but health checks)");
+        } else {
+            tracing::info!("bearer-token authentication is off (NEXTPOSE_TOKEN is unset)");
+        }
         // TCP_NODELAY: a pipelined Teach stream writes many small HTTP/2 frames; with Nagle's
         // algorithm each batch waited for the client's delayed ACK (~40 ms).
         let listener = self.listener.tap_io(|tcp| {

@@ -62,7 +62,8 @@ impl From<&Pose> for PoseDto {
 #[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateCell {
-    /// Unique name of the work cell.
+    /// Unique name of the work cell (not blank; at most 200 characters).
+    #[schema(min_length = 1, max_length = 200)]
     pub name: String,
     /// Engine, robot and frame settings; anything left out takes the profile's default.
     #[serde(default)]
@@ -123,7 +124,8 @@ pub struct CellStats {
 #[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateProgram {
-    /// Name, unique within the cell.
+    /// Name, unique within the cell (not blank; at most 200 characters).
+    #[schema(min_length = 1, max_length = 200)]
     pub name: String,
 }
 
@@ -138,6 +140,8 @@ pub struct Program {
 #[derive(Debug, Clone, Default, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateRoutine {
+    /// Not blank; at most 200 characters.
+    #[schema(min_length = 1, max_length = 200)]
     pub name: Option<String>,
 }
 
@@ -204,8 +208,11 @@ impl MotionType {
 pub struct NewWaypointDto {
     pub pose: PoseDto,
     /// Taught joint values (rad), when the pendant sends them (1 to 12 values).
+    #[schema(min_items = 1, max_items = 12)]
     pub joints: Option<Vec<f64>>,
     pub motion: Option<MotionType>,
+    /// Not blank; at most 200 characters.
+    #[schema(min_length = 1, max_length = 200)]
     pub name: Option<String>,
 }
 
@@ -314,13 +321,16 @@ pub struct Finished {
 #[into_params(parameter_in = Query)]
 pub struct PredictQuery {
     /// Moves to condition on (1–50).
+    #[param(minimum = 1, maximum = 50)]
     pub horizon: Option<usize>,
     /// Minimum confidence φ (0–1).
+    #[param(minimum = 0, maximum = 1)]
     pub phi_min: Option<f64>,
     /// Estimate the routine's scale.
     pub scale: Option<bool>,
     /// Number of next waypoints to predict (open-loop completion, 1–100; stops at the first
     /// prediction that is not offered).
+    #[param(minimum = 1, maximum = 100)]
     pub k: Option<usize>,
 }
 
@@ -377,7 +387,9 @@ pub struct FeedbackRecorded {
 #[serde(deny_unknown_fields)]
 pub struct UploadedFile {
     /// File name with its extension (`.mod`, `.modx`, `.prg`, `.sys`, `.src`, `.dat`, `.ls`);
-    /// keep the folder (`job/main.ls`) where programs span several files.
+    /// keep the folder (`job/main.ls`) where programs span several files. Not blank; at most
+    /// 200 characters.
+    #[schema(min_length = 1, max_length = 200)]
     pub name: String,
     /// The file's text.
     pub content: String,
@@ -389,6 +401,7 @@ pub struct UploadedFile {
 pub struct ImportRequest {
     /// The files of one upload, parsed together (RAPID targets resolve across modules; a KRL
     /// `.src` pairs with its `.dat`).
+    #[schema(min_items = 1)]
     pub files: Vec<UploadedFile>,
     /// Learn the imported routines into the cell's model, in program order (default true).
     /// The cell must not be teaching a routine.
@@ -433,13 +446,20 @@ pub struct ImportResult {
 #[serde(deny_unknown_fields)]
 pub struct ReplayRequest {
     /// Program files to replay (as for an import). Give these or `cell_id`.
+    #[schema(min_items = 1)]
     pub files: Option<Vec<UploadedFile>>,
     /// Replay a cell's stored programs (taught and imported), in the order they were created.
     pub cell_id: Option<i64>,
     /// Engine settings to start from (default `default`).
     pub profile: Option<super::settings::ProfileName>,
+    /// Complexity δ ∈ (0, 1].
+    #[schema(exclusive_minimum = 0, maximum = 1)]
     pub delta: Option<f64>,
+    /// Minimum confidence φ ∈ [0, 1].
+    #[schema(minimum = 0, maximum = 1)]
     pub phi_min: Option<f64>,
+    /// Moves a prediction conditions on (1–50).
+    #[schema(minimum = 1, maximum = 50)]
     pub horizon: Option<usize>,
     /// Estimate the scale ψ.
     pub scale: Option<bool>,

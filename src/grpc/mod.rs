@@ -30,6 +30,7 @@ use tower::ServiceExt;
 use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
 use crate::app::{App, AppError};
+use crate::auth::BearerToken;
 use crate::http::HttpOptions;
 use crate::http::middleware::{Protocol, with_request_ids};
 
@@ -339,7 +340,11 @@ impl Session {
 ///
 /// A request message of the API may be as large as a REST body (`options.body_limit`, 2 MiB by
 /// default, instead of tonic's 4 MiB): larger ones are refused with `OUT_OF_RANGE`.
-pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Router> {
+pub async fn router(
+    app: Arc<App>,
+    options: &HttpOptions,
+    token: Option<BearerToken>,
+) -> anyhow::Result<Router> {
     let metrics = app.metrics().clone();
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<NextposeServer<Service>>().await;
@@ -358,11 +363,8 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
         .add_service(reflection)
         .add_service(reflection_alpha)
         .into_axum_router();
-    if let Some(token) = options.token.as_deref().filter(|t| !t.is_empty()) {
-        routes = routes.layer(axum::middleware::from_fn_with_state(
-            Arc::<str>::from(token),
-            require_token,
-        ));
+    if let Some(token) = token {
+        routes = routes.layer(axum::middleware::from_fn_with_state(token, require_token));
     }
     let routes = routes.layer(axum::middleware::from_fn_with_state(metrics, track::track));
     Ok(with_request_ids(routes, Protocol::Grpc))
@@ -370,7 +372,7 @@ pub async fn router(app: Arc<App>, options: &HttpOptions) -> anyhow::Result<Rout
 
 /// Requires `authorization: Bearer <token>` metadata on every call but health checks.
 async fn require_token(
-    State(token): State<Arc<str>>,
+    State(token): State<BearerToken>,
     request: HttpRequest,
     next: Next,
 ) -> HttpResponse {
@@ -380,16 +382,13 @@ async fn require_token(
     let given = request
         .headers()
         .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    match given {
-        Some(g) if crate::http::middleware::constant_time_eq(g.as_bytes(), token.as_bytes()) => {
-            next.run(request).await
-        }
-        _ => Status::unauthenticated("a valid bearer token is required")
-            .into_http::<axum::body::Body>()
-            .into_response(),
+        .map(|v| v.as_bytes());
+    if token.admits(given) {
+        return next.run(request).await;
     }
+    Status::unauthenticated("a valid bearer token is required")
+        .into_http::<axum::body::Body>()
+        .into_response()
 }
 
 /// Whether a request is a gRPC call (`content-type: application/grpc`, `application/grpc+proto`…).

@@ -7,7 +7,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path};
+use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo};
@@ -27,6 +27,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 201, description = "Created", body = Cell),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 409, description = "Name taken", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid settings or unknown fields", body = ErrorBody),
     ))]
 async fn create_cell(
@@ -56,7 +58,7 @@ async fn list_cells(State(app): State<Arc<App>>) -> Result<axum::Json<Vec<Cell>>
     ))]
 async fn get_cell(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<Cell>, ApiError> {
     Ok(axum::Json(app.get_cell(cell_id).await?))
 }
@@ -71,7 +73,7 @@ async fn get_cell(
     ))]
 async fn cell_stats(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<CellStats>, ApiError> {
     Ok(axum::Json(app.cell_stats(cell_id).await?))
 }
@@ -87,7 +89,7 @@ async fn cell_stats(
     ))]
 async fn rebuild_model(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<ModelInfo>, ApiError> {
     Ok(axum::Json(app.rebuild(cell_id).await?))
 }

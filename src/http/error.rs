@@ -117,15 +117,39 @@ impl IntoResponse for ApiError {
     }
 }
 
+impl From<serde_path_to_error::Error<serde_json::Error>> for ApiError {
+    fn from(e: serde_path_to_error::Error<serde_json::Error>) -> ApiError {
+        ApiError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "unprocessable",
+            format!("Failed to deserialize the JSON body into the target type: {e}"),
+        )
+    }
+}
+
 /// Extractors whose rejections come back as JSON errors.
 pub mod extract {
-    use axum::extract::{FromRequest, FromRequestParts};
+    use axum::extract::{FromRequest, FromRequestParts, Request};
+    use serde::de::{DeserializeOwned, Error as _};
+    use serde::{Deserialize, Deserializer};
 
     use super::ApiError;
 
-    #[derive(Debug, FromRequest)]
-    #[from_request(via(axum::Json), rejection(ApiError))]
+    /// A JSON body (`Content-Type: application/json`) as the spec describes it: parsed, then
+    /// deserialized through [`crate::http::strict`], so a struct is only ever read from an
+    /// object (serde's derive would also take an array of its fields).
+    #[derive(Debug)]
     pub struct Json<T>(pub T);
+
+    impl<T: DeserializeOwned, S: Send + Sync> FromRequest<S> for Json<T> {
+        type Rejection = ApiError;
+
+        async fn from_request(request: Request, state: &S) -> Result<Self, ApiError> {
+            let axum::Json(value) =
+                axum::Json::<serde_json::Value>::from_request(request, state).await?;
+            Ok(Json(crate::http::strict::from_value(&value)?))
+        }
+    }
 
     #[derive(Debug, FromRequestParts)]
     #[from_request(via(axum::extract::Path), rejection(ApiError))]
@@ -134,4 +158,21 @@ pub mod extract {
     #[derive(Debug, FromRequestParts)]
     #[from_request(via(axum::extract::Query), rejection(ApiError))]
     pub struct Query<T>(pub T);
+
+    /// A resource id in a path, written in canonical decimal: `/v1/cells/01` and
+    /// `/v1/cells/+1` are not cell 1 but malformed ids (400).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct Id(pub i64);
+
+    impl<'de> Deserialize<'de> for Id {
+        fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Id, D::Error> {
+            let text = String::deserialize(deserializer)?;
+            match text.parse::<i64>() {
+                Ok(id) if id.to_string() == text => Ok(Id(id)),
+                _ => Err(D::Error::custom(format!(
+                    "`{text}` is not an id (a decimal integer without sign or leading zeros)"
+                ))),
+            }
+        }
+    }
 }

@@ -7,7 +7,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path};
+use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{ImportRequest, ImportResult};
@@ -29,11 +29,12 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 404, description = "No such cell", body = ErrorBody),
         (status = 409, description = "A program name is taken, or the cell is teaching a routine", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Unsupported file or syntax error (file:line:column)", body = ErrorBody),
     ))]
 async fn import_programs(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
     Json(body): Json<ImportRequest>,
 ) -> Result<(StatusCode, axum::Json<ImportResult>), ApiError> {
     Ok((

@@ -18,6 +18,7 @@ use tower_http::trace::TraceLayer;
 use tracing::Span;
 
 use super::error::for_status;
+use crate::auth::BearerToken;
 use crate::telemetry::Metrics;
 
 /// The header carrying a request's id (for gRPC: the metadata entry).
@@ -90,7 +91,7 @@ pub(crate) fn with_request_ids(router: Router, protocol: Protocol) -> Router {
 /// Requires `Authorization: Bearer <token>` on everything but `/healthz` (and CORS
 /// preflights, which the CORS layer answers before this runs).
 pub async fn require_token(
-    State(token): State<Arc<str>>,
+    State(token): State<BearerToken>,
     request: Request,
     next: Next,
 ) -> Response {
@@ -100,26 +101,15 @@ pub async fn require_token(
     let given = request
         .headers()
         .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    match given {
-        Some(g) if constant_time_eq(g.as_bytes(), token.as_bytes()) => next.run(request).await,
-        _ => {
-            let mut response = for_status(StatusCode::UNAUTHORIZED).into_response();
-            response
-                .headers_mut()
-                .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
-            response
-        }
+        .map(HeaderValue::as_bytes);
+    if token.admits(given) {
+        return next.run(request).await;
     }
-}
-
-/// Compares without an early exit, so the time taken does not reveal how much matched.
-pub(crate) fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    if a.len() != b.len() {
-        return false;
-    }
-    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+    let mut response = for_status(StatusCode::UNAUTHORIZED).into_response();
+    response
+        .headers_mut()
+        .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+    response
 }
 
 /// Counts requests and observes their latency by route template.

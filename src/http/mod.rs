@@ -14,6 +14,7 @@ mod programs;
 mod replays;
 mod robots;
 mod routines;
+pub mod strict;
 mod system;
 
 use std::sync::Arc;
@@ -32,6 +33,7 @@ use utoipa::{Modify, OpenApi};
 use utoipa_axum::router::OpenApiRouter;
 
 use crate::app::App;
+use crate::auth::BearerToken;
 
 /// Limits and options of the HTTP adapter.
 #[derive(Debug, Clone)]
@@ -40,7 +42,8 @@ pub struct HttpOptions {
     pub body_limit: usize,
     /// Requests taking longer are answered 408.
     pub request_timeout: Duration,
-    /// When set, every route but `/healthz` requires `Authorization: Bearer <token>`.
+    /// When set, every route but `/healthz` requires `Authorization: Bearer <token>`; an empty
+    /// token is refused at start-up ([`BearerToken::from_setting`]).
     pub token: Option<String>,
 }
 
@@ -107,8 +110,9 @@ pub fn openapi() -> OpenApiDoc {
     api().split_for_parts().1
 }
 
-/// The service's router with all its layers.
-pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
+/// The service's router with all its layers; with a `token`, every route but `/healthz`
+/// requires it.
+pub fn router(app: Arc<App>, options: &HttpOptions, token: Option<BearerToken>) -> Router {
     let (routes, _) = api().split_for_parts();
     let request_id = middleware::REQUEST_ID;
     let mut routes = routes
@@ -117,9 +121,9 @@ pub fn router(app: Arc<App>, options: &HttpOptions) -> Router {
             app.metrics().clone(),
             middleware::track,
         ));
-    if let Some(token) = options.token.as_deref().filter(|t| !t.is_empty()) {
+    if let Some(token) = token {
         routes = routes.layer(axum::middleware::from_fn_with_state(
-            Arc::<str>::from(token),
+            token,
             middleware::require_token,
         ));
     }

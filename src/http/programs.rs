@@ -7,7 +7,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path};
+use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{CreateProgram, Program};
@@ -27,11 +27,13 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such cell", body = ErrorBody),
         (status = 409, description = "Name taken in this cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
     ))]
 async fn create_program(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
     Json(body): Json<CreateProgram>,
 ) -> Result<(StatusCode, axum::Json<Program>), ApiError> {
     Ok((
@@ -50,7 +52,7 @@ async fn create_program(
     ))]
 async fn list_programs(
     State(app): State<Arc<App>>,
-    Path(cell_id): Path<i64>,
+    Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<Vec<Program>>, ApiError> {
     Ok(axum::Json(app.programs(cell_id).await?))
 }
@@ -65,7 +67,7 @@ async fn list_programs(
     ))]
 async fn get_program(
     State(app): State<Arc<App>>,
-    Path(program_id): Path<i64>,
+    Path(Id(program_id)): Path<Id>,
 ) -> Result<axum::Json<Program>, ApiError> {
     Ok(axum::Json(app.get_program(program_id).await?))
 }

@@ -26,6 +26,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 200, description = "The scoreboard", body = Object),
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Neither or both of files and cell_id, bad settings, or unreadable files", body = ErrorBody),
     ))]
 async fn replay(

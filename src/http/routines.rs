@@ -8,7 +8,7 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Json, Path, Query};
+use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{
@@ -36,11 +36,13 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such program", body = ErrorBody),
         (status = 409, description = "Another routine of the cell is being taught", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
     ))]
 async fn create_routine(
     State(app): State<Arc<App>>,
-    Path(program_id): Path<i64>,
+    Path(Id(program_id)): Path<Id>,
     Json(body): Json<CreateRoutine>,
 ) -> Result<(StatusCode, axum::Json<Routine>), ApiError> {
     Ok((
@@ -59,7 +61,7 @@ async fn create_routine(
     ))]
 async fn list_routines(
     State(app): State<Arc<App>>,
-    Path(program_id): Path<i64>,
+    Path(Id(program_id)): Path<Id>,
 ) -> Result<axum::Json<Vec<Routine>>, ApiError> {
     Ok(axum::Json(app.routines(program_id).await?))
 }
@@ -74,7 +76,7 @@ async fn list_routines(
     ))]
 async fn get_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<RoutineDetail>, ApiError> {
     Ok(axum::Json(app.get_routine(routine_id).await?))
 }
@@ -90,7 +92,7 @@ async fn get_routine(
     ))]
 async fn delete_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<StatusCode, ApiError> {
     app.delete_routine(routine_id).await?;
     Ok(StatusCode::NO_CONTENT)
@@ -106,13 +108,13 @@ async fn delete_routine(
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 404, description = "No such routine", body = ErrorBody),
         (status = 409, description = "The routine is finished", body = ErrorBody),
-        (status = 413, description = "Body too large", body = ErrorBody),
-        (status = 415, description = "Not JSON", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid pose (non-finite, quaternion far from unit), joints or unknown fields", body = ErrorBody),
     ))]
 async fn append_waypoint(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
     Json(body): Json<NewWaypointDto>,
 ) -> Result<(StatusCode, axum::Json<Taught>), ApiError> {
     Ok((
@@ -132,7 +134,7 @@ async fn append_waypoint(
     ))]
 async fn undo_waypoint(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<Undone>, ApiError> {
     Ok(axum::Json(app.undo(routine_id).await?))
 }
@@ -148,7 +150,7 @@ async fn undo_waypoint(
     ))]
 async fn finish_routine(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
 ) -> Result<axum::Json<Finished>, ApiError> {
     Ok(axum::Json(app.finish_routine(routine_id).await?))
 }
@@ -167,7 +169,7 @@ async fn finish_routine(
     ))]
 async fn predict(
     State(app): State<Arc<App>>,
-    Path(routine_id): Path<i64>,
+    Path(Id(routine_id)): Path<Id>,
     Query(q): Query<PredictQuery>,
 ) -> Result<axum::Json<PredictionSet>, ApiError> {
     Ok(axum::Json(app.predict(routine_id, q).await?))
@@ -183,11 +185,13 @@ async fn predict(
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such prediction", body = ErrorBody),
         (status = 409, description = "Feedback already given", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Pose missing for `adjusted`, or invalid", body = ErrorBody),
     ))]
 async fn feedback(
     State(app): State<Arc<App>>,
-    Path(prediction_id): Path<i64>,
+    Path(Id(prediction_id)): Path<Id>,
     Json(body): Json<FeedbackDto>,
 ) -> Result<(StatusCode, axum::Json<FeedbackRecorded>), ApiError> {
     Ok((

@@ -3,6 +3,7 @@
 use std::time::Duration;
 
 use nextpose::http::HttpOptions;
+use nextpose::server::{Application, Database, ServerSettings};
 use reqwest::StatusCode;
 use serde_json::json;
 
@@ -239,6 +240,25 @@ async fn bearer_token_guards_everything_but_healthz() {
         .await
         .unwrap();
     expect_error(r, StatusCode::UNAUTHORIZED, "unauthorized").await;
+    // The scheme is case-insensitive (RFC 7235); the token and the space after the scheme are
+    // not optional.
+    for (authorization, status) in [
+        ("bearer s3cret", StatusCode::OK),
+        ("BEARER s3cret", StatusCode::OK),
+        ("Bearer  s3cret", StatusCode::OK),
+        ("Bearers3cret", StatusCode::UNAUTHORIZED),
+        ("Bearer S3CRET", StatusCode::UNAUTHORIZED),
+        ("Basic s3cret", StatusCode::UNAUTHORIZED),
+    ] {
+        let r = app
+            .client
+            .get(app.url("/v1/cells"))
+            .header("authorization", authorization)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), status, "{authorization}");
+    }
     // A browser pendant's CORS preflight is answered without the token.
     let r = app
         .client
@@ -318,4 +338,154 @@ async fn unusable_settings_control_characters_and_wrong_joint_counts_are_refused
         .await;
     assert_eq!(t["waypoint"]["joints"], json!(six));
     assert_eq!(t["waypoint"]["seq"], 1);
+
+#[tokio::test]
+async fn an_empty_token_is_refused_at_start_up() {
+    // An empty token used to turn authentication off without a word.
+    for token in ["", "   "] {
+        let settings = ServerSettings {
+            database: Database::Memory,
+            addr: "127.0.0.1:0".into(),
+            http: HttpOptions {
+                token: Some(token.into()),
+                ..HttpOptions::default()
+            },
+            ..ServerSettings::default()
+        };
+        let e = Application::build(settings)
+            .await
+            .err()
+            .unwrap_or_else(|| panic!("a server started with the token {token:?}"));
+        assert!(e.to_string().contains("empty"), "{e:#}");
+    }
+    // The same through `nextpose serve` with NEXTPOSE_TOKEN set to "". The database is in a
+    // folder that does not exist, so a server that let the token pass stops there (with
+    // another message) instead of serving.
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .args(["serve", "--addr", "127.0.0.1:0", "--db"])
+        .arg(dir.path().join("missing").join("nextpose.db"))
+        .env("NEXTPOSE_TOKEN", "")
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "served with an empty token: {stderr}"
+    );
+    assert!(stderr.contains("NEXTPOSE_TOKEN"), "{stderr}");
+}
+
+#[tokio::test]
+async fn arrays_are_not_objects_at_any_level() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("shapes").await;
+    let program = app.create_program(cell, "p").await;
+    let routine = app.create_routine(program).await;
+    let waypoints = format!("/v1/routines/{routine}/waypoints");
+    // serde's derive takes an array of a struct's fields in order; the spec says object.
+    let cases = [
+        ("/v1/cells", json!(["array cell"]), "."),
+        (
+            "/v1/cells",
+            json!({"name": "c", "settings": {"base": [0, 0, 0, 1, 0, 0, 0]}}),
+            "settings.base",
+        ),
+        (
+            waypoints.as_str(),
+            json!({"pose": [1, 2, 3, 1, 0, 0, 0]}),
+            "pose",
+        ),
+        (
+            waypoints.as_str(),
+            json!([{"x": 1, "y": 2, "z": 3, "qw": 1, "qx": 0, "qy": 0, "qz": 0}]),
+            ".",
+        ),
+        (
+            &format!("/v1/cells/{cell}/imports"),
+            json!({"files": [["a.mod", "MODULE A\nENDMODULE"]]}),
+            "files[0]",
+        ),
+        (
+            "/v1/replays",
+            json!({"files": [["a.mod", "x"]]}),
+            "files[0]",
+        ),
+        (
+            "/v1/predictions/1/feedback",
+            json!({"verdict": "adjusted", "pose": [1, 2, 3, 1, 0, 0, 0]}),
+            "pose",
+        ),
+    ];
+    for (path, body, at) in cases {
+        let message = expect_error(
+            app.post(path, &body).await,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "unprocessable",
+        )
+        .await;
+        let problem = "invalid type: sequence, expected an object";
+        let want = match at {
+            "." => problem.to_string(),
+            _ => format!("{at}: {problem}"),
+        };
+        assert!(message.contains(&want), "{path} {body}: {message}");
+    }
+    let cells = app.get_ok("/v1/cells").await;
+    assert_eq!(cells.as_array().unwrap().len(), 1, "{cells}");
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(detail["waypoints"], json!([]));
+
+    // Objects still work, and numbers arrive bit-identical (float_roundtrip).
+    let text = r#"{"pose": {"x": 0.30000000000000004, "y": 123.45678901234567,
+                   "z": 2.2250738585072014e-308, "qw": 1, "qx": 0, "qy": 0, "qz": 0}}"#;
+    let r = app
+        .client
+        .post(app.url(&waypoints))
+        .header("content-type", "application/json")
+        .body(text)
+        .send()
+        .await
+        .unwrap();
+    let taught = expect(r, StatusCode::CREATED).await;
+    let p = &taught["waypoint"]["pose"];
+    for (k, want) in [
+        ("x", 0.30000000000000004_f64),
+        ("y", 123.45678901234567),
+        ("z", 2.2250738585072014e-308),
+    ] {
+        assert_eq!(p[k].as_f64().unwrap().to_bits(), want.to_bits(), "{k}: {p}");
+    }
+}
+
+#[tokio::test]
+async fn path_ids_are_canonical_decimal() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("one").await;
+    assert_eq!(cell, 1);
+    assert_eq!(app.get_ok("/v1/cells/1").await["id"], 1);
+    for path in [
+        "/v1/cells/01",
+        "/v1/cells/+1",
+        "/v1/cells/-0",
+        "/v1/cells/ 1",
+        "/v1/cells/1.0",
+        "/v1/cells/001/stats",
+        "/v1/cells/01/programs",
+    ] {
+        expect_error(app.get(path).await, StatusCode::BAD_REQUEST, "bad_request").await;
+    }
+    let r = app
+        .post("/v1/cells/01/programs", &json!({"name": "p"}))
+        .await;
+    expect_error(r, StatusCode::BAD_REQUEST, "bad_request").await;
+    assert_eq!(app.get_ok("/v1/cells/1/programs").await, json!([]));
+    // Negative ids are well-formed; there are none.
+    expect_error(
+        app.get("/v1/cells/-1").await,
+        StatusCode::NOT_FOUND,
+        "not_found",
+    )
+    .await;
 }

@@ -687,6 +687,18 @@ async fn the_bearer_token_applies_to_grpc_metadata() {
         .unwrap()
         .into_inner();
     assert!(cells.cells.is_empty());
+    // The scheme is case-insensitive (RFC 7235), as over REST.
+    for scheme in ["bearer", "BEARER"] {
+        let value: tonic::metadata::MetadataValue<_> = format!("{scheme} s3cret").parse().unwrap();
+        let mut c =
+            NextposeClient::with_interceptor(ch.clone(), move |mut r: tonic::Request<()>| {
+                r.metadata_mut().insert("authorization", value.clone());
+                Ok(r)
+            });
+        c.list_cells(pb::ListCellsRequest {})
+            .await
+            .unwrap_or_else(|e| panic!("{scheme}: {e:?}"));
+    }
 
     // Health checks need no token, like /healthz.
     let mut health = tonic_health::pb::health_client::HealthClient::new(ch);

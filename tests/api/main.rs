@@ -9,4 +9,5 @@ mod helpers;
 mod import;
 mod openapi;
 mod reach;
+mod schemathesis;
 mod teaching;

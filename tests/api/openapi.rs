@@ -63,3 +63,85 @@ async fn every_described_route_is_served() {
     }
     assert!(seen >= 17, "only {seen} operations described");
 }
+
+/// The spec states what the server enforces: every POST that takes JSON can answer 413 and 415,
+/// and the limits the application checks are in the schemas (so a client, or a schema-based
+/// fuzzer, knows them). `schemathesis.rs` checks the server against the spec.
+#[test]
+fn the_spec_states_the_enforced_limits() {
+    use nextpose::app::MAX_COMPLETION;
+    use nextpose::app::MAX_NAME;
+    use nextpose::app::settings::MAX_HORIZON;
+    use serde_json::{Value, json};
+
+    let spec: Value = serde_json::to_value(nextpose::http::openapi()).unwrap();
+    let mut json_posts = 0;
+    for (path, item) in spec["paths"].as_object().unwrap() {
+        let Some(post) = item.get("post") else {
+            continue;
+        };
+        if post.get("requestBody").is_none() {
+            continue;
+        }
+        json_posts += 1;
+        for status in ["400", "413", "415", "422"] {
+            assert!(
+                post["responses"].get(status).is_some(),
+                "POST {path} does not say it can answer {status}"
+            );
+        }
+    }
+    assert_eq!(json_posts, 7, "POST routes taking JSON");
+
+    let schemas = &spec["components"]["schemas"];
+    let prop = |schema: &str, field: &str| schemas[schema]["properties"][field].clone();
+    let limit = |v: &Value, key: &str| v.get(key).and_then(Value::as_f64);
+    let names = [
+        ("CreateCell", "name"),
+        ("CreateProgram", "name"),
+        ("CreateRoutine", "name"),
+        ("NewWaypointDto", "name"),
+        ("UploadedFile", "name"),
+    ];
+    for (schema, field) in names {
+        let p = prop(schema, field);
+        assert_eq!(limit(&p, "minLength"), Some(1.0), "{schema}.{field}: {p}");
+        assert_eq!(
+            limit(&p, "maxLength"),
+            Some(MAX_NAME as f64),
+            "{schema}.{field}: {p}"
+        );
+    }
+    let joints = prop("NewWaypointDto", "joints");
+    assert_eq!(limit(&joints, "minItems"), Some(1.0), "{joints}");
+    assert_eq!(limit(&joints, "maxItems"), Some(12.0), "{joints}");
+    for schema in ["ImportRequest", "ReplayRequest"] {
+        let files = prop(schema, "files");
+        assert_eq!(limit(&files, "minItems"), Some(1.0), "{schema}: {files}");
+    }
+    let replay = |field: &str| prop("ReplayRequest", field);
+    assert_eq!(limit(&replay("horizon"), "minimum"), Some(1.0));
+    assert_eq!(
+        limit(&replay("horizon"), "maximum"),
+        Some(MAX_HORIZON as f64)
+    );
+    assert_eq!(limit(&replay("phi_min"), "minimum"), Some(0.0));
+    assert_eq!(limit(&replay("phi_min"), "maximum"), Some(1.0));
+    assert_eq!(limit(&replay("delta"), "exclusiveMinimum"), Some(0.0));
+    assert_eq!(limit(&replay("delta"), "maximum"), Some(1.0));
+
+    let params = &spec["paths"]["/v1/routines/{routine_id}/prediction"]["get"]["parameters"];
+    let param = |name: &str| {
+        params
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .map(|p| p["schema"].clone())
+            .unwrap_or_else(|| panic!("no parameter {name}"))
+    };
+    let range = |v: Value| json!([v["minimum"], v["maximum"]]);
+    assert_eq!(range(param("k")), json!([1, MAX_COMPLETION]));
+    assert_eq!(range(param("horizon")), json!([1, MAX_HORIZON]));
+    assert_eq!(range(param("phi_min")), json!([0, 1]));
+}
