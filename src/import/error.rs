@@ -23,6 +23,18 @@ pub enum ImportError {
         column: usize,
         message: String,
     },
+    /// Blocks (`IF … THEN`, `WHILE`, `FOR`, `TEST`) nested deeper than the importer reads. No
+    /// real program comes near the limit; a file beyond it is refused rather than read in time
+    /// that grows with its depth.
+    #[error("{file}:{line}:{column}: blocks nested more than {limit} levels deep")]
+    NestingTooDeep {
+        file: String,
+        /// 1-based line of the block that goes past the limit.
+        line: usize,
+        /// 1-based column, in characters.
+        column: usize,
+        limit: usize,
+    },
 }
 
 impl ImportError {

@@ -103,12 +103,17 @@ pub(crate) fn parse(
     files: &[SourceFile<'_>],
     report: &mut ImportReport,
 ) -> Result<(), ImportError> {
+    // Folders in the order their first file comes.
     let mut groups: Vec<(&str, Vec<SourceFile<'_>>)> = Vec::new();
+    let mut group_of: HashMap<&str, usize> = HashMap::new();
     for f in files {
         let dir = directory_of(f.name);
-        match groups.iter_mut().find(|(d, _)| *d == dir) {
-            Some((_, g)) => g.push(*f),
-            None => groups.push((dir, vec![*f])),
+        let g = *group_of.entry(dir).or_insert_with(|| {
+            groups.push((dir, Vec::new()));
+            groups.len() - 1
+        });
+        if let Some((_, group)) = groups.get_mut(g) {
+            group.push(*f);
         }
     }
     for (dir, mut group) in groups {

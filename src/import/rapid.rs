@@ -14,6 +14,7 @@
 //! variable assigned from those) is skipped and reported.
 
 use std::collections::HashMap;
+use std::rc::Rc;
 
 use logos::Logos;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -26,6 +27,11 @@ use super::{
 
 /// Deepest expression nesting evaluated; deeper input is treated as computed at run time.
 const MAX_DEPTH: usize = 64;
+
+/// Deepest nesting of blocks (`IF … THEN`, `WHILE`, `FOR`, `TEST`) in a routine that is read;
+/// a file nested deeper is refused with [`ImportError::NestingTooDeep`]. Taught programs nest a
+/// handful of levels; the limit bounds what an upload can ask of the parser.
+pub const MAX_BLOCK_NESTING: usize = 256;
 
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq)]
 #[logos(skip r"[ \t\r\n\f]+")]
@@ -173,10 +179,12 @@ struct Target {
     config: Option<Configuration>,
 }
 
+/// A value. Aggregates are shared, not copied: every use of a name clones its value, and a
+/// robtarget array of n elements used n times (`ps{1}` … `ps{n}`) would otherwise cost n².
 #[derive(Debug, Clone, PartialEq)]
 enum Val {
     Num(f64),
-    Agg(Vec<Val>),
+    Agg(Rc<[Val]>),
     Target(Target),
     Str,
 }
@@ -312,6 +320,22 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
     let mut routine: Option<RoutineAst> = None;
     let mut in_error = false;
     let mut local = false;
+    // Blocks open in the current routine (a routine, module or file boundary closes them all,
+    // so a missing ENDIF in one routine does not count against the next).
+    let mut blocks: usize = 0;
+    let open_block = |blocks: &mut usize, at: usize| {
+        *blocks += 1;
+        if *blocks > MAX_BLOCK_NESTING {
+            let loc = m.lines.locate(file.text, at);
+            return Err(ImportError::NestingTooDeep {
+                file: file.name.to_string(),
+                line: loc.line,
+                column: loc.column,
+                limit: MAX_BLOCK_NESTING,
+            });
+        }
+        Ok(())
+    };
     let mut i = 0;
     while i < n {
         let t = toks[i];
@@ -326,13 +350,15 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
         };
         match word.as_str() {
             "MODULE" => {
+                blocks = 0;
                 match toks.get(i + 1) {
                     Some(name) if name.k == K::Ident => m.name = name.s.to_string(),
                     _ => return Err(err(i + 1, "MODULE must be followed by its name")),
                 }
                 i += 2;
                 if toks.get(i).is_some_and(|t| t.k == K::LParen) {
-                    i = closing(toks, i).ok_or_else(|| err(i, "unclosed module attributes"))? + 1;
+                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed module attributes"))?
+                        + 1;
                 }
             }
             "LOCAL" | "TASK" | "SYSMODULE" | "NOSTEPIN" | "VIEWONLY" | "READONLY" | "NOVIEW" => {
@@ -361,7 +387,7 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
                             &format!("{word} {name}: expected '(' and parameters"),
                         ));
                     }
-                    i = closing(toks, i).ok_or_else(|| err(i, "unclosed parameter list"))? + 1;
+                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed parameter list"))? + 1;
                 }
                 routine = Some(RoutineAst {
                     name,
@@ -371,20 +397,31 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
                 });
                 in_error = false;
                 local = false;
+                blocks = 0;
             }
             "ENDPROC" | "ENDTRAP" | "ENDFUNC" => {
                 if let Some(r) = routine.take() {
                     m.routines.push(r);
                 }
                 in_error = false;
+                blocks = 0;
                 i += 1;
             }
-            "ENDMODULE" | "ELSE" | "ENDIF" | "ENDWHILE" | "ENDFOR" | "ENDTEST" => i += 1,
+            "ENDMODULE" => {
+                blocks = 0;
+                i += 1;
+            }
+            "ENDIF" | "ENDWHILE" | "ENDFOR" | "ENDTEST" => {
+                blocks = blocks.saturating_sub(1);
+                i += 1;
+            }
+            "ELSE" => i += 1,
             "ERROR" | "BACKWARD" | "UNDO" if routine.is_some() => {
                 in_error = true;
                 i += 1;
                 if toks.get(i).is_some_and(|t| t.k == K::LParen) {
-                    i = closing(toks, i).ok_or_else(|| err(i, "unclosed error number list"))? + 1;
+                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed error number list"))?
+                        + 1;
                 }
             }
             "RECORD" => {
@@ -404,25 +441,28 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
                     });
                 }
                 // Skip the condition up to THEN/DO; a compact IF (no THEN) is one statement.
-                let end = statement_end(toks, i);
-                match (i..end).find(|&j| is_kw(toks.get(j), "THEN") || is_kw(toks.get(j), "DO")) {
-                    Some(j) => i = j + 1,
-                    None => i = end + 1,
+                let head =
+                    scan_statement(toks, i, |t| is_kw(Some(t), "THEN") || is_kw(Some(t), "DO"));
+                match head {
+                    Ok(j) => {
+                        if word != "ELSEIF" {
+                            open_block(&mut blocks, t.at)?;
+                        }
+                        i = j + 1;
+                    }
+                    Err(end) => i = end + 1,
                 }
             }
             "TEST" => {
+                open_block(&mut blocks, t.at)?;
                 i += 1;
                 while i < n && !is_kw(toks.get(i), "CASE") && !is_kw(toks.get(i), "DEFAULT") {
                     i += 1;
                 }
             }
-            "CASE" | "DEFAULT" => {
-                let end = statement_end(toks, i);
-                match (i..end).find(|&j| toks.get(j).is_some_and(|t| t.k == K::Colon)) {
-                    Some(j) => i = j + 1,
-                    None => i = end + 1,
-                }
-            }
+            "CASE" | "DEFAULT" => match scan_statement(toks, i, |t| t.k == K::Colon) {
+                Ok(j) | Err(j) => i = j + 1,
+            },
             _ if t.k == K::Ident && toks.get(i + 1).is_some_and(|t| t.k == K::Colon) => {
                 i += 2; // label
             }
@@ -453,13 +493,28 @@ fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportError> {
 /// Index of the `;` ending the statement starting at `i` (or of the block keyword that cuts a
 /// statement missing its `;`, or the end of input), at bracket depth 0.
 fn statement_end(toks: &[Tok<'_>], i: usize) -> usize {
+    match scan_statement(toks, i, |_| false) {
+        Ok(j) | Err(j) => j,
+    }
+}
+
+/// Scans the statement starting at `i` up to its first token that `stop` accepts: `Ok` with
+/// that token's index, or `Err` with the statement's end (see [`statement_end`]) when there is
+/// none. It stops *at* the match, so reading a block header (`IF c THEN`, `CASE 1:`) costs the
+/// tokens of the header, not those of the nested body up to the first `;` — which, read from
+/// every opener of a deeply nested file, made parsing time grow with the square of the depth.
+fn scan_statement(
+    toks: &[Tok<'_>],
+    i: usize,
+    mut stop: impl FnMut(&Tok<'_>) -> bool,
+) -> Result<usize, usize> {
     let mut depth: usize = 0;
     let mut j = i;
     while let Some(t) = toks.get(j) {
         match t.k {
             K::LBrack | K::LParen | K::LBrace => depth += 1,
             K::RBrack | K::RParen | K::RBrace => depth = depth.saturating_sub(1),
-            K::Semi if depth == 0 => return j,
+            K::Semi if depth == 0 => return Err(j),
             K::Ident if j > i && depth == 0 => {
                 const CUT: &[&str] = &[
                     "ENDPROC",
@@ -471,20 +526,24 @@ fn statement_end(toks: &[Tok<'_>], i: usize) -> usize {
                     "TRAP",
                 ];
                 if CUT.iter().any(|c| t.s.eq_ignore_ascii_case(c)) {
-                    return j.saturating_sub(1).max(i);
+                    return Err(j.saturating_sub(1).max(i));
                 }
             }
             _ => {}
         }
+        if stop(t) {
+            return Ok(j);
+        }
         j += 1;
     }
-    toks.len()
+    Err(toks.len())
 }
 
-/// Index of the bracket closing the one at `i`.
-fn closing(toks: &[Tok<'_>], i: usize) -> Option<usize> {
+/// Index of the bracket closing the one at `i`, if it is before `end`.
+fn closing(toks: &[Tok<'_>], i: usize, end: usize) -> Option<usize> {
     let mut depth: usize = 0;
-    for (j, t) in toks.iter().enumerate().skip(i) {
+    let within = toks.get(..end.min(toks.len())).unwrap_or(toks);
+    for (j, t) in within.iter().enumerate().skip(i) {
         match t.k {
             K::LBrack | K::LParen | K::LBrace => depth += 1,
             K::RBrack | K::RParen | K::RBrace => {
@@ -794,7 +853,7 @@ impl<'a, 's> Evaluator<'a, 's> {
                         items.push(self.nested(|e| e.expr(a, b))?);
                     }
                 }
-                Ok((Val::Agg(items), close + 1))
+                Ok((Val::Agg(items.into()), close + 1))
             }
             K::Ident => {
                 if self.tok(start + 1, end).is_some_and(|n| n.k == K::LParen) {
@@ -826,10 +885,7 @@ impl<'a, 's> Evaluator<'a, 's> {
     }
 
     fn closing_within(&self, i: usize, end: usize) -> Result<usize, SkipReason> {
-        match closing(self.toks, i) {
-            Some(c) if c < end => Ok(c),
-            _ => Err(SkipReason::ComputedAtRunTime),
-        }
+        closing(self.toks, i, end).ok_or(SkipReason::ComputedAtRunTime)
     }
 
     /// `Offs(p, dx, dy, dz)` and `RelTool(p, dx, dy, dz [\Rx:=a] [\Ry:=b] [\Rz:=c])`; any other
@@ -902,8 +958,8 @@ fn index(v: Val, idx: f64) -> Eval {
         return Err(SkipReason::ComputedAtRunTime);
     }
     items
-        .into_iter()
-        .nth(idx as usize - 1)
+        .get(idx as usize - 1)
+        .cloned()
         .ok_or(SkipReason::ComputedAtRunTime)
 }
 
@@ -1170,6 +1226,118 @@ ENDMODULE
         assert!((r.waypoints[1].pose.position().x - 2.0).abs() < 1e-12);
         assert_eq!(report.skipped[0].reason, SkipReason::ComputedAtRunTime);
         assert_eq!(report.skipped[0].line, 8);
+    }
+
+    /// `depth` nested blocks of the given opener/closer around one move pair, in one routine.
+    fn nested(depth: usize, open: &str, close: &str) -> String {
+        let mut s = String::from(
+            "MODULE Deep\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n",
+        );
+        for _ in 0..depth {
+            s.push_str(open);
+            s.push('\n');
+        }
+        s.push_str("MoveL p, v1, z1, tool0;\nMoveL Offs(p,1,0,0), v1, z1, tool0;\n");
+        for _ in 0..depth {
+            s.push_str(close);
+            s.push('\n');
+        }
+        s.push_str(" ENDPROC\nENDMODULE\n");
+        s
+    }
+
+    #[test]
+    fn blocks_nested_up_to_the_limit_are_read() {
+        for (open, close) in [
+            ("IF a THEN", "ENDIF"),
+            ("WHILE a DO", "ENDWHILE"),
+            ("FOR i FROM 1 TO 2 DO", "ENDFOR"),
+            ("TEST a CASE 1:", "ENDTEST"),
+        ] {
+            let text = nested(MAX_BLOCK_NESTING, open, close);
+            let report = parse_files(&[("Deep.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+            let r = &report.programs[0].routines[0];
+            assert_eq!(r.waypoints.len(), 2, "{open}");
+            assert_eq!(r.waypoints[0].line, 4 + MAX_BLOCK_NESTING, "{open}");
+        }
+    }
+
+    #[test]
+    fn blocks_nested_past_the_limit_are_refused_naming_file_line_and_limit() {
+        for (open, close) in [
+            ("IF a THEN", "ENDIF"),
+            ("WHILE a DO", "ENDWHILE"),
+            ("TEST a CASE 1:", "ENDTEST"),
+        ] {
+            let text = nested(MAX_BLOCK_NESTING + 1, open, close);
+            let err = parse_files(&[("Deep.mod", &text)]).unwrap_err();
+            assert_eq!(
+                err,
+                ImportError::NestingTooDeep {
+                    file: "Deep.mod".into(),
+                    // Line 4 holds the first block; the one past the limit is the last opener.
+                    line: 4 + MAX_BLOCK_NESTING,
+                    column: 1,
+                    limit: MAX_BLOCK_NESTING,
+                },
+                "{open}"
+            );
+            let message = err.to_string();
+            assert!(
+                message.starts_with(&format!("Deep.mod:{}:1:", 4 + MAX_BLOCK_NESTING))
+                    && message.contains(&MAX_BLOCK_NESTING.to_string()),
+                "{message}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_huge_nested_file_is_refused() {
+        // 40,000 levels (about 0.9 MB): the parse stops at the limit, 256 lines in.
+        let text = nested(40_000, "IF a THEN", "ENDIF");
+        let err = parse_files(&[("Deep.mod", &text)]).unwrap_err();
+        assert!(
+            matches!(err, ImportError::NestingTooDeep { line, .. } if line == 4 + MAX_BLOCK_NESTING),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn nesting_counts_open_blocks_not_blocks_seen() {
+        // Many blocks one after another, compact IFs and ELSEIF branches do not add up.
+        let mut body = String::new();
+        for _ in 0..(3 * MAX_BLOCK_NESTING) {
+            body.push_str("IF a THEN\n x := 1;\nELSEIF b THEN\n x := 2;\nELSE\n x := 3;\nENDIF\n");
+            body.push_str("IF a x := 1;\nWHILE a DO\n x := 1;\nENDWHILE\n");
+            body.push_str("TEST a\nCASE 1:\n x := 1;\nDEFAULT:\n x := 2;\nENDTEST\n");
+        }
+        let text = format!(
+            "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n{body}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
+        );
+        let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.programs[0].routines[0].waypoints.len(), 2);
+        // A routine that leaves blocks open (a missing ENDIF) does not count against the next.
+        let open = "IF a THEN\n".repeat(MAX_BLOCK_NESTING - 1);
+        let text = format!(
+            "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n{open} ENDPROC\n PROC b()\n{open}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
+        );
+        let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.programs[0].routines.len(), 1);
+        assert_eq!(report.programs[0].routines[0].name, "b");
+    }
+
+    #[test]
+    fn a_block_header_ends_at_then_or_where_its_statement_ends() {
+        // THEN found: the body follows; no THEN (compact IF): the whole statement is skipped,
+        // also when a routine keyword cuts a statement missing its `;`.
+        let text = "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n  IF x MoveL p, v1, z1, tool0;\n  IF (x) THEN MoveL p, v1, z1, tool0; MoveL p, v1, z1, tool0; ENDIF\n  IF x THEN\n ENDPROC\n PROC b()\n  WHILE [x DO;\n  MoveL p, v1, z1, tool0;\n  MoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n";
+        let report = parse_files(&[("M.mod", text)]).unwrap_or_else(|e| panic!("{e}"));
+        let routines = &report.programs[0].routines;
+        let lines: Vec<Vec<usize>> = routines
+            .iter()
+            .map(|r| r.waypoints.iter().map(|w| w.line).collect())
+            .collect();
+        assert_eq!(lines, [vec![5, 5], vec![10, 11]]);
     }
 
     #[test]
