@@ -16,6 +16,7 @@ use std::collections::{HashMap, HashSet};
 use logos::Logos;
 use nalgebra::Vector3;
 
+use super::tokens::tokens;
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
     Language, LineIndex, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
@@ -55,14 +56,8 @@ enum K {
     Other,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Tok<'s> {
-    k: K,
-    s: &'s str,
-    at: usize,
-}
+type Tok<'s> = super::tokens::Tok<'s, K>;
 
-/// Tokens of one line, without its `;` comment (a `;` inside a string does not start one).
 fn lex_line(line: &str, offset: usize) -> Vec<Tok<'_>> {
     let mut in_str = false;
     let mut cut = line.len();
@@ -77,16 +72,7 @@ fn lex_line(line: &str, offset: usize) -> Vec<Tok<'_>> {
         }
     }
     let code = line.get(..cut).unwrap_or("");
-    let mut lexer = K::lexer(code);
-    let mut out = Vec::new();
-    while let Some(r) = lexer.next() {
-        out.push(Tok {
-            k: r.unwrap_or(K::Other),
-            s: lexer.slice(),
-            at: offset + lexer.span().start,
-        });
-    }
-    out
+    tokens(code, offset, K::Other)
 }
 
 /// A declared or inline position.

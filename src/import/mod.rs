@@ -28,6 +28,7 @@ pub mod error;
 pub mod fanuc;
 pub mod krl;
 pub mod rapid;
+mod tokens;
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;

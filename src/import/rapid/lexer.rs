@@ -7,6 +7,8 @@
 
 use logos::Logos;
 
+use crate::import::tokens::tokens;
+
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq)]
 #[logos(skip r"[ \t\r\n\f]+")]
 #[logos(skip(r"![^\n]*", allow_greedy = true))]
@@ -54,12 +56,7 @@ pub(super) enum K {
     Other,
 }
 
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Tok<'s> {
-    pub(super) k: K,
-    pub(super) s: &'s str,
-    pub(super) at: usize,
-}
+pub(super) type Tok<'s> = crate::import::tokens::Tok<'s, K>;
 
 pub(super) fn lex(text: &str) -> Vec<Tok<'_>> {
     // A `%%% VERSION:1 LANGUAGE:ENGLISH %%%` header (RobotWare 5 files) is not RAPID.
@@ -68,17 +65,7 @@ pub(super) fn lex(text: &str) -> Vec<Tok<'_>> {
         .strip_prefix("%%%")
         .and_then(|rest| rest.find("%%%").map(|i| text.len() - rest.len() + i + 3))
         .unwrap_or(0);
-    let body = text.get(start..).unwrap_or("");
-    let mut lexer = K::lexer(body);
-    let mut out = Vec::new();
-    while let Some(r) = lexer.next() {
-        out.push(Tok {
-            k: r.unwrap_or(K::Other),
-            s: lexer.slice(),
-            at: start + lexer.span().start,
-        });
-    }
-    out
+    tokens(text.get(start..).unwrap_or(""), start, K::Other)
 }
 
 pub(super) fn is_kw(t: Option<&Tok<'_>>, kw: &str) -> bool {
