@@ -8,6 +8,8 @@
 //!   positions to 4 decimals and quaternions to 7, so the importer's values are rounded the same
 //!   way before that comparison (see the fixture's `note`).
 //! - Replaying the agreeing programs from the raw files gives the scoreboard of the JSON files.
+//! - Stored as a cell's programs, every upload imports except the one whose two files declare
+//!   the same module, and that error names both files.
 //! - Random and mutated inputs never panic the parsers (proptest).
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -15,7 +17,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use nextpose::engine::{EngineConfig, Pose, Profile};
-use nextpose::import::{ImportReport, ImportedProgram, decode_text, parse_files};
+use nextpose::import::{
+    ImportError, ImportReport, ImportedProgram, decode_text, parse_files, parse_upload,
+};
 use nextpose::replay::corpus::{Program, Routine, parse_program};
 use nextpose::replay::engine_method::EngineMethod;
 use nextpose::replay::metrics::{Metrics, replay_program};
@@ -309,6 +313,36 @@ fn every_raw_file_parses() {
 }
 
 #[test]
+fn stored_as_a_cell_every_upload_imports_but_the_one_declaring_main_module_twice() {
+    // Two RAPID files of one repository both declare `MODULE MainModule`: replay reads them
+    // apart, a cell cannot hold both, and the error names the two files.
+    for (repo, upload) in uploads() {
+        let refs: Vec<(&str, &str)> = upload
+            .iter()
+            .map(|(n, t)| (n.as_str(), t.as_str()))
+            .collect();
+        match parse_upload(&refs) {
+            Ok(report) => assert_eq!(report, import(&upload), "{repo}"),
+            Err(ImportError::DuplicateProgram {
+                name,
+                first,
+                second,
+            }) if repo == "EdgarIvanMM__PaletizadoCajasConFrascos" => {
+                assert_eq!(name, "MainModule");
+                assert_eq!(
+                    (first.as_str(), second.as_str()),
+                    (
+                        "RAPID/TASK1/PROGMOD/MainModule.mod",
+                        "RAPID/TASK1/PROGMOD/VConCartonPorGruposDeEntrada.mod"
+                    )
+                );
+            }
+            Err(e) => panic!("{repo}: {e}"),
+        }
+    }
+}
+
+#[test]
 fn the_raw_corpus_directory_replays_as_one_upload_per_repository() {
     // `nextpose replay ../shared/corpus/raw`: the folder holds one folder per repository.
     let programs = nextpose::replay::corpus::load_paths(&[corpus().join("raw")]).unwrap();
@@ -486,10 +520,18 @@ proptest! {
         SEEDS.with(|seeds| {
             let (name, text) = &seeds[seed.index(seeds.len())];
             let mutated = mutate(text, &edits);
-            // Alone, and with a partner so the cross-file paths run too.
-            let _ = parse_files(&[(name.as_str(), mutated.as_str())]);
-            let partner = if name.ends_with(".src") { name.replace(".src", ".dat") } else { format!("{name}.mod") };
-            let _ = parse_files(&[(name.as_str(), mutated.as_str()), (partner.as_str(), text.as_str())]);
+            // Control characters make a file "not text"; with them blanked out the mutation
+            // also reaches the parsers.
+            let blanked: String = mutated
+                .chars()
+                .map(|c| if c < ' ' && !matches!(c, '\t' | '\n' | '\r') { ' ' } else { c })
+                .collect();
+            for mutated in [&mutated, &blanked] {
+                // Alone, and with a partner so the cross-file paths run too.
+                let _ = parse_files(&[(name.as_str(), mutated.as_str())]);
+                let partner = if name.ends_with(".src") { name.replace(".src", ".dat") } else { format!("{name}.mod") };
+                let _ = parse_files(&[(name.as_str(), mutated.as_str()), (partner.as_str(), text.as_str())]);
+            }
         });
     }
 }

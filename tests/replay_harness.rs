@@ -315,7 +315,12 @@ fn malformed_json_is_an_error_naming_the_file() {
             .contains("missing.json")
     );
     let raw = dir.join("MainModule.mod");
-    std::fs::write(&raw, "MODULE MainModule\nENDMODULE\n").unwrap();
+    // (With a routine: a module that yields none is no program, see import's tests.)
+    std::fs::write(
+        &raw,
+        "MODULE MainModule\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n  MoveL p, v1, z1, tool0;\n  MoveL Offs(p,0,0,10), v1, z1, tool0;\n ENDPROC\nENDMODULE\n",
+    )
+    .unwrap();
     let programs = load_paths(&[&raw]).unwrap();
     assert_eq!(programs.len(), 1);
     assert_eq!(programs[0].language, "rapid");

@@ -23,6 +23,44 @@ pub enum ImportError {
         column: usize,
         message: String,
     },
+    /// The file is not text: it holds a NUL or another control character no program source
+    /// contains (binary data, or bytes decoded as the wrong encoding).
+    #[error(
+        "{file}:{line}:{column}: not a program text (control character U+{code:04X}); upload the source file, not a binary"
+    )]
+    NotText {
+        file: String,
+        /// 1-based line of the first such character.
+        line: usize,
+        /// 1-based column, in characters.
+        column: usize,
+        /// The character's code point.
+        code: u32,
+    },
+    /// Two files (or FANUC folders) of one upload give programs of the same name, which a cell
+    /// cannot hold (see [`super::ImportReport::check_unique_names`]).
+    #[error(
+        "{first} and {second} both give a program named {name:?}; a cell's programs need distinct names, so upload one of them, or rename one"
+    )]
+    DuplicateProgram {
+        name: String,
+        /// The file or folder of the first program of that name, in upload order.
+        first: String,
+        /// The file or folder of the second.
+        second: String,
+    },
+    /// Blocks (`IF … THEN`, `WHILE`, `FOR`, `TEST`) nested deeper than the importer reads. No
+    /// real program comes near the limit; a file beyond it is refused rather than read in time
+    /// that grows with its depth.
+    #[error("{file}:{line}:{column}: blocks nested more than {limit} levels deep")]
+    NestingTooDeep {
+        file: String,
+        /// 1-based line of the block that goes past the limit.
+        line: usize,
+        /// 1-based column, in characters.
+        column: usize,
+        limit: usize,
+    },
 }
 
 impl ImportError {

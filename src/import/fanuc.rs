@@ -16,6 +16,7 @@ use std::collections::HashMap;
 use logos::Logos;
 use nalgebra::Vector3;
 
+use super::tokens::tokens;
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
     Language, LineIndex, Location, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
@@ -56,25 +57,10 @@ enum K {
     Other,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Tok<'s> {
-    k: K,
-    s: &'s str,
-    /// Byte offset in the file.
-    at: usize,
-}
+type Tok<'s> = super::tokens::Tok<'s, K>;
 
 fn lex_line(line: &str, offset: usize) -> Vec<Tok<'_>> {
-    let mut lexer = K::lexer(line);
-    let mut out = Vec::new();
-    while let Some(r) = lexer.next() {
-        out.push(Tok {
-            k: r.unwrap_or(K::Other),
-            s: lexer.slice(),
-            at: offset + lexer.span().start,
-        });
-    }
-    out
+    tokens(line, offset, K::Other)
 }
 
 /// A position of the `/POS` section.
@@ -103,12 +89,17 @@ pub(crate) fn parse(
     files: &[SourceFile<'_>],
     report: &mut ImportReport,
 ) -> Result<(), ImportError> {
+    // Folders in the order their first file comes.
     let mut groups: Vec<(&str, Vec<SourceFile<'_>>)> = Vec::new();
+    let mut group_of: HashMap<&str, usize> = HashMap::new();
     for f in files {
         let dir = directory_of(f.name);
-        match groups.iter_mut().find(|(d, _)| *d == dir) {
-            Some((_, g)) => g.push(*f),
-            None => groups.push((dir, vec![*f])),
+        let g = *group_of.entry(dir).or_insert_with(|| {
+            groups.push((dir, Vec::new()));
+            groups.len() - 1
+        });
+        if let Some((_, group)) = groups.get_mut(g) {
+            group.push(*f);
         }
     }
     for (dir, mut group) in groups {

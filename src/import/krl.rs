@@ -11,11 +11,12 @@
 //! takes the rest from the robot's position at run time and is skipped; `_REL` moves resolve
 //! against the previous waypoint of the routine (`#BASE` unless `#TOOL` is given).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use logos::Logos;
 use nalgebra::Vector3;
 
+use super::tokens::tokens;
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
     Language, LineIndex, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
@@ -55,14 +56,8 @@ enum K {
     Other,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Tok<'s> {
-    k: K,
-    s: &'s str,
-    at: usize,
-}
+type Tok<'s> = super::tokens::Tok<'s, K>;
 
-/// Tokens of one line, without its `;` comment (a `;` inside a string does not start one).
 fn lex_line(line: &str, offset: usize) -> Vec<Tok<'_>> {
     let mut in_str = false;
     let mut cut = line.len();
@@ -77,16 +72,7 @@ fn lex_line(line: &str, offset: usize) -> Vec<Tok<'_>> {
         }
     }
     let code = line.get(..cut).unwrap_or("");
-    let mut lexer = K::lexer(code);
-    let mut out = Vec::new();
-    while let Some(r) = lexer.next() {
-        out.push(Tok {
-            k: r.unwrap_or(K::Other),
-            s: lexer.slice(),
-            at: offset + lexer.span().start,
-        });
-    }
-    out
+    tokens(code, offset, K::Other)
 }
 
 /// A declared or inline position.
@@ -125,18 +111,30 @@ fn word<'s>(t: Option<&Tok<'s>>) -> Option<String> {
         .map(|t| t.s.to_ascii_uppercase())
 }
 
+/// What pairs a `.src` with its `.dat`: the directory and the stem, case-insensitive.
+fn key<'s>(f: &SourceFile<'s>) -> (&'s str, String) {
+    (directory_of(f.name), stem_of(f.name).to_ascii_lowercase())
+}
+
 /// Parses the KRL files of an upload: one program per `.src`, with its `.dat`.
 pub(crate) fn parse(
     files: &[SourceFile<'_>],
     report: &mut ImportReport,
 ) -> Result<(), ImportError> {
+    // A `.src` and a `.dat` pair when directory and stem (case-insensitive) agree; keyed once,
+    // so an upload of many files pairs in linear time.
     let is_ext = |f: &SourceFile<'_>, e: &str| f.name.to_ascii_lowercase().ends_with(e);
-    for src in files.iter().filter(|f| is_ext(f, ".src")) {
-        let dat = files.iter().find(|d| {
-            is_ext(d, ".dat")
-                && directory_of(d.name) == directory_of(src.name)
-                && stem_of(d.name).eq_ignore_ascii_case(stem_of(src.name))
-        });
+    let (srcs, dats): (Vec<&SourceFile<'_>>, Vec<&SourceFile<'_>>) = files
+        .iter()
+        .filter(|f| is_ext(f, ".src") || is_ext(f, ".dat"))
+        .partition(|f| is_ext(f, ".src"));
+    let mut dat_of: HashMap<(&str, String), &SourceFile<'_>> = HashMap::new();
+    for d in &dats {
+        dat_of.entry(key(d)).or_insert(d);
+    }
+    let src_keys: HashSet<(&str, String)> = srcs.iter().map(|s| key(s)).collect();
+    for src in srcs {
+        let dat = dat_of.get(&key(src)).copied();
         let mut names: HashMap<String, Value> = HashMap::new();
         if let Some(dat) = dat {
             let idx = LineIndex::new(dat.text);
@@ -153,13 +151,8 @@ pub(crate) fn parse(
             routines,
         });
     }
-    for dat in files.iter().filter(|f| is_ext(f, ".dat")) {
-        let paired = files.iter().any(|s| {
-            is_ext(s, ".src")
-                && directory_of(s.name) == directory_of(dat.name)
-                && stem_of(s.name).eq_ignore_ascii_case(stem_of(dat.name))
-        });
-        if !paired {
+    for dat in dats {
+        if !src_keys.contains(&key(dat)) {
             report.skipped.push(Skipped {
                 file: dat.name.to_string(),
                 line: 1,
@@ -527,6 +520,35 @@ mod tests {
                 SkipReason::ComputedAtRunTime,
                 SkipReason::JointMove
             ]
+        );
+    }
+
+    #[test]
+    fn a_src_pairs_with_the_dat_of_its_folder_and_stem() {
+        // Stems compare case-insensitively, folders exactly; a `.dat` with no `.src` is skipped.
+        let report = parse_files(&[
+            ("R2/demo.dat", DAT),
+            ("R1/Demo.SRC", SRC),
+            ("R1/other.dat", DAT),
+            ("R1/demo.DAT", DAT),
+        ])
+        .unwrap();
+        assert_eq!(report.programs.len(), 1);
+        assert_eq!(report.programs[0].routines[0].waypoints.len(), 5);
+        let data_only: Vec<_> = report
+            .skipped
+            .iter()
+            .filter(|s| s.reason == SkipReason::DataOnly)
+            .map(|s| s.file.as_str())
+            .collect();
+        assert_eq!(data_only, ["R2/demo.dat", "R1/other.dat"]);
+        // In another folder the `.dat` does not pair: XP1 is then unresolved.
+        let report = parse_files(&[("R1/demo.src", SRC), ("R2/demo.dat", DAT)]).unwrap();
+        assert!(
+            report
+                .skipped
+                .iter()
+                .any(|s| s.reason == SkipReason::UnresolvedName)
         );
     }
 

@@ -15,17 +15,22 @@
 //! positions in mm in the instruction's work-object / base / user frame; quaternions `w x y z`,
 //! normalised, `w ≥ 0`; a circular move gives its via point, then its end point; joint-space
 //! moves and targets only known at run time are skipped and counted; routines with fewer than
-//! two waypoints are dropped (there is no move to learn from) and reported.
+//! two waypoints are dropped (there is no move to learn from) and reported, and so is a file
+//! (a FANUC folder) left with no routine: it gives no program. A file that is not text (NUL or
+//! other control characters) is an error.
 //!
 //! - [`rapid`]: RAPID modules. [`krl`]: KRL `.src`/`.dat`. [`fanuc`]: FANUC `.ls` listings.
 //! - [`parse_files`] is the entry point; [`ImportedProgram::to_replay`] feeds replay.
+//!   [`parse_upload`] is the one for programs to be stored in a cell: it also refuses two
+//!   programs of the same name.
 
 pub mod error;
 pub mod fanuc;
 pub mod krl;
 pub mod rapid;
+mod tokens;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 
 use nalgebra::{UnitQuaternion, Vector3};
@@ -169,6 +174,9 @@ pub enum SkipReason {
     ShortRoutine,
     /// A file that is not a program on its own (a KRL `.dat` without its `.src`).
     DataOnly,
+    /// A file (a FANUC folder) with no routine left to import — empty, only declarations, or
+    /// only routines too short to keep: it gives no program.
+    NoRoutines,
 }
 
 impl SkipReason {
@@ -181,6 +189,7 @@ impl SkipReason {
             SkipReason::InvalidTarget => "target orientation is not a rotation",
             SkipReason::ShortRoutine => "routine with fewer than two waypoints",
             SkipReason::DataOnly => "data file without its program",
+            SkipReason::NoRoutines => "no routine to import, so no program",
         }
     }
 }
@@ -219,6 +228,22 @@ impl ImportReport {
             .iter()
             .map(ImportedProgram::waypoint_count)
             .sum()
+    }
+
+    /// Refuses two programs of the same name (compared exactly, as a cell's program names are):
+    /// a cell cannot store both, and the error says which files clash.
+    pub fn check_unique_names(&self) -> Result<(), ImportError> {
+        let mut first: HashMap<&str, &ImportedProgram> = HashMap::new();
+        for p in &self.programs {
+            if let Some(earlier) = first.insert(p.name.as_str(), p) {
+                return Err(ImportError::DuplicateProgram {
+                    name: p.name.clone(),
+                    first: earlier.source.clone(),
+                    second: p.source.clone(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The programs as replay reads them.
@@ -261,6 +286,9 @@ impl ImportedProgram {
 /// targets resolve across all RAPID modules of the upload.
 ///
 /// Never panics; an error names the file, line and column.
+///
+/// Two programs may have the same name (replay measures them apart; the corpus has two RAPID
+/// files of one repository that both declare `MainModule`); [`parse_upload`] refuses that.
 pub fn parse_files(files: &[(&str, &str)]) -> Result<ImportReport, ImportError> {
     let files: Vec<SourceFile<'_>> = files
         .iter()
@@ -269,12 +297,21 @@ pub fn parse_files(files: &[(&str, &str)]) -> Result<ImportReport, ImportError> 
     parse_sources(&files)
 }
 
+/// [`parse_files`] for an upload to be stored as a cell's programs: also refuses two programs
+/// of the same name, naming both files ([`ImportError::DuplicateProgram`]).
+pub fn parse_upload(files: &[(&str, &str)]) -> Result<ImportReport, ImportError> {
+    let report = parse_files(files)?;
+    report.check_unique_names()?;
+    Ok(report)
+}
+
 /// [`parse_files`] over [`SourceFile`]s.
 pub fn parse_sources(files: &[SourceFile<'_>]) -> Result<ImportReport, ImportError> {
     let mut rapid_files = Vec::new();
     let mut krl_files = Vec::new();
     let mut fanuc_files = Vec::new();
     for f in files {
+        check_text(f)?;
         match Language::from_file_name(f.name) {
             Some(Language::Rapid) => rapid_files.push(*f),
             Some(Language::Krl) => krl_files.push(*f),
@@ -296,7 +333,41 @@ pub fn parse_sources(files: &[SourceFile<'_>]) -> Result<ImportReport, ImportErr
     if !fanuc_files.is_empty() {
         fanuc::parse(&fanuc_files, &mut report)?;
     }
+    drop_empty_programs(&mut report);
     Ok(report)
+}
+
+/// Refuses a file that is not text: one with a NUL or another C0 control character other than
+/// tab, line feed, vertical tab, form feed, carriage return and SUB (U+001A, the DOS
+/// end-of-file mark). C1 characters stay allowed: they are what Windows-1252 bytes (`€`, `–`
+/// in comments) become when [`decode_text`] reads a file as Latin-1.
+fn check_text(f: &SourceFile<'_>) -> Result<(), ImportError> {
+    let allowed = |c: char| matches!(c, '\t' | '\n' | '\u{0B}' | '\u{0C}' | '\r' | '\u{1A}');
+    let Some((at, c)) = f.text.char_indices().find(|&(_, c)| c < ' ' && !allowed(c)) else {
+        return Ok(());
+    };
+    let loc = LineIndex::new(f.text).locate(f.text, at);
+    Err(ImportError::NotText {
+        file: f.name.to_string(),
+        line: loc.line,
+        column: loc.column,
+        code: u32::from(c),
+    })
+}
+
+/// A file (or FANUC folder) that yielded no routine is not a program: it is reported instead.
+fn drop_empty_programs(report: &mut ImportReport) {
+    let (kept, empty): (Vec<_>, Vec<_>) = std::mem::take(&mut report.programs)
+        .into_iter()
+        .partition(|p| !p.routines.is_empty());
+    report.programs = kept;
+    report.skipped.extend(empty.into_iter().map(|p| Skipped {
+        file: p.source,
+        line: 1,
+        routine: None,
+        reason: SkipReason::NoRoutines,
+        text: p.name,
+    }));
 }
 
 /// Decodes a file's bytes: UTF-8 when valid, otherwise Latin-1 (controllers write Windows-1252
@@ -434,6 +505,177 @@ mod tests {
     fn unsupported_file_is_an_error_naming_it() {
         let err = parse_files(&[("notes.txt", "hello")]).unwrap_err();
         assert!(err.to_string().contains("notes.txt"), "{err}");
+    }
+
+    const MODULE: &str = "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n  MoveL p, v1, z1, tool0;\n  MoveL Offs(p,0,0,10), v1, z1, tool0;\n ENDPROC\nENDMODULE\n";
+
+    #[test]
+    fn binary_content_is_an_error_naming_file_line_and_column() {
+        for name in ["a.mod", "a.prg", "a.sys", "a.src", "a.dat", "a.ls"] {
+            for garbage in ["\0", "\u{1}", "\u{7}", "\u{1B}", "\u{1F}"] {
+                let text = format!("MODULE M\n ! {garbage}\nENDMODULE\n");
+                let err = parse_files(&[(name, &text)]).unwrap_err();
+                assert_eq!(
+                    err,
+                    ImportError::NotText {
+                        file: name.into(),
+                        line: 2,
+                        column: 4,
+                        code: u32::from(garbage.chars().next().unwrap()),
+                    }
+                );
+                assert!(
+                    err.to_string().starts_with(&format!("{name}:2:4:")),
+                    "{err}"
+                );
+            }
+        }
+        // One binary file refuses the whole upload.
+        let err =
+            parse_files(&[("M.mod", MODULE), ("x.mod", "\u{89}PNG\r\n\u{1A}\n\0\0")]).unwrap_err();
+        assert!(
+            matches!(err, ImportError::NotText { ref file, .. } if file == "x.mod"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn text_controls_and_latin1_are_text() {
+        // Tab, CR LF, form feed, a DOS end-of-file mark, and Windows-1252 bytes read as Latin-1.
+        let bytes = [
+            MODULE.replace('\n', "\r\n").as_bytes(),
+            b"\t! \x80 \x96 \xe9\x0c\x0b\x1a",
+        ]
+        .concat();
+        let text = decode_text(&bytes);
+        let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.programs.len(), 1);
+        assert_eq!(report.programs[0].routines[0].waypoints.len(), 2);
+    }
+
+    #[test]
+    fn a_file_with_no_routine_is_skipped_and_gives_no_program() {
+        let cases = [
+            ("empty.mod", ""),
+            ("blank.prg", " \n\r\n\t"),
+            ("comment.sys", "! nothing here\n"),
+            ("data.mod", "MODULE Data\n CONST num n:=1;\nENDMODULE\n"),
+            (
+                "short.mod",
+                "MODULE Short\n PROC a()\n  MoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n",
+            ),
+            ("empty.src", ""),
+            ("nodef.src", "&ACCESS RVP\n; just a comment\n"),
+        ];
+        for (name, text) in cases {
+            let report = parse_files(&[(name, text)]).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(report.programs.is_empty(), "{name}: {:?}", report.programs);
+            let last = report.skipped.last().expect("a skip record");
+            assert_eq!(
+                (last.file.as_str(), last.reason, last.routine.as_deref()),
+                (name, SkipReason::NoRoutines, None),
+                "{name}"
+            );
+        }
+        // With other files: only the empty ones are left out, each reported once.
+        let report = parse_files(&[("empty.mod", ""), ("M.mod", MODULE), ("e.src", "")]).unwrap();
+        let programs: Vec<_> = report.programs.iter().map(|p| p.source.as_str()).collect();
+        assert_eq!(programs, ["M.mod"]);
+        let skipped: Vec<_> = report
+            .skipped
+            .iter()
+            .map(|s| (s.file.as_str(), s.reason))
+            .collect();
+        assert_eq!(
+            skipped,
+            [
+                ("empty.mod", SkipReason::NoRoutines),
+                ("e.src", SkipReason::NoRoutines)
+            ]
+        );
+        // A FANUC folder whose listings are all too short gives no program either.
+        let ls = "/PROG A\n/MN\n 1:J P[1] 100% FINE ;\n/POS\nP[1]{\n GP1:\n UF : 0, UT : 1,\n X = 1 mm, Y = 2 mm, Z = 3 mm,\n W = 0 deg, P = 0 deg, R = 0 deg\n};\n/END\n";
+        let report = parse_files(&[("cell/prog/a.ls", ls)]).unwrap_or_else(|e| panic!("{e}"));
+        assert!(report.programs.is_empty());
+        let reasons: Vec<_> = report
+            .skipped
+            .iter()
+            .map(|s| (s.file.as_str(), s.reason))
+            .collect();
+        assert_eq!(
+            reasons,
+            [
+                ("cell/prog/a.ls", SkipReason::ShortRoutine),
+                ("cell/prog", SkipReason::NoRoutines)
+            ]
+        );
+    }
+
+    #[test]
+    fn ten_thousand_empty_files_make_no_program() {
+        let names: Vec<String> = (0..10_000)
+            .map(|i| format!("f{i}.{}", ["mod", "src", "prg", "sys"][i % 4]))
+            .collect();
+        let files: Vec<(&str, &str)> = names.iter().map(|n| (n.as_str(), "")).collect();
+        let report = parse_upload(&files).unwrap_or_else(|e| panic!("{e}"));
+        assert!(report.programs.is_empty());
+        assert_eq!(report.skipped.len(), 10_000);
+        assert!(
+            report
+                .skipped
+                .iter()
+                .all(|s| s.reason == SkipReason::NoRoutines)
+        );
+    }
+
+    #[test]
+    fn an_upload_with_two_programs_of_one_name_is_refused_naming_both_files() {
+        let other = MODULE.replace("PROC main", "PROC other");
+        let files = [
+            ("A/Main.mod", MODULE),
+            ("B/x.mod", "MODULE X\nENDMODULE"),
+            ("B/M.mod", &other),
+        ];
+        // Replay reads both; a cell cannot store both.
+        assert_eq!(parse_files(&files).unwrap().programs.len(), 2);
+        let err = parse_upload(&files).unwrap_err();
+        assert_eq!(
+            err,
+            ImportError::DuplicateProgram {
+                name: "M".into(),
+                first: "A/Main.mod".into(),
+                second: "B/M.mod".into(),
+            }
+        );
+        let message = err.to_string();
+        assert!(
+            message.contains("A/Main.mod") && message.contains("B/M.mod"),
+            "{message}"
+        );
+        // KRL programs of one stem in two folders, FANUC folders of one name under two parents.
+        let src = "DEF a()\nLIN {X 1,Y 2,Z 3,A 0,B 0,C 0}\nLIN {X 2,Y 2,Z 3,A 0,B 0,C 0}\nEND\n";
+        let err = parse_upload(&[("r1/main.src", src), ("r2/main.src", src)]).unwrap_err();
+        assert!(
+            matches!(&err, ImportError::DuplicateProgram { first, second, .. } if first == "r1/main.src" && second == "r2/main.src"),
+            "{err}"
+        );
+        let ls = "/PROG A\n/MN\n 1:J P[1] 100% FINE ;\n 2:L P[1] 100mm/sec FINE ;\n/POS\nP[1]{\n GP1:\n UF : 0, UT : 1,\n X = 1 mm, Y = 2 mm, Z = 3 mm,\n W = 0 deg, P = 0 deg, R = 0 deg\n};\n/END\n";
+        let err = parse_upload(&[("x/prog/a.ls", ls), ("y/prog/a.ls", ls)]).unwrap_err();
+        assert!(
+            matches!(&err, ImportError::DuplicateProgram { name, first, second } if name == "prog" && first == "x/prog" && second == "y/prog"),
+            "{err}"
+        );
+        // Names are compared exactly, as the cell stores them; distinct names pass.
+        let lower = MODULE.replace("MODULE M", "MODULE m");
+        assert_eq!(
+            parse_upload(&[("a.mod", MODULE), ("b.mod", &lower)])
+                .unwrap()
+                .programs
+                .len(),
+            2
+        );
+        // A file that gives no program clashes with nothing.
+        assert!(parse_upload(&[("a.mod", MODULE), ("b.mod", "MODULE M\nENDMODULE")]).is_ok());
     }
 
     #[test]

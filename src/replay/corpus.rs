@@ -375,7 +375,9 @@ mod tests {
         )
         .unwrap();
         let programs = load_paths(&[&a, &b]).unwrap();
-        assert_eq!(programs.len(), 2);
+        // B only declares A's target: it resolves it, and (with no routine) is no program.
+        assert_eq!(programs.len(), 1);
+        assert_eq!(programs[0].name, "A");
         assert_eq!(programs[0].language, "rapid");
         assert_eq!(programs[0].waypoint_count(), 2);
         let from_dir = load_paths(&[dir.path()]).unwrap();

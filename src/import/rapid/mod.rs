@@ -1,0 +1,317 @@
+//! ABB RAPID modules (`.mod`, `.modx`, `.prg`, `.sys`).
+//!
+//! A module is tokenised with a `logos` lexer (comments `!` to end of line, strings with `""`
+//! escapes); the token stream is then split into the module's declarations and its routines'
+//! statements. Targets are evaluated by a small expression evaluator that knows robtarget
+//! aggregates, `Offs`, `RelTool` (`\Rx \Ry \Rz`), constant array indices and `num` arithmetic
+//! over declared values. Control flow is not followed: statements are read in text order, and an
+//! assignment to a target variable holds until the next one — a reading of the program as
+//! written, which is what the operator taught.
+//!
+//! Names resolve first in the routine (its `VAR`s and assignments so far), then in the module,
+//! then in the other modules of the upload (RAPID names are case-insensitive). A target that
+//! can only be known at run time (function results, record fields, loop-dependent offsets, a
+//! variable assigned from those) is skipped and reported.
+//!
+//! The passes, one file each: [`lexer`] (tokens and token-range helpers), [`structure`]
+//! (declarations and routine statements), [`eval`] (values and expressions), [`resolve`]
+//! (declarations, assignments and motions → waypoints and skip records).
+
+mod eval;
+mod lexer;
+mod resolve;
+mod structure;
+
+use std::collections::HashMap;
+
+use super::{
+    ImportError, ImportReport, ImportedProgram, ImportedRoutine, Language, SourceFile,
+    drop_short_routines,
+};
+use eval::Binding;
+use resolve::{eval_decl, routine_stmt};
+use structure::structure;
+
+/// Deepest nesting of blocks (`IF … THEN`, `WHILE`, `FOR`, `TEST`) in a routine that is read;
+/// a file nested deeper is refused with [`ImportError::NestingTooDeep`]. Taught programs nest a
+/// handful of levels; the limit bounds what an upload can ask of the parser.
+pub const MAX_BLOCK_NESTING: usize = 256;
+
+/// Parses the RAPID modules of an upload, resolving targets across them.
+pub(crate) fn parse(
+    files: &[SourceFile<'_>],
+    report: &mut ImportReport,
+) -> Result<(), ImportError> {
+    let modules = files
+        .iter()
+        .map(|f| structure(*f))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    // Module-level declarations, twice so that forward references across modules resolve.
+    let mut module_envs: Vec<HashMap<String, Binding>> = vec![HashMap::new(); modules.len()];
+    let mut global: HashMap<String, Binding> = HashMap::new();
+    for _ in 0..2 {
+        for (mi, m) in modules.iter().enumerate() {
+            for d in &m.decls {
+                let Some((name, binding)) = eval_decl(m, d, &[&module_envs[mi], &global])? else {
+                    continue;
+                };
+                if !d.local {
+                    global
+                        .entry(name.clone())
+                        .or_insert_with(|| binding.clone());
+                    if let Some(b) = global.get_mut(&name)
+                        && *b == Binding::RunTime
+                    {
+                        *b = binding.clone();
+                    }
+                }
+                module_envs[mi].insert(name, binding);
+            }
+        }
+    }
+
+    for (mi, m) in modules.iter().enumerate() {
+        let mut routines = Vec::new();
+        for r in &m.routines {
+            if !r.collect {
+                continue;
+            }
+            let mut locals: HashMap<String, Binding> = HashMap::new();
+            let mut waypoints = Vec::new();
+            for st in &r.stmts {
+                let envs = [&module_envs[mi], &global];
+                routine_stmt(
+                    m,
+                    r,
+                    st,
+                    &mut locals,
+                    &envs,
+                    &mut waypoints,
+                    &mut report.skipped,
+                )?;
+            }
+            routines.push(ImportedRoutine {
+                name: r.name.clone(),
+                file: m.file.name.to_string(),
+                line: r.line,
+                waypoints,
+            });
+        }
+        let routines = drop_short_routines(routines, &mut report.skipped);
+        report.programs.push(ImportedProgram {
+            name: m.name.clone(),
+            source: m.file.name.to_string(),
+            language: Language::Rapid,
+            routines,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::{CircleRole, Configuration, SkipReason, parse_files};
+
+    const MODULE: &str = r#"MODULE Demo
+    CONST robtarget p10:=[[100,0,50],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];
+    CONST robtarget ps{2}:=[[[1,2,3],[1,0,0,0],[0,-1,2,1],[9E9,9E9,9E9,9E9,9E9,9E9]],
+                            [[4,5,6],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]]];
+    CONST num dz:=25;
+    PROC main()
+        MoveJ p10, v100, z10, tool0;
+        MoveL Offs(p10, 0, 0, dz*2), v100, fine, tool0\WObj:=wobj1;
+        MoveL RelTool(p10, 10, 0, 0 \Rz:=90), v100, fine, tool0;
+        MoveC ps{1}, ps{2}, v100, z10, tool0;
+        MoveAbsJ jHome, v100, fine, tool0;
+        MoveL CRobT(), v100, fine, tool0;
+    ERROR
+        MoveL p10, v100, fine, tool0;
+    ENDPROC
+ENDMODULE
+"#;
+
+    #[test]
+    fn reads_targets_offsets_reltool_circles_and_skips() {
+        let report = parse_files(&[("Demo.mod", MODULE)]).unwrap();
+        let r = &report.programs[0].routines[0];
+        assert_eq!(r.name, "main");
+        let names: Vec<_> = r.waypoints.iter().map(|w| w.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "p10",
+                "Offs(p10, 0, 0, dz*2)",
+                "RelTool(p10, 10, 0, 0 \\Rz:=90)",
+                "ps{1}",
+                "ps{2}"
+            ]
+        );
+        let p = |i: usize| r.waypoints[i].pose.position();
+        assert!((p(1).z - 100.0).abs() < 1e-12);
+        // The target is rotated 180° about y: tool x points along base −x.
+        assert!((p(2).x - 90.0).abs() < 1e-9, "{}", p(2));
+        assert_eq!(r.waypoints[3].role, Some(CircleRole::Via));
+        assert_eq!(r.waypoints[1].frame.as_deref(), Some("wobj1"));
+        assert_eq!(
+            r.waypoints[3].configuration,
+            Some(Configuration::Rapid {
+                cf1: 0,
+                cf4: -1,
+                cf6: 2,
+                cfx: 1
+            })
+        );
+        let reasons: Vec<_> = report.skipped.iter().map(|s| s.reason).collect();
+        assert_eq!(
+            reasons,
+            [
+                SkipReason::JointMove,
+                SkipReason::ComputedAtRunTime,
+                SkipReason::InErrorHandler
+            ]
+        );
+    }
+
+    #[test]
+    fn resolves_across_modules_and_tracks_assignments() {
+        let a = "MODULE A\n PROC r()\n  VAR robtarget t;\n  MoveL pB, v1, z1, tool0;\n  t := Offs(pB,1,0,0);\n  MoveL t, v1, z1, tool0;\n  t := CRobT();\n  MoveL t, v1, z1, tool0;\n ENDPROC\nENDMODULE";
+        let b =
+            "MODULE B\n PERS robtarget pB:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\nENDMODULE";
+        let report = parse_files(&[("A.mod", a), ("B.sys", b)]).unwrap();
+        let r = &report.programs[0].routines[0];
+        assert_eq!(r.waypoints.len(), 2);
+        assert!((r.waypoints[1].pose.position().x - 2.0).abs() < 1e-12);
+        assert_eq!(report.skipped[0].reason, SkipReason::ComputedAtRunTime);
+        assert_eq!(report.skipped[0].line, 8);
+    }
+
+    /// `depth` nested blocks of the given opener/closer around one move pair, in one routine.
+    fn nested(depth: usize, open: &str, close: &str) -> String {
+        let mut s = String::from(
+            "MODULE Deep\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n",
+        );
+        for _ in 0..depth {
+            s.push_str(open);
+            s.push('\n');
+        }
+        s.push_str("MoveL p, v1, z1, tool0;\nMoveL Offs(p,1,0,0), v1, z1, tool0;\n");
+        for _ in 0..depth {
+            s.push_str(close);
+            s.push('\n');
+        }
+        s.push_str(" ENDPROC\nENDMODULE\n");
+        s
+    }
+
+    #[test]
+    fn blocks_nested_up_to_the_limit_are_read() {
+        for (open, close) in [
+            ("IF a THEN", "ENDIF"),
+            ("WHILE a DO", "ENDWHILE"),
+            ("FOR i FROM 1 TO 2 DO", "ENDFOR"),
+            ("TEST a CASE 1:", "ENDTEST"),
+        ] {
+            let text = nested(MAX_BLOCK_NESTING, open, close);
+            let report = parse_files(&[("Deep.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+            let r = &report.programs[0].routines[0];
+            assert_eq!(r.waypoints.len(), 2, "{open}");
+            assert_eq!(r.waypoints[0].line, 4 + MAX_BLOCK_NESTING, "{open}");
+        }
+    }
+
+    #[test]
+    fn blocks_nested_past_the_limit_are_refused_naming_file_line_and_limit() {
+        for (open, close) in [
+            ("IF a THEN", "ENDIF"),
+            ("WHILE a DO", "ENDWHILE"),
+            ("TEST a CASE 1:", "ENDTEST"),
+        ] {
+            let text = nested(MAX_BLOCK_NESTING + 1, open, close);
+            let err = parse_files(&[("Deep.mod", &text)]).unwrap_err();
+            assert_eq!(
+                err,
+                ImportError::NestingTooDeep {
+                    file: "Deep.mod".into(),
+                    // Line 4 holds the first block; the one past the limit is the last opener.
+                    line: 4 + MAX_BLOCK_NESTING,
+                    column: 1,
+                    limit: MAX_BLOCK_NESTING,
+                },
+                "{open}"
+            );
+            let message = err.to_string();
+            assert!(
+                message.starts_with(&format!("Deep.mod:{}:1:", 4 + MAX_BLOCK_NESTING))
+                    && message.contains(&MAX_BLOCK_NESTING.to_string()),
+                "{message}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_huge_nested_file_is_refused() {
+        // 40,000 levels (about 0.9 MB): the parse stops at the limit, 256 lines in.
+        let text = nested(40_000, "IF a THEN", "ENDIF");
+        let err = parse_files(&[("Deep.mod", &text)]).unwrap_err();
+        assert!(
+            matches!(err, ImportError::NestingTooDeep { line, .. } if line == 4 + MAX_BLOCK_NESTING),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn nesting_counts_open_blocks_not_blocks_seen() {
+        // Many blocks one after another, compact IFs and ELSEIF branches do not add up.
+        let mut body = String::new();
+        for _ in 0..(3 * MAX_BLOCK_NESTING) {
+            body.push_str("IF a THEN\n x := 1;\nELSEIF b THEN\n x := 2;\nELSE\n x := 3;\nENDIF\n");
+            body.push_str("IF a x := 1;\nWHILE a DO\n x := 1;\nENDWHILE\n");
+            body.push_str("TEST a\nCASE 1:\n x := 1;\nDEFAULT:\n x := 2;\nENDTEST\n");
+        }
+        let text = format!(
+            "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n{body}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
+        );
+        let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.programs[0].routines[0].waypoints.len(), 2);
+        // A routine that leaves blocks open (a missing ENDIF) does not count against the next.
+        let open = "IF a THEN\n".repeat(MAX_BLOCK_NESTING - 1);
+        let text = format!(
+            "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n{open} ENDPROC\n PROC b()\n{open}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
+        );
+        let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.programs[0].routines.len(), 1);
+        assert_eq!(report.programs[0].routines[0].name, "b");
+    }
+
+    #[test]
+    fn a_block_header_ends_at_then_or_where_its_statement_ends() {
+        // THEN found: the body follows; no THEN (compact IF): the whole statement is skipped,
+        // also when a routine keyword cuts a statement missing its `;`.
+        let text = "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n  IF x MoveL p, v1, z1, tool0;\n  IF (x) THEN MoveL p, v1, z1, tool0; MoveL p, v1, z1, tool0; ENDIF\n  IF x THEN\n ENDPROC\n PROC b()\n  WHILE [x DO;\n  MoveL p, v1, z1, tool0;\n  MoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n";
+        let report = parse_files(&[("M.mod", text)]).unwrap_or_else(|e| panic!("{e}"));
+        let routines = &report.programs[0].routines;
+        let lines: Vec<Vec<usize>> = routines
+            .iter()
+            .map(|r| r.waypoints.iter().map(|w| w.line).collect())
+            .collect();
+        assert_eq!(lines, [vec![5, 5], vec![10, 11]]);
+    }
+
+    #[test]
+    fn malformed_robtarget_is_an_error_with_line_and_column() {
+        let text = "MODULE M\n  CONST robtarget p:=[[1,2],[1,0,0,0]];\nENDMODULE";
+        let err = parse_files(&[("M.mod", text)]).unwrap_err();
+        match err {
+            ImportError::Syntax {
+                line, column, file, ..
+            } => {
+                assert_eq!((file.as_str(), line, column), ("M.mod", 2, 22));
+            }
+            other => panic!("{other:?}"),
+        }
+        let err = parse_files(&[("M.mod", "MODULE M\nPROC\nENDMODULE")]).unwrap_err();
+        assert!(err.to_string().starts_with("M.mod:3:"), "{err}");
+    }
+}
