@@ -2,6 +2,7 @@
 //! edge; nothing here knows about either.
 
 use crate::engine::{ConfigError, PoseError};
+use crate::import::ImportError;
 use crate::storage::StorageError;
 
 #[derive(Debug, thiserror::Error)]
@@ -28,6 +29,10 @@ pub enum AppError {
     Pose(#[from] PoseError),
     #[error("invalid settings: {0}")]
     Config(#[from] ConfigError),
+    /// Files of an upload that cannot be imported (syntax, not text, nesting too deep, two
+    /// programs of one name), with the file and place.
+    #[error("cannot import: {0}")]
+    Import(#[from] ImportError),
     /// The database failed. The storage error is kept as the source, so the edge logs the
     /// whole chain (down to sqlx's) once.
     #[error("the database failed")]
@@ -43,7 +48,7 @@ impl AppError {
         match self {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
             AppError::Conflict(_) | AppError::Exists(_) => "conflict",
-            AppError::Invalid(_) => "invalid",
+            AppError::Invalid(_) | AppError::Import(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) => "invalid_settings",
             AppError::Storage(_) | AppError::Internal(_) => "internal",

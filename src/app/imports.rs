@@ -51,10 +51,11 @@ impl App {
                 .iter()
                 .map(|f| (f.name.as_str(), f.content.as_str()))
                 .collect();
-            crate::import::parse_files(&files)
+            // Two files of the upload that give programs of one name are refused here, naming
+            // both (the database would only say that a name is taken).
+            crate::import::parse_upload(&files)
         })
-        .await?
-        .map_err(|e| AppError::Invalid(format!("cannot import: {e}")))?;
+        .await??;
         tracing::info!(
             cell = cell_id,
             files = n_files,

@@ -43,9 +43,7 @@ impl App {
                     .iter()
                     .map(|f| (f.name.as_str(), f.content.as_str()))
                     .collect();
-                crate::import::parse_files(&files)
-                    .map_err(|e| AppError::Invalid(format!("cannot read the programs: {e}")))?
-                    .to_replay()
+                crate::import::parse_files(&files)?.to_replay()
             }
             (None, Some(cell)) => {
                 self.cell_row(cell).await?;

@@ -426,7 +426,8 @@ pub struct SkippedDto {
     pub line: usize,
     pub routine: Option<String>,
     /// `joint-move`, `unresolved-name`, `computed-at-run-time`, `in-error-handler`,
-    /// `invalid-target`, `short-routine`, `data-only`.
+    /// `invalid-target`, `short-routine`, `data-only`, `no-routines` (a file or FANUC folder
+    /// with no routine left: no program is made of it).
     pub reason: String,
     pub text: String,
 }

@@ -67,9 +67,10 @@ impl From<AppError> for ApiError {
         let status = match &e {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => StatusCode::NOT_FOUND,
             AppError::Conflict(_) | AppError::Exists(_) => StatusCode::CONFLICT,
-            AppError::Invalid(_) | AppError::Pose(_) | AppError::Config(_) => {
-                StatusCode::UNPROCESSABLE_ENTITY
-            }
+            AppError::Invalid(_)
+            | AppError::Import(_)
+            | AppError::Pose(_)
+            | AppError::Config(_) => StatusCode::UNPROCESSABLE_ENTITY,
             AppError::Storage(_) | AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
         if status.is_server_error() {

@@ -338,6 +338,7 @@ async fn unusable_settings_control_characters_and_wrong_joint_counts_are_refused
         .await;
     assert_eq!(t["waypoint"]["joints"], json!(six));
     assert_eq!(t["waypoint"]["seq"], 1);
+}
 
 #[tokio::test]
 async fn an_empty_token_is_refused_at_start_up() {

@@ -416,3 +416,28 @@ async fn a_large_import_does_not_stall_other_requests() {
     assert_eq!(import.await.unwrap(), StatusCode::CREATED);
     assert_eq!(phases.parsed.load(Ordering::SeqCst), before + 1);
 }
+
+/// Two files of one upload that declare the same RAPID module are refused with both files
+/// named (the message blamed the cell: "already has a program with one of the names
+/// [MainModule, MainModule]" although it was empty), and nothing is imported.
+#[tokio::test]
+async fn two_files_declaring_one_module_are_named() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("clash").await;
+    let files = upload("EdgarIvanMM__PaletizadoCajasConFrascos");
+    let r = app
+        .post(
+            &format!("/v1/cells/{cell}/imports"),
+            &json!({ "files": files }),
+        )
+        .await;
+    let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    assert!(message.contains("MainModule"), "{message}");
+    let named = files
+        .iter()
+        .filter(|f| message.contains(f["name"].as_str().unwrap()))
+        .count();
+    assert_eq!(named, 2, "{message}");
+    let programs = app.get_ok(&format!("/v1/cells/{cell}/programs")).await;
+    assert_eq!(programs.as_array().unwrap().len(), 0);
+}
