@@ -3,6 +3,7 @@
 //! - [`engine`]: the pure prediction engine (poses, learner, HMM, predictor, scale). No I/O.
 //! - [`kinematics`]: robot models from URDF, FK, all IK solutions, reachability. No I/O beyond
 //!   reading URDF files.
+//! - [`program`]: the recorded-program type (program → routines → poses) every part shares.
 //! - [`import`]: parses offline programs (ABB RAPID, KUKA KRL, FANUC TP) into waypoints. Pure.
 //! - [`replay`]: replays recorded programs through the engine and baselines and reports accuracy
 //!   (the product's scoreboard). Reads corpus files; everything else it does is computation.
@@ -25,6 +26,8 @@
 //! The engine never imports the web or the database.
 
 pub mod app;
+#[cfg(test)]
+mod architecture;
 pub mod auth;
 pub mod cli;
 pub mod engine;
@@ -32,6 +35,7 @@ pub mod grpc;
 pub mod http;
 pub mod import;
 pub mod kinematics;
+pub mod program;
 pub mod replay;
 pub mod server;
 pub mod sim;

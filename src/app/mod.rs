@@ -25,6 +25,7 @@ pub mod error;
 mod feedback;
 mod imports;
 mod offer;
+pub mod pose;
 mod programs;
 pub mod reach;
 mod registry;

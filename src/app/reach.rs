@@ -6,10 +6,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use serde::Serialize;
-use utoipa::ToSchema;
-
 use super::error::AppError;
+use super::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use super::settings::CellSettings;
 use crate::engine::Pose;
 use crate::kinematics::{
@@ -51,39 +49,6 @@ impl Robots {
             ))
         })
     }
-}
-
-/// Why a pose is unreachable, for clients.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
-pub struct UnreachableDto {
-    /// `outside_reach`, `joint_limit` or `singular`.
-    pub reason: String,
-    pub message: String,
-}
-
-/// The joint nearest its limit.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
-pub struct JointMarginDto {
-    pub name: String,
-    /// Radians to the nearer limit.
-    pub margin_rad: f64,
-}
-
-/// Whether the cell's arm reaches a pose, and how.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
-pub struct ReachabilityDto {
-    pub robot: String,
-    pub reachable: bool,
-    /// Why not, when not.
-    pub unreachable: Option<UnreachableDto>,
-    /// Number of joint solutions within limits (multi-turn variants included).
-    pub solutions: usize,
-    /// The solution nearest the previous waypoint's joints (rad).
-    pub chosen: Option<Vec<f64>>,
-    /// Smallest singular value of the Jacobian at the chosen solution (singularity margin).
-    pub sigma_min: Option<f64>,
-    pub manipulability: Option<f64>,
-    pub limiting_joint: Option<JointMarginDto>,
 }
 
 pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {

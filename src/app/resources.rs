@@ -7,55 +7,9 @@
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
-use super::reach::ReachabilityDto;
 use super::settings::{CellSettings, CellSettingsInput};
-use crate::engine::{Pose, PoseValues};
 
-/// A pose: position in mm, orientation as a unit quaternion `w, x, y, z`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct PoseDto {
-    /// mm
-    pub x: f64,
-    /// mm
-    pub y: f64,
-    /// mm
-    pub z: f64,
-    pub qw: f64,
-    pub qx: f64,
-    pub qy: f64,
-    pub qz: f64,
-}
-
-impl PoseDto {
-    /// The engine pose (typed error for non-finite numbers or a quaternion far from unit).
-    pub fn to_pose(&self) -> Result<Pose, crate::engine::PoseError> {
-        Pose::new(
-            [self.x, self.y, self.z],
-            [self.qw, self.qx, self.qy, self.qz],
-        )
-    }
-}
-
-impl From<PoseValues> for PoseDto {
-    fn from(v: PoseValues) -> PoseDto {
-        PoseDto {
-            x: v.x,
-            y: v.y,
-            z: v.z,
-            qw: v.qw,
-            qx: v.qx,
-            qy: v.qy,
-            qz: v.qz,
-        }
-    }
-}
-
-impl From<&Pose> for PoseDto {
-    fn from(p: &Pose) -> PoseDto {
-        p.values().into()
-    }
-}
+pub use super::pose::PoseDto;
 
 // ---- cells ------------------------------------------------------------------------------------
 
@@ -464,4 +418,39 @@ pub struct ReplayRequest {
     pub horizon: Option<usize>,
     /// Estimate the scale ψ.
     pub scale: Option<bool>,
+}
+
+// ---- reachability ------------------------------------------------------------------------------
+
+/// Why a pose is unreachable, for clients.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct UnreachableDto {
+    /// `outside_reach`, `joint_limit` or `singular`.
+    pub reason: String,
+    pub message: String,
+}
+
+/// The joint nearest its limit.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct JointMarginDto {
+    pub name: String,
+    /// Radians to the nearer limit.
+    pub margin_rad: f64,
+}
+
+/// Whether the cell's arm reaches a pose, and how.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct ReachabilityDto {
+    pub robot: String,
+    pub reachable: bool,
+    /// Why not, when not.
+    pub unreachable: Option<UnreachableDto>,
+    /// Number of joint solutions within limits (multi-turn variants included).
+    pub solutions: usize,
+    /// The solution nearest the previous waypoint's joints (rad).
+    pub chosen: Option<Vec<f64>>,
+    /// Smallest singular value of the Jacobian at the chosen solution (singularity margin).
+    pub sigma_min: Option<f64>,
+    pub manipulability: Option<f64>,
+    pub limiting_joint: Option<JointMarginDto>,
 }

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::AppError;
-use super::resources::PoseDto;
+use super::pose::PoseDto;
 use crate::engine::{EngineConfig, Pose, Profile};
 use crate::kinematics::ReachPolicy;
 

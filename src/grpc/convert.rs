@@ -5,8 +5,8 @@
 use tonic::Status;
 
 use super::pb;
-use crate::app::reach::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use crate::app::resources::*;
+use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use crate::app::settings::{
     CellSettings, CellSettingsInput, ProfileName, ReachPolicyName, ScaleSettings,
 };

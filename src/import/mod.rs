@@ -37,7 +37,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::engine::Pose;
-use crate::replay::corpus::{Program, Routine};
+use crate::program::{Program, Routine};
 
 pub use error::ImportError;
 

@@ -23,31 +23,7 @@ use thiserror::Error;
 use crate::engine::{Pose, PoseError};
 use crate::import::{self, ImportError, Language};
 
-/// One recorded program: the routines of one corpus file, in file order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Program {
-    /// The file stem (`ravenorb__abb-robot-welder__RAPID__PROGMOD__ProgSide1.mod`).
-    pub name: String,
-    /// Where the program was read from.
-    pub source: PathBuf,
-    /// Source language as recorded in the corpus: `rapid`, `krl` or `fanuc`.
-    pub language: String,
-    pub routines: Vec<Routine>,
-}
-
-/// One routine (RAPID `PROC`, KRL `DEF`, a FANUC TP file): waypoints in the order visited.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Routine {
-    pub name: String,
-    pub waypoints: Vec<Pose>,
-}
-
-impl Program {
-    /// Number of waypoints over all routines.
-    pub fn waypoint_count(&self) -> usize {
-        self.routines.iter().map(|r| r.waypoints.len()).sum()
-    }
-}
+pub use crate::program::{Program, Routine};
 
 /// Why a corpus file could not be loaded. Every variant names the file; the underlying cause
 /// (I/O error, pose error) is the error's `source()`, so print the chain (`{:#}` with anyhow).

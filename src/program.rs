@@ -1,0 +1,33 @@
+//! The recorded-program type every part shares: a program is ordered routines, a routine is
+//! the waypoints visited, in order. Import produces it, replay scores it, the simulated
+//! operator teaches it and the application stores it. A leaf: it needs only the engine's pose.
+
+use std::path::PathBuf;
+
+use crate::engine::Pose;
+
+/// One recorded program: its routines in program (file) order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    /// The file stem (`ravenorb__abb-robot-welder__RAPID__PROGMOD__ProgSide1.mod`).
+    pub name: String,
+    /// Where the program was read from.
+    pub source: PathBuf,
+    /// Source language as recorded in the corpus: `rapid`, `krl` or `fanuc`.
+    pub language: String,
+    pub routines: Vec<Routine>,
+}
+
+/// One routine (RAPID `PROC`, KRL `DEF`, a FANUC TP file): waypoints in the order visited.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Routine {
+    pub name: String,
+    pub waypoints: Vec<Pose>,
+}
+
+impl Program {
+    /// Number of waypoints over all routines.
+    pub fn waypoint_count(&self) -> usize {
+        self.routines.iter().map(|r| r.waypoints.len()).sum()
+    }
+}
