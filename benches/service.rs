@@ -10,9 +10,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use nalgebra::UnitQuaternion;
-use nextpose::http::HttpOptions;
 use nextpose::server::{Application, Database, ServerSettings};
 use nextpose::storage::Durability;
+use nextpose::transport::TransportOptions;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde_json::{Value, json};
@@ -56,7 +56,7 @@ async fn main() {
                 database: Database::File(db),
                 durability: Durability::Process,
                 addr: "127.0.0.1:0".into(),
-                http: HttpOptions::default(),
+                http: TransportOptions::default(),
                 robots: nextpose::kinematics::bundled_robots_dir(),
             })
             .await

@@ -18,9 +18,9 @@ use nextpose::grpc::pb;
 use nextpose::grpc::pb::nextpose_client::NextposeClient;
 use nextpose::grpc::pb::teach_request::Command;
 use nextpose::grpc::pb::teach_response::Event;
-use nextpose::http::HttpOptions;
 use nextpose::server::{Application, Database, ServerSettings};
 use nextpose::storage::Durability;
+use nextpose::transport::TransportOptions;
 use serde_json::json;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
@@ -193,7 +193,7 @@ async fn main() {
         database: Database::File(dir.path().join("teach.db")),
         durability: Durability::Process,
         addr: "127.0.0.1:0".into(),
-        http: HttpOptions::default(),
+        http: TransportOptions::default(),
         robots: nextpose::kinematics::bundled_robots_dir(),
     })
     .await

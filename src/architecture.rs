@@ -143,7 +143,7 @@ fn modules_use_only_what_their_layer_allows() {
         ("replay", &["engine", "import", "kinematics", "program"]),
         ("storage", &[]),
         ("telemetry", &[]),
-        ("auth", &[]),
+        ("transport", &[]),
         (
             "app",
             &[
@@ -162,6 +162,13 @@ fn modules_use_only_what_their_layer_allows() {
         let uses = top.get(*module).cloned().unwrap_or_default();
         let extra: Vec<&String> = uses.iter().filter(|u| !may.contains(&u.as_str())).collect();
         assert!(extra.is_empty(), "{module} uses {extra:?}");
+    }
+    // The adapters share what they share through `transport`, not through each other.
+    for (adapter, other) in [("http", "grpc"), ("grpc", "http")] {
+        assert!(
+            !top.get(adapter).is_some_and(|u| u.contains(other)),
+            "{adapter} uses {other}"
+        );
     }
     // Nothing below the adapters reaches up into them.
     for (module, uses) in &top {

@@ -506,7 +506,7 @@ fn run_serve(args: ServeArgs) -> Result<()> {
             Durability::Process
         },
         addr: args.addr.clone(),
-        http: crate::http::HttpOptions {
+        http: crate::transport::TransportOptions {
             body_limit: args.body_limit,
             request_timeout: std::time::Duration::from_secs(args.request_timeout_s.max(1)),
             token: args.token.clone(),

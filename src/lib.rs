@@ -13,7 +13,8 @@
 //! - [`http`]: the REST adapter (axum): extraction, routing, error mapping, OpenAPI.
 //! - [`grpc`]: the gRPC adapter (tonic) on the same port: the same operations, a streaming
 //!   teach session, reflection and health.
-//! - [`auth`]: the optional bearer token, checked the same way by both adapters.
+//! - [`transport`]: what both adapters share: options and limits, the optional bearer token
+//!   (checked the same way by both), request ids and tracing.
 //! - [`sim`]: the simulated arm and operator, the experiment plan, statistics and the
 //!   programming-time table (pure, deterministic given a seed).
 //! - [`simulate`]: the driver that runs the simulated operator against a real server.
@@ -28,7 +29,6 @@
 pub mod app;
 #[cfg(test)]
 mod architecture;
-pub mod auth;
 pub mod cli;
 pub mod engine;
 pub mod grpc;
@@ -42,3 +42,4 @@ pub mod sim;
 pub mod simulate;
 pub mod storage;
 pub mod telemetry;
+pub mod transport;

@@ -14,11 +14,12 @@ use tokio::net::TcpListener;
 
 use crate::app::App;
 use crate::app::reach::Robots;
-use crate::auth::BearerToken;
 use crate::grpc;
-use crate::http::{self, HttpOptions};
+use crate::http;
 use crate::storage::{Durability, Store};
 use crate::telemetry::Metrics;
+use crate::transport::TransportOptions;
+use crate::transport::auth::BearerToken;
 
 /// Where the database lives.
 #[derive(Debug, Clone)]
@@ -34,7 +35,7 @@ pub struct ServerSettings {
     pub durability: Durability,
     /// `HOST:PORT`; port 0 picks a free one.
     pub addr: String,
-    pub http: HttpOptions,
+    pub http: TransportOptions,
     /// Directory of robot models (`*.urdf`).
     pub robots: PathBuf,
 }
@@ -45,7 +46,7 @@ impl Default for ServerSettings {
             database: Database::File(PathBuf::from("nextpose.db")),
             durability: Durability::default(),
             addr: "127.0.0.1:8080".into(),
-            http: HttpOptions::default(),
+            http: TransportOptions::default(),
             robots: crate::kinematics::bundled_robots_dir(),
         }
     }

@@ -834,7 +834,7 @@ impl LocalServer {
             database: Database::File(db.clone()),
             durability: crate::storage::Durability::Process,
             addr: "127.0.0.1:0".into(),
-            http: crate::http::HttpOptions::default(),
+            http: crate::transport::TransportOptions::default(),
             robots: bundled_robots_dir(),
         };
         let application = Application::build(settings).await?;

@@ -30,9 +30,9 @@ use tower::ServiceExt;
 use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
 use crate::app::{App, AppError};
-use crate::auth::BearerToken;
-use crate::http::HttpOptions;
-use crate::http::middleware::{Protocol, with_request_ids};
+use crate::transport::TransportOptions;
+use crate::transport::auth::BearerToken;
+use crate::transport::request_id::{Protocol, with_request_ids};
 
 /// The generated messages, client and server of `proto/nextpose/v1/nextpose.proto`.
 pub mod pb {
@@ -335,14 +335,14 @@ impl Session {
 }
 
 /// The gRPC router: the API, health and reflection, behind the optional bearer token, with
-/// the same request ids and tracing as REST ([`crate::http::middleware::with_request_ids`])
+/// the same request ids and tracing as REST ([`crate::transport::request_id::with_request_ids`])
 /// and its own call metrics ([`track`]).
 ///
 /// A request message of the API may be as large as a REST body (`options.body_limit`, 2 MiB by
 /// default, instead of tonic's 4 MiB): larger ones are refused with `OUT_OF_RANGE`.
 pub async fn router(
     app: Arc<App>,
-    options: &HttpOptions,
+    options: &TransportOptions,
     token: Option<BearerToken>,
 ) -> anyhow::Result<Router> {
     let metrics = app.metrics().clone();

@@ -17,8 +17,8 @@ mod routines;
 pub mod strict;
 mod system;
 
+use crate::transport::TransportOptions;
 use std::sync::Arc;
-use std::time::Duration;
 
 use axum::Router;
 use axum::extract::DefaultBodyLimit;
@@ -33,29 +33,7 @@ use utoipa::{Modify, OpenApi};
 use utoipa_axum::router::OpenApiRouter;
 
 use crate::app::App;
-use crate::auth::BearerToken;
-
-/// Limits and options of the HTTP adapter.
-#[derive(Debug, Clone)]
-pub struct HttpOptions {
-    /// Largest request body accepted (bytes).
-    pub body_limit: usize,
-    /// Requests taking longer are answered 408.
-    pub request_timeout: Duration,
-    /// When set, every route but `/healthz` requires `Authorization: Bearer <token>`; an empty
-    /// token is refused at start-up ([`BearerToken::from_setting`]).
-    pub token: Option<String>,
-}
-
-impl Default for HttpOptions {
-    fn default() -> Self {
-        HttpOptions {
-            body_limit: 2 * 1024 * 1024,
-            request_timeout: Duration::from_secs(30),
-            token: None,
-        }
-    }
-}
+use crate::transport::auth::BearerToken;
 
 #[derive(OpenApi)]
 #[openapi(
@@ -112,9 +90,9 @@ pub fn openapi() -> OpenApiDoc {
 
 /// The service's router with all its layers; with a `token`, every route but `/healthz`
 /// requires it.
-pub fn router(app: Arc<App>, options: &HttpOptions, token: Option<BearerToken>) -> Router {
+pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerToken>) -> Router {
     let (routes, _) = api().split_for_parts();
-    let request_id = middleware::REQUEST_ID;
+    let request_id = crate::transport::request_id::REQUEST_ID;
     let mut routes = routes
         .fallback(|| async { error::for_status(StatusCode::NOT_FOUND) })
         .layer(axum::middleware::from_fn_with_state(
@@ -149,5 +127,8 @@ pub fn router(app: Arc<App>, options: &HttpOptions, token: Option<BearerToken>) 
                 .layer(DefaultBodyLimit::max(options.body_limit)),
         )
         .with_state(app);
-    middleware::with_request_ids(routes, middleware::Protocol::Rest)
+    crate::transport::request_id::with_request_ids(
+        routes,
+        crate::transport::request_id::Protocol::Rest,
+    )
 }

@@ -2,8 +2,8 @@
 
 use std::time::Duration;
 
-use nextpose::http::HttpOptions;
 use nextpose::server::{Application, Database, ServerSettings};
+use nextpose::transport::TransportOptions;
 use reqwest::StatusCode;
 use serde_json::json;
 
@@ -175,9 +175,9 @@ async fn malformed_and_invalid_bodies() {
 
 #[tokio::test]
 async fn oversized_bodies_are_413() {
-    let app = spawn_with(HttpOptions {
+    let app = spawn_with(TransportOptions {
         body_limit: 4096,
-        ..HttpOptions::default()
+        ..TransportOptions::default()
     })
     .await;
     let big = json!({"name": "x".repeat(10_000)});
@@ -210,10 +210,10 @@ fn futures_stream(
 
 #[tokio::test]
 async fn bearer_token_guards_everything_but_healthz() {
-    let mut app = spawn_with(HttpOptions {
+    let mut app = spawn_with(TransportOptions {
         token: Some("s3cret".into()),
         request_timeout: Duration::from_secs(30),
-        ..HttpOptions::default()
+        ..TransportOptions::default()
     })
     .await;
     // With the token (the helper sends it), everything works.
@@ -347,9 +347,9 @@ async fn an_empty_token_is_refused_at_start_up() {
         let settings = ServerSettings {
             database: Database::Memory,
             addr: "127.0.0.1:0".into(),
-            http: HttpOptions {
+            http: TransportOptions {
                 token: Some(token.into()),
-                ..HttpOptions::default()
+                ..TransportOptions::default()
             },
             ..ServerSettings::default()
         };

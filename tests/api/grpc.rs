@@ -7,7 +7,7 @@ use nextpose::grpc::pb;
 use nextpose::grpc::pb::nextpose_client::NextposeClient;
 use nextpose::grpc::pb::teach_request::Command;
 use nextpose::grpc::pb::teach_response::Event;
-use nextpose::http::HttpOptions;
+use nextpose::transport::TransportOptions;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 use tokio::sync::mpsc;
@@ -647,9 +647,9 @@ async fn errors_map_to_status_codes() {
 
 #[tokio::test]
 async fn the_bearer_token_applies_to_grpc_metadata() {
-    let app = spawn_with(HttpOptions {
+    let app = spawn_with(TransportOptions {
         token: Some("s3cret".into()),
-        ..HttpOptions::default()
+        ..TransportOptions::default()
     })
     .await;
     let ch = channel(&app).await;
@@ -1158,9 +1158,9 @@ async fn import_and_replay_errors_map_to_status_codes() {
 
 #[tokio::test]
 async fn grpc_messages_are_limited_like_rest_bodies() {
-    let app = spawn_with(HttpOptions {
+    let app = spawn_with(TransportOptions {
         body_limit: 4096,
-        ..HttpOptions::default()
+        ..TransportOptions::default()
     })
     .await;
     let mut c = client(&app).await;

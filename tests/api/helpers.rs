@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use nalgebra::UnitQuaternion;
-use nextpose::http::HttpOptions;
 use nextpose::server::{Application, Database, ServerSettings};
 use nextpose::storage::Durability;
+use nextpose::transport::TransportOptions;
 use reqwest::{Response, StatusCode};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
@@ -23,10 +23,10 @@ pub struct TestApp {
 }
 
 pub async fn spawn_app() -> TestApp {
-    spawn_with(HttpOptions::default()).await
+    spawn_with(TransportOptions::default()).await
 }
 
-pub async fn spawn_with(http: HttpOptions) -> TestApp {
+pub async fn spawn_with(http: TransportOptions) -> TestApp {
     let dir = tempfile::tempdir().expect("temp dir");
     let db = dir.path().join("nextpose.db");
     let mut app = start(db, http).await;
@@ -36,10 +36,10 @@ pub async fn spawn_with(http: HttpOptions) -> TestApp {
 
 /// The application on an existing database file (kept by the caller).
 pub async fn spawn_on(db: PathBuf) -> TestApp {
-    start(db, HttpOptions::default()).await
+    start(db, TransportOptions::default()).await
 }
 
-async fn start(db: PathBuf, http: HttpOptions) -> TestApp {
+async fn start(db: PathBuf, http: TransportOptions) -> TestApp {
     let token = http.token.clone();
     let settings = ServerSettings {
         database: Database::File(db.clone()),
@@ -84,9 +84,9 @@ impl TestApp {
         self.stop().await;
         let mut next = start(
             self.db.clone(),
-            HttpOptions {
+            TransportOptions {
                 token: self.token.clone(),
-                ..HttpOptions::default()
+                ..TransportOptions::default()
             },
         )
         .await;

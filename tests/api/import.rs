@@ -362,7 +362,7 @@ mod phases {
 async fn a_large_import_does_not_stall_other_requests() {
     use std::sync::atomic::Ordering;
     let phases = phases::phases();
-    let app = spawn_with(nextpose::http::HttpOptions {
+    let app = spawn_with(nextpose::transport::TransportOptions {
         body_limit: 4 << 20,
         ..Default::default()
     })
