@@ -56,6 +56,18 @@ pub(super) fn check(
     }
 }
 
+/// The prediction for the waypoint after the last one taught, with the cell's settings, checked
+/// against the arm where it is now.
+pub(super) fn next(teacher: &Teacher, arm: Option<&reach::Arm>) -> (PredictOptions, Checked) {
+    let opts = PredictOptions::from_config(teacher.config());
+    let checked = check(
+        arm,
+        teacher.predict_with(&opts),
+        arm.and_then(|a| a.previous()),
+    );
+    (opts, checked)
+}
+
 /// An open-loop completion of up to `k` predictions, each checked against the arm from the
 /// joints the previous one would leave it at; it stops after the first that is not offered
 /// (the engine's stop rule, with reach as a further gate).

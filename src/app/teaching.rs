@@ -2,7 +2,7 @@
 //! with per-request overrides or an open-loop completion.
 
 use super::error::AppError;
-use super::offer::{self, check};
+use super::offer;
 use super::registry::blocking;
 use super::resources::*;
 use super::rows::{pose_columns, waypoint};
@@ -58,12 +58,7 @@ impl App {
             .arm
             .as_mut()
             .map(|arm| arm.taught(&pose, input.joints.as_deref()));
-        let opts = PredictOptions::from_config(model.teacher.config());
-        let checked = check(
-            model.arm.as_ref(),
-            model.teacher.predict_with(&opts),
-            model.arm.as_ref().and_then(|a| a.previous()),
-        );
+        let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let record = offer::record(&r, after, model.version, &checked);
         let wp = NewWaypoint {
@@ -112,12 +107,7 @@ impl App {
         if let Some(arm) = model.arm.as_mut() {
             arm.undo();
         }
-        let opts = PredictOptions::from_config(model.teacher.config());
-        let checked = check(
-            model.arm.as_ref(),
-            model.teacher.predict_with(&opts),
-            model.arm.as_ref().and_then(|a| a.previous()),
-        );
+        let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let version = model.version;
         let id = match offer::record(&r, after, version, &checked) {

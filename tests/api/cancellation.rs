@@ -20,6 +20,7 @@ use serde_json::{Value, json};
 use tonic::Code;
 use tonic::transport::Channel;
 
+use crate::grpc::pb_pose;
 use crate::helpers::*;
 
 /// Poses of a seam taught again and again at other places, so the model has something to
@@ -189,6 +190,20 @@ async fn answered(r: reqwest::Response, op: Op) {
     }
 }
 
+/// The checks once more, then once more after a restart, when the database alone holds the
+/// truth; and the next append gets the next number.
+async fn after_restart(app: TestApp, cell: i64, program: i64, routine: i64, pose: usize) {
+    check_consistent(&app, cell, program).await;
+    let app = app.restart().await;
+    check_consistent(&app, cell, program).await;
+    let routine = reopen(&app, program, routine).await;
+    let n = check_seqs(&app, routine).await;
+    let taught = app.append(routine, &pose_at(pose)).await;
+    assert_eq!(taught["waypoint"]["seq"], json!(n + 1));
+    assert_eq!(taught["prediction"]["after_waypoints"], json!(n + 1));
+    check_consistent(&app, cell, program).await;
+}
+
 #[tokio::test]
 async fn rest_requests_abandoned_at_random_points_leave_model_and_database_in_step() {
     let app = spawn_app().await;
@@ -236,18 +251,7 @@ async fn rest_requests_abandoned_at_random_points_leave_model_and_database_in_st
         }
     }
     assert!(abandoned > 15, "only {abandoned} requests were abandoned");
-    check_consistent(&app, cell, program).await;
-
-    // After a restart the database alone holds the truth: the same checks, and the next
-    // append gets the next number.
-    let app = app.restart().await;
-    check_consistent(&app, cell, program).await;
-    let routine = reopen(&app, program, routine).await;
-    let n = check_seqs(&app, routine).await;
-    let taught = app.append(routine, &pose_at(next_pose + 1)).await;
-    assert_eq!(taught["waypoint"]["seq"], json!(n + 1));
-    assert_eq!(taught["prediction"]["after_waypoints"], json!(n + 1));
-    check_consistent(&app, cell, program).await;
+    after_restart(app, cell, program, routine, next_pose + 1).await;
 }
 
 #[tokio::test]
@@ -272,20 +276,10 @@ async fn grpc_calls_cancelled_at_random_points_leave_model_and_database_in_step(
             match op {
                 Op::Append => {
                     next_pose += 1;
-                    let p = pose_at(next_pose);
-                    let f = |k: &str| p[k].as_f64().expect(k);
                     c.append_waypoint(pb::AppendWaypointRequest {
                         routine_id: routine,
                         waypoint: Some(pb::NewWaypoint {
-                            pose: Some(pb::Pose {
-                                x: f("x"),
-                                y: f("y"),
-                                z: f("z"),
-                                qw: f("qw"),
-                                qx: f("qx"),
-                                qy: f("qy"),
-                                qz: f("qz"),
-                            }),
+                            pose: Some(pb_pose(&pose_at(next_pose))),
                             ..Default::default()
                         }),
                     })
@@ -337,14 +331,6 @@ async fn grpc_calls_cancelled_at_random_points_leave_model_and_database_in_step(
         }
     }
     assert!(cancelled > 15, "only {cancelled} calls were cancelled");
-    check_consistent(&app, cell, program).await;
     drop(client);
-
-    let app = app.restart().await;
-    check_consistent(&app, cell, program).await;
-    let routine = reopen(&app, program, routine).await;
-    let n = check_seqs(&app, routine).await;
-    let taught = app.append(routine, &pose_at(next_pose + 1)).await;
-    assert_eq!(taught["waypoint"]["seq"], json!(n + 1));
-    check_consistent(&app, cell, program).await;
+    after_restart(app, cell, program, routine, next_pose + 1).await;
 }

@@ -32,7 +32,7 @@ async fn client(app: &TestApp) -> Client {
     NextposeClient::new(channel(app).await)
 }
 
-fn pb_pose(v: &Value) -> pb::Pose {
+pub(crate) fn pb_pose(v: &Value) -> pb::Pose {
     let f = |k: &str| v[k].as_f64().expect(k);
     pb::Pose {
         x: f("x"),
