@@ -19,6 +19,7 @@ use crate::engine::config::{MergeRule, RecallGate};
 use crate::engine::{EngineConfig, Profile};
 use crate::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use crate::replay::engine_method::EngineMethod;
+#[cfg(feature = "plots")]
 use crate::replay::plots::{PlotGrid, plot_data, write_plots};
 use crate::replay::report::{RunConfig, replay_all};
 use crate::replay::sweep::{sweep, sweep_table};
@@ -194,6 +195,7 @@ pub struct ReplayArgs {
     /// vs moves assimilated, confidence vs error) into this directory, each as PNG and SVG,
     /// with the plotted numbers in plots.json.
     /// The two sweeps replay the engine 31 more times.
+    #[cfg(feature = "plots")]
     #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
 }
@@ -557,6 +559,7 @@ fn run_replay(args: &ReplayArgs) -> Result<()> {
     if let Some(path) = &args.json {
         write_json(path, &report)?;
     }
+    #[cfg(feature = "plots")]
     if let Some(dir) = &args.plots {
         let data = plot_data(
             &programs,

@@ -13,13 +13,15 @@
 //! - [`reach`]: whether the cell's arm could reach the guesses (kinematics).
 //! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
-//! - [`plots`]: the seed's figures (φ_min, δ, learning curve) and confidence vs error, PNG/SVG.
+//! - `plots` (cargo feature `plots`, on by default): the seed's figures (φ_min, δ, learning
+//!   curve) and confidence vs error, PNG/SVG.
 
 pub mod baselines;
 pub mod corpus;
 pub mod engine_method;
 pub mod method;
 pub mod metrics;
+#[cfg(feature = "plots")]
 pub mod plots;
 pub mod reach;
 pub mod report;
