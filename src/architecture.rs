@@ -139,7 +139,7 @@ fn modules_use_only_what_their_layer_allows() {
         ("program", &["engine"]),
         ("kinematics", &["engine"]),
         ("import", &["engine", "program"]),
-        ("sim", &["engine", "kinematics", "program", "replay"]),
+        ("sim", &["engine", "kinematics", "program"]),
         ("replay", &["engine", "import", "kinematics", "program"]),
         ("storage", &[]),
         ("telemetry", &[]),

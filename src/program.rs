@@ -26,6 +26,11 @@ pub struct Routine {
 }
 
 impl Program {
+    /// Every waypoint, routine after routine.
+    pub fn poses(&self) -> impl Iterator<Item = &Pose> {
+        self.routines.iter().flat_map(|r| &r.waypoints)
+    }
+
     /// Number of waypoints over all routines.
     pub fn waypoint_count(&self) -> usize {
         self.routines.iter().map(|r| r.waypoints.len()).sum()

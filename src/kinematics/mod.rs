@@ -27,6 +27,7 @@
 
 pub mod error;
 pub mod opw;
+pub mod placement;
 pub mod reach;
 pub mod units;
 pub mod ur;

@@ -21,7 +21,8 @@ use crate::engine::EngineConfig;
 use super::corpus::Program;
 use super::method::Method;
 use super::metrics::{Metrics, ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
-use super::reach::{ReachCheck, ReachRecord, ReachRecorder, ReachSetup, reach_figures};
+use super::reach::{ReachRecord, ReachRecorder, reach_figures};
+use crate::kinematics::placement::{ReachCheck, ReachSetup};
 
 /// The settings a report was produced with.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -103,7 +104,11 @@ pub fn replay_all(
         .transpose()?;
     let cells: Vec<_> = programs
         .iter()
-        .map(|p| check.as_ref().and_then(|c| c.cell_for(p)))
+        .map(|p| {
+            check
+                .as_ref()
+                .and_then(|c| c.cell_for(&p.language, p.poses()))
+        })
         .collect();
     // records[m][p], reach[m][p]: method m on program p.
     let (records, reach): (Vec<Vec<ProgramRecord>>, Vec<Vec<Vec<ReachRecord>>>) = methods

@@ -9,9 +9,9 @@ use serde::Serialize;
 use super::SimError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Profile;
+use crate::kinematics::placement::{ReachCheck, ReachSetup};
 use crate::kinematics::{Cell, ReachPolicy};
-use crate::replay::Program;
-use crate::replay::reach::{ReachCheck, ReachSetup};
+use crate::program::Program;
 
 /// One row of the seed's Table 4.1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -155,7 +155,7 @@ impl Plan {
 
 /// Where the arm stands for a program: a bundled robot for the program's language, placed
 /// like the replay's reachability check (the program's median waypoint at a comfortable
-/// point in front of the base; `replay::reach`).
+/// point in front of the base; `kinematics::placement`).
 pub fn placement(program: &Program) -> Result<(String, Cell), SimError> {
     let (robot, centroid) = match program.language.as_str() {
         // The replay's IRB 140 setup for ABB programs.
@@ -170,7 +170,7 @@ pub fn placement(program: &Program) -> Result<(String, Cell), SimError> {
         centroid_in_base_mm: centroid,
     })?;
     let cell = check
-        .cell_for(program)
+        .cell_for(&program.language, program.poses())
         .ok_or_else(|| SimError::NoPlacement(program.name.clone()))?;
     Ok((robot.to_string(), cell))
 }
