@@ -23,8 +23,7 @@ use anyhow::{Context, Result, bail};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
-use tokio::sync::oneshot;
-use tokio::task::{JoinHandle, JoinSet};
+use tokio::task::JoinSet;
 
 use crate::app::resources::PoseDto;
 use crate::engine::{Pose, Profile};
@@ -819,8 +818,7 @@ pub async fn run_experiment(
 pub struct LocalServer {
     pub base: String,
     pub db: PathBuf,
-    stop: Option<oneshot::Sender<()>>,
-    handle: Option<JoinHandle<std::io::Result<()>>>,
+    server: crate::server::Running,
     _dir: tempfile::TempDir,
 }
 
@@ -837,29 +835,17 @@ impl LocalServer {
             http: crate::transport::TransportOptions::default(),
             robots: bundled_robots_dir(),
         };
-        let application = Application::build(settings).await?;
-        let addr = application.local_addr()?;
-        let (stop, stopped) = oneshot::channel::<()>();
-        let handle = tokio::spawn(application.run_until_stopped(async {
-            let _ = stopped.await;
-        }));
+        let server = Application::build(settings).await?.spawn()?;
         Ok(LocalServer {
-            base: format!("http://{addr}"),
+            base: server.base_url(),
             db,
-            stop: Some(stop),
-            handle: Some(handle),
+            server,
             _dir: dir,
         })
     }
 
     /// Stops it gracefully (in-flight requests finish) and removes the database.
     pub async fn stop(mut self) -> Result<()> {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(handle) = self.handle.take() {
-            handle.await.context("the server task")??;
-        }
-        Ok(())
+        self.server.stop().await
     }
 }

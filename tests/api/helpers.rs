@@ -4,13 +4,11 @@
 use std::path::PathBuf;
 
 use nalgebra::UnitQuaternion;
-use nextpose::server::{Application, Database, ServerSettings};
+use nextpose::server::{Application, Database, Running, ServerSettings};
 use nextpose::storage::Durability;
 use nextpose::transport::TransportOptions;
 use reqwest::{Response, StatusCode};
 use serde_json::{Value, json};
-use tokio::sync::oneshot;
-use tokio::task::JoinHandle;
 
 pub struct TestApp {
     pub base: String,
@@ -18,8 +16,7 @@ pub struct TestApp {
     pub db: PathBuf,
     pub token: Option<String>,
     _dir: Option<tempfile::TempDir>,
-    stop: Option<oneshot::Sender<()>>,
-    handle: Option<JoinHandle<std::io::Result<()>>>,
+    server: Option<Running>,
 }
 
 pub async fn spawn_app() -> TestApp {
@@ -48,20 +45,18 @@ async fn start(db: PathBuf, http: TransportOptions) -> TestApp {
         http,
         robots: nextpose::kinematics::bundled_robots_dir(),
     };
-    let application = Application::build(settings).await.expect("build");
-    let addr = application.local_addr().expect("addr");
-    let (stop, stopped) = oneshot::channel::<()>();
-    let handle = tokio::spawn(application.run_until_stopped(async {
-        let _ = stopped.await;
-    }));
+    let server = Application::build(settings)
+        .await
+        .expect("build")
+        .spawn()
+        .expect("addr");
     TestApp {
-        base: format!("http://{addr}"),
+        base: server.base_url(),
         client: reqwest::Client::new(),
         db,
         token,
         _dir: None,
-        stop: Some(stop),
-        handle: Some(handle),
+        server: Some(server),
     }
 }
 
@@ -74,8 +69,7 @@ impl TestApp {
             db: PathBuf::new(),
             token: None,
             _dir: None,
-            stop: None,
-            handle: None,
+            server: None,
         }
     }
 
@@ -95,11 +89,8 @@ impl TestApp {
     }
 
     pub async fn stop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            let _ = stop.send(());
-        }
-        if let Some(handle) = self.handle.take() {
-            handle.await.expect("join").expect("serve");
+        if let Some(mut server) = self.server.take() {
+            server.stop().await.expect("serve");
         }
     }
 
