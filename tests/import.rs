@@ -22,7 +22,7 @@ use nextpose::import::{
 };
 use nextpose::replay::corpus::{Program, Routine, parse_program};
 use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::metrics::{Metrics, replay_program};
+use nextpose::replay::metrics::{Scores, replay_program};
 use proptest::prelude::*;
 use serde::Deserialize;
 
@@ -379,7 +379,7 @@ fn readings_agree_except_the_listed_ones() {
     );
 }
 
-fn comparable(mut m: Metrics) -> Metrics {
+fn comparable(mut m: Scores) -> Scores {
     m.us_per_waypoint = None;
     m
 }
@@ -417,8 +417,8 @@ fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
         };
         let (a, b) = (run(&printed), run(reference));
         assert_eq!(
-            comparable(Metrics::of_program(&a)),
-            comparable(Metrics::of_program(&b)),
+            comparable(Scores::of_program(&a)),
+            comparable(Scores::of_program(&b)),
             "{}",
             reference.name
         );
@@ -427,8 +427,8 @@ fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
     }
     // Unrounded, the counts are the same and the medians differ by less than the JSON's rounding.
     let (a, b) = (
-        Metrics::of_programs(&raw_records),
-        Metrics::of_programs(&json_records),
+        Scores::of_programs(&raw_records),
+        Scores::of_programs(&json_records),
     );
     assert_eq!(
         (a.predictable, a.offered, a.useful),

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use nextpose::engine::{EngineConfig, Profile};
 use nextpose::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::metrics::Metrics;
+use nextpose::replay::metrics::Scores;
 use nextpose::replay::report::{Report, RunConfig};
 use nextpose::replay::{Method, load_paths, replay_all};
 
@@ -32,7 +32,7 @@ fn scoreboard(profile: Profile) -> Report {
     .expect("the bundled arm loads")
 }
 
-fn totals<'a>(r: &'a Report, method: &str) -> &'a Metrics {
+fn totals<'a>(r: &'a Report, method: &str) -> &'a Scores {
     r.totals
         .get(method)
         .unwrap_or_else(|| panic!("{method} in report"))

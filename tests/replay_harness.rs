@@ -6,7 +6,7 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use nextpose::engine::{EngineConfig, Pose};
 use nextpose::replay::baselines::{self, NearestSeq, RepeatLast};
 use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::metrics::{Metrics, spearman};
+use nextpose::replay::metrics::{Scores, spearman};
 use nextpose::replay::report::RunConfig;
 use nextpose::replay::{
     CorpusError, Method, ModelSummary, Program, ProgramRecord, Routine, WaypointRecord, load_paths,
@@ -153,7 +153,7 @@ fn repeat_last_is_exact_on_a_straight_line() {
             );
         }
     }
-    let m = Metrics::of_program(&record);
+    let m = Scores::of_program(&record);
     assert_eq!((m.predictable, m.offered, m.useful), (9, 9, 9));
     assert_eq!(m.precision_pct, Some(100.0));
     assert_eq!(m.spearman_conf_err, None, "repeat_last has no confidence");
@@ -199,7 +199,7 @@ fn metrics_arithmetic_on_hand_made_records() {
             observations: 9,
         }),
     };
-    let m = Metrics::of_program(&record);
+    let m = Scores::of_program(&record);
     let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
 
     assert_eq!((m.predictable, m.offered, m.useful), (5, 4, 2));
@@ -234,7 +234,7 @@ fn metrics_arithmetic_on_hand_made_records() {
         perplexity: 2.5,
         observations: 9,
     });
-    let t = Metrics::of_programs([&record, &other]);
+    let t = Scores::of_programs([&record, &other]);
     assert_eq!((t.predictable, t.offered, t.useful), (10, 8, 4));
     assert!(close(t.saved_pct, 32.0));
     assert_eq!((t.states, t.edges), (Some(10), Some(7)));
@@ -246,7 +246,7 @@ fn metrics_arithmetic_on_hand_made_records() {
         summary: None,
         ..record
     };
-    let s = Metrics::of_program(&silent);
+    let s = Scores::of_program(&silent);
     assert_eq!(s.offered_pct, Some(0.0));
     assert_eq!(s.precision_pct, None);
     assert_eq!(s.median_cart_mm, None);

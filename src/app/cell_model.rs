@@ -2,7 +2,7 @@
 //! kept in step with every write.
 
 use super::error::AppError;
-use super::reach::{Arm, Robots};
+use super::reach::{CellArm, Robots};
 use super::resources::ModelInfo;
 use super::settings::CellSettings;
 use crate::engine::{Pose, Teacher};
@@ -12,7 +12,7 @@ use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
 pub(crate) struct CellModel {
     /// The cell's arm; None when the robot model named by the cell is no longer installed
     /// (predictions are then not checked, and say so).
-    pub arm: Option<Arm>,
+    pub arm: Option<CellArm>,
     pub teacher: Teacher,
     /// The routine being taught (its waypoints are in the teacher).
     pub open: Option<i64>,
@@ -59,7 +59,7 @@ impl CellModel {
     ) -> Result<CellModel, AppError> {
         let settings = parse_settings(cell)?;
         let arm = match robots.get(&settings.robot) {
-            Some(robot) => Some(Arm::new(robot, &settings)?),
+            Some(robot) => Some(CellArm::new(robot, &settings)?),
             None => {
                 tracing::warn!(cell = cell.id, robot = %settings.robot, "robot model not installed; predictions are not checked for reachability");
                 None
@@ -115,7 +115,7 @@ impl CellModel {
         self.info() == other.info()
             && self.open == other.open
             && self.teacher.routine() == other.teacher.routine()
-            && self.arm.as_ref().map(Arm::trail) == other.arm.as_ref().map(Arm::trail)
+            && self.arm.as_ref().map(CellArm::trail) == other.arm.as_ref().map(CellArm::trail)
     }
 
     pub fn info(&self) -> ModelInfo {

@@ -37,7 +37,7 @@ impl Checked {
 
 /// Checks an engine prediction against the cell's arm (when it has one).
 pub(super) fn check(
-    arm: Option<&reach::Arm>,
+    arm: Option<&reach::CellArm>,
     prediction: Prediction,
     previous: Option<&Joints>,
 ) -> Checked {
@@ -58,7 +58,7 @@ pub(super) fn check(
 
 /// The prediction for the waypoint after the last one taught, with the cell's settings, checked
 /// against the arm where it is now.
-pub(super) fn next(teacher: &Teacher, arm: Option<&reach::Arm>) -> (PredictOptions, Checked) {
+pub(super) fn next(teacher: &Teacher, arm: Option<&reach::CellArm>) -> (PredictOptions, Checked) {
     let opts = PredictOptions::from_config(teacher.config());
     let checked = check(
         arm,
@@ -73,7 +73,7 @@ pub(super) fn next(teacher: &Teacher, arm: Option<&reach::Arm>) -> (PredictOptio
 /// (the engine's stop rule, with reach as a further gate).
 pub(super) fn complete(
     teacher: &Teacher,
-    arm: Option<&reach::Arm>,
+    arm: Option<&reach::CellArm>,
     k: usize,
     opts: &PredictOptions,
 ) -> Vec<Checked> {
@@ -147,7 +147,7 @@ pub(super) fn record(
 }
 
 pub(super) fn dto(
-    arm: Option<&reach::Arm>,
+    arm: Option<&reach::CellArm>,
     c: &Checked,
     opts: &PredictOptions,
     id: Option<i64>,

@@ -79,7 +79,7 @@ pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
 
 /// The arm of one cell, and the joints of the routine being taught.
 #[derive(Debug, Clone)]
-pub(crate) struct Arm {
+pub(crate) struct CellArm {
     robot: Arc<Robot>,
     frames: Frames,
     config: ReachConfig,
@@ -87,9 +87,9 @@ pub(crate) struct Arm {
     trail: Vec<Option<Joints>>,
 }
 
-impl Arm {
-    pub fn new(robot: Arc<Robot>, settings: &CellSettings) -> Result<Arm, AppError> {
-        Ok(Arm {
+impl CellArm {
+    pub fn new(robot: Arc<Robot>, settings: &CellSettings) -> Result<CellArm, AppError> {
+        Ok(CellArm {
             robot,
             frames: Frames::new(settings.base.to_pose()?, settings.tool.to_pose()?),
             config: ReachConfig {
@@ -132,7 +132,7 @@ impl Arm {
     }
 
     /// A taught waypoint: checks it and follows the arm's joints (the taught ones when the
-    /// pendant sent them, checked by [`Arm::check_joints`]).
+    /// pendant sent them, checked by [`CellArm::check_joints`]).
     pub fn taught(&mut self, pose: &Pose, joints: Option<&[f64]>) -> Reachability {
         let reach = self.check(pose, self.previous());
         let taught: Option<Joints> = joints.and_then(|j| j.try_into().ok());

@@ -11,7 +11,7 @@ use crate::app::settings::{
     CellSettings, CellSettingsInput, ProfileName, ReachPolicyName, ScaleSettings,
 };
 use crate::kinematics::{RobotModel, SolverKind};
-use crate::replay::metrics::Metrics as ReplayMetricsLine;
+use crate::replay::metrics::Scores;
 use crate::replay::report::{MethodMetrics, Report};
 
 type In<T> = Result<T, Status>;
@@ -513,8 +513,8 @@ impl From<ImportResult> for pb::ImportResult {
     }
 }
 
-impl From<ReplayMetricsLine> for pb::ReplayMetrics {
-    fn from(m: ReplayMetricsLine) -> pb::ReplayMetrics {
+impl From<Scores> for pb::ReplayMetrics {
+    fn from(m: Scores) -> pb::ReplayMetrics {
         let n = |v: usize| v as u64;
         pb::ReplayMetrics {
             predictable: n(m.predictable),

@@ -201,7 +201,7 @@ impl Nextpose for Service {
         // as the client goes away.
         tokio::spawn(async move {
             let _counted = counted;
-            let mut session = Session { app, routine: None };
+            let mut session = TeachStream { app, routine: None };
             loop {
                 let next = tokio::select! {
                     m = inbound.message() => m,
@@ -261,7 +261,7 @@ impl Nextpose for Service {
 }
 
 /// One `Teach` stream: which routine its commands apply to.
-struct Session {
+struct TeachStream {
     app: Arc<App>,
     routine: Option<i64>,
 }
@@ -287,7 +287,7 @@ fn adapter_error(s: Status) -> pb::TeachError {
     }
 }
 
-impl Session {
+impl TeachStream {
     fn routine(&self) -> Result<i64, pb::TeachError> {
         self.routine.ok_or_else(|| {
             adapter_error(Status::failed_precondition(

@@ -2,7 +2,7 @@
 //!
 //! [`replay_program`] plays one recorded program through a [`Method`] exactly as an operator
 //! would have taught it, and keeps one [`WaypointRecord`] per waypoint that had a predecessor.
-//! [`Metrics`] turns a set of records into the scoreboard figures. Records are kept raw so that
+//! [`Scores`] turns a set of records into the scoreboard figures. Records are kept raw so that
 //! totals are pooled over waypoints (not averaged over programs): a 6-waypoint program does not
 //! weigh as much as the 836-waypoint welding cell.
 //!
@@ -218,7 +218,7 @@ pub fn saved_pct(offered_pct: f64, useful_pct: f64) -> f64 {
 /// the JSON report (a stable interface: add fields, do not rename them). Figures that cannot be
 /// computed (nothing offered, too few points) are `null`, never NaN.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Metrics {
+pub struct Scores {
     /// Waypoints with at least two predecessors.
     pub predictable: usize,
     pub offered: usize,
@@ -260,14 +260,14 @@ pub struct Metrics {
     pub taught_reachable_pct: Option<f64>,
 }
 
-impl Metrics {
+impl Scores {
     /// Figures of one method on one program.
-    pub fn of_program(record: &ProgramRecord) -> Metrics {
-        Metrics::of_programs(std::slice::from_ref(record))
+    pub fn of_program(record: &ProgramRecord) -> Scores {
+        Scores::of_programs(std::slice::from_ref(record))
     }
 
     /// Figures pooled over the programs' waypoints; model sizes summed, perplexity averaged.
-    pub fn of_programs<'a>(records: impl IntoIterator<Item = &'a ProgramRecord>) -> Metrics {
+    pub fn of_programs<'a>(records: impl IntoIterator<Item = &'a ProgramRecord>) -> Scores {
         let records: Vec<&ProgramRecord> = records.into_iter().collect();
         let all = || records.iter().flat_map(|p| p.waypoints.iter());
         let n2 = Accuracy::of(all().filter(|r| r.predecessors >= 2));
@@ -285,7 +285,7 @@ impl Metrics {
             )
         };
         let times: Vec<f64> = all().map(|r| r.micros).collect();
-        Metrics {
+        Scores {
             predictable: n2.predictable,
             offered: n2.offered,
             useful: n2.useful,

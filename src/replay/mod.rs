@@ -29,6 +29,6 @@ pub mod sweep;
 
 pub use corpus::{CorpusError, Program, Routine, load_paths};
 pub use method::{Guess, Method, ModelSummary};
-pub use metrics::{Metrics, ProgramRecord, WaypointRecord, replay_program};
+pub use metrics::{ProgramRecord, Scores, WaypointRecord, replay_program};
 pub use report::{Report, RunConfig, replay_all};
 pub use sweep::{SweepRow, sweep};

@@ -5,8 +5,8 @@
 //!
 //! ```text
 //! { "config":   { ...EngineConfig fields..., "profile", "nearest_seq_gate", "useful_max_mm", ... },
-//!   "totals":   { "<method>": { ...Metrics... }, ... },
-//!   "programs": [ { "program": name, "language": ..., "methods": { "<method>": { ...Metrics... } } } ] }
+//!   "totals":   { "<method>": { ...Scores... }, ... },
+//!   "programs": [ { "program": name, "language": ..., "methods": { "<method>": { ...Scores... } } } ] }
 //! ```
 //!
 //! Methods appear in the order they were run (engine first), in JSON objects and tables alike.
@@ -20,7 +20,7 @@ use crate::engine::EngineConfig;
 
 use super::corpus::Program;
 use super::method::Method;
-use super::metrics::{Metrics, ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+use super::metrics::{ProgramRecord, Scores, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
 use super::reach::{ReachRecord, ReachRecorder, reach_figures};
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
 
@@ -52,12 +52,12 @@ impl RunConfig {
     }
 }
 
-/// Metrics by method name, kept in run order (serialised as a JSON object in that order).
+/// Scores by method name, kept in run order (serialised as a JSON object in that order).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct MethodMetrics(pub Vec<(String, Metrics)>);
+pub struct MethodMetrics(pub Vec<(String, Scores)>);
 
 impl MethodMetrics {
-    pub fn get(&self, method: &str) -> Option<&Metrics> {
+    pub fn get(&self, method: &str) -> Option<&Scores> {
         self.0.iter().find(|(m, _)| m == method).map(|(_, x)| x)
     }
 }
@@ -129,7 +129,7 @@ pub fn replay_all(
                 .unzip()
         })
         .unzip();
-    let with_reach = |mut metrics: Metrics, reach: &mut dyn Iterator<Item = &ReachRecord>| {
+    let with_reach = |mut metrics: Scores, reach: &mut dyn Iterator<Item = &ReachRecord>| {
         (metrics.reachable_pct, metrics.taught_reachable_pct) = reach_figures(reach, 2);
         metrics
     };
@@ -139,7 +139,7 @@ pub fn replay_all(
             .iter()
             .zip(records.iter().zip(&reach))
             .map(|(name, (recs, reach))| {
-                let metrics = Metrics::of_programs(recs);
+                let metrics = Scores::of_programs(recs);
                 (
                     name.clone(),
                     with_reach(metrics, &mut reach.iter().flatten()),
@@ -158,7 +158,7 @@ pub fn replay_all(
                     .iter()
                     .zip(records.iter().zip(&reach))
                     .map(|(name, (recs, reach))| {
-                        let metrics = Metrics::of_program(&recs[p]);
+                        let metrics = Scores::of_program(&recs[p]);
                         (name.clone(), with_reach(metrics, &mut reach[p].iter()))
                     })
                     .collect(),

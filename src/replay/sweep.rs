@@ -10,7 +10,7 @@ use crate::engine::{ConfigError, EngineConfig};
 
 use super::corpus::Program;
 use super::engine_method::EngineMethod;
-use super::metrics::{Metrics, ProgramRecord, replay_program};
+use super::metrics::{ProgramRecord, Scores, replay_program};
 use super::report::{Table, fmt};
 
 /// Engine totals for one combination of settings (waypoints with ≥ 2 predecessors).
@@ -63,7 +63,7 @@ pub fn sweep(
                 .iter()
                 .map(|p| replay_program(p, &mut engine))
                 .collect();
-            let m = Metrics::of_programs(&records);
+            let m = Scores::of_programs(&records);
             Ok(SweepRow {
                 delta,
                 phi_min,
