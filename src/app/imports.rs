@@ -112,10 +112,10 @@ impl App {
                 other => other,
             })?;
         // Learning is CPU work too: on a blocking thread, with the cell's lock.
-        let info = blocking(move || -> Result<ModelInfo> {
-            let mut locked = locked;
-            let model = locked.model()?;
-            if learn {
+        let info = if learn {
+            blocking(move || -> Result<ModelInfo> {
+                let mut locked = locked;
+                let model = locked.model()?;
                 for routine in &poses {
                     for pose in routine {
                         model.teacher.teach(*pose);
@@ -123,10 +123,12 @@ impl App {
                     model.teacher.finish_routine();
                     model.version += 1;
                 }
-            }
-            Ok(model.info())
-        })
-        .await??;
+                Ok(model.info())
+            })
+            .await??
+        } else {
+            model.info()
+        };
         let out = stored
             .into_iter()
             .zip(&report.programs)

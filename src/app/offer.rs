@@ -78,19 +78,12 @@ pub(super) fn complete(
     opts: &PredictOptions,
 ) -> Vec<Checked> {
     let mut previous = arm.and_then(|a| a.previous()).copied();
-    let mut checked = Vec::new();
-    let predictions = teacher.complete_while(k, opts, |p| {
-        let c = check(arm, p.clone(), previous.as_ref());
+    teacher.complete_with(k, opts, |p| {
+        let c = check(arm, p, previous.as_ref());
         previous = c.reach.as_ref().and_then(|r| r.chosen).or(previous);
         let offered = c.offered();
-        checked.push(c);
-        offered
-    });
-    // A prediction the engine withheld itself ends the list without reaching the gate.
-    if let Some(last) = predictions.into_iter().nth(checked.len()) {
-        checked.push(check(arm, last, previous.as_ref()));
-    }
-    checked
+        (c, offered)
+    })
 }
 
 /// A human-readable account of why a prediction is withheld.

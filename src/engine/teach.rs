@@ -143,25 +143,25 @@ impl Teacher {
     /// is not offered (it is included, so the caller sees why the completion stopped). The
     /// model is not changed: proposed moves are conditioned on, never learned.
     pub fn complete(&self, k: usize, opts: &PredictOptions) -> Vec<Prediction> {
-        self.complete_while(k, opts, |_| true)
+        self.complete_with(k, opts, |p| (p, true))
     }
 
     /// [`Teacher::complete`] with a further gate of the caller's (e.g. the arm reaches it):
-    /// the completion stops after the first prediction that is withheld or that `accept`
-    /// refuses. That prediction is the last one returned.
-    pub fn complete_while(
+    /// `gate` gets every prediction in turn, and returns what to keep of it and whether the
+    /// completion may go on from it. It goes on only from a prediction that is offered and that
+    /// the gate lets pass; the one it stops at is the last one kept.
+    pub fn complete_with<T>(
         &self,
         k: usize,
         opts: &PredictOptions,
-        mut accept: impl FnMut(&Prediction) -> bool,
-    ) -> Vec<Prediction> {
+        mut gate: impl FnMut(Prediction) -> (T, bool),
+    ) -> Vec<T> {
         let mut out = Vec::with_capacity(k.min(64));
         let Some(mut last) = self.routine.last().copied() else {
             if k > 0 {
-                out.push(Prediction::withheld(
-                    Withheld::NothingTaught,
-                    self.graph.nodes().len(),
-                ));
+                let nothing =
+                    Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
+                out.push(gate(nothing).0);
             }
             return out;
         };
@@ -169,11 +169,14 @@ impl Teacher {
         for _ in 0..k {
             let p = predict_move(&self.graph, &moves, opts).place(&last);
             let next = match (&p.pose, &p.relative) {
-                (Some(pose), Some(x)) if p.offered() && accept(&p) => Some((*pose, *x)),
+                (Some(pose), Some(x)) if p.offered() => Some((*pose, *x)),
                 _ => None,
             };
-            out.push(p);
-            let Some((pose, x)) = next else { break };
+            let (kept, go_on) = gate(p);
+            out.push(kept);
+            let Some((pose, x)) = next.filter(|_| go_on) else {
+                break;
+            };
             moves.push(x);
             last = pose;
         }
