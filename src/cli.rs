@@ -394,96 +394,57 @@ pub fn run_cli(cli: Cli) -> Result<()> {
 }
 
 fn run_import(args: ImportArgs) -> Result<()> {
+    use crate::app::resources::{CreateCell, ImportRequest, UploadedFile};
+    use crate::client::RestClient;
+
     let mut files = Vec::with_capacity(args.files.len());
     for path in &args.files {
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-        files.push(serde_json::json!({
-            "name": path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-            "content": crate::import::decode_text(&bytes),
-        }));
+        files.push(UploadedFile {
+            name: path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            content: crate::import::decode_text(&bytes),
+        });
     }
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .context("starting the async runtime")?;
     runtime.block_on(async move {
-        let base = args.server.trim_end_matches('/');
-        let client = reqwest::Client::new();
-        let auth = |rb: reqwest::RequestBuilder| match &args.token {
-            Some(t) => rb.bearer_auth(t),
-            None => rb,
-        };
-        let answer = |r: reqwest::Response| async move {
-            let status = r.status();
-            let text = r.text().await.context("reading the server's answer")?;
-            let body: serde_json::Value = match serde_json::from_str(&text) {
-                Ok(v) => v,
-                Err(e) if status.is_success() => {
-                    bail!("server answered {status} with a body that is not JSON ({e}): {text}")
-                }
-                Err(_) => bail!("server answered {status}: {text}"),
-            };
-            if status.is_success() {
-                Ok(body)
-            } else {
-                bail!(
-                    "server answered {status}: {}",
-                    body["error"]["message"].as_str().unwrap_or(&text)
-                )
+        let client = RestClient::new(&args.server, args.token.clone());
+        let cells = client.list_cells().await?;
+        let cell = match cells.iter().find(|c| c.name == args.cell) {
+            Some(c) => c.id,
+            None => {
+                let create = CreateCell {
+                    name: args.cell.clone(),
+                    settings: Default::default(),
+                };
+                client.create_cell(&create).await?.id
             }
         };
-        let cells = answer(
-            auth(client.get(format!("{base}/v1/cells")))
-                .send()
-                .await
-                .with_context(|| format!("connecting to {base}"))?,
-        )
-        .await?;
-        let existing = cells
-            .as_array()
-            .and_then(|a| a.iter().find(|c| c["name"] == args.cell.as_str()))
-            .and_then(|c| c["id"].as_i64());
-        let cell = match existing {
-            Some(id) => id,
-            None => answer(
-                auth(client.post(format!("{base}/v1/cells")))
-                    .json(&serde_json::json!({ "name": args.cell }))
-                    .send()
-                    .await?,
-            )
-            .await?["id"]
-                .as_i64()
-                .context("the server returned no cell id")?,
+        let request = ImportRequest {
+            files,
+            learn: Some(!args.no_learn),
         };
-        let result = answer(
-            auth(client.post(format!("{base}/v1/cells/{cell}/imports")))
-                .json(&serde_json::json!({ "files": files, "learn": !args.no_learn }))
-                .send()
-                .await?,
-        )
-        .await?;
-        for p in result["programs"].as_array().into_iter().flatten() {
+        let result = client.import(cell, &request).await?;
+        for p in &result.programs {
             println!(
                 "imported {} ({}): {} routines, {} waypoints",
-                p["program"]["name"].as_str().unwrap_or("?"),
-                p["language"].as_str().unwrap_or("?"),
-                p["routines"],
-                p["waypoints"]
+                p.program.name, p.language, p.routines, p.waypoints
             );
         }
-        let skipped = result["skipped"].as_array().map(Vec::len).unwrap_or(0);
-        for s in result["skipped"].as_array().into_iter().flatten() {
-            println!(
-                "skipped {}:{} ({}): {}",
-                s["file"].as_str().unwrap_or("?"),
-                s["line"],
-                s["reason"].as_str().unwrap_or("?"),
-                s["text"].as_str().unwrap_or("")
-            );
+        for s in &result.skipped {
+            println!("skipped {}:{} ({}): {}", s.file, s.line, s.reason, s.text);
         }
         println!(
-            "cell {:?}: {skipped} skipped; model now {} states, {} routines",
-            args.cell, result["model"]["states"], result["model"]["routines"]
+            "cell {:?}: {} skipped; model now {} states, {} routines",
+            args.cell,
+            result.skipped.len(),
+            result.model.states,
+            result.model.routines
         );
         Ok(())
     })
@@ -620,8 +581,9 @@ fn run_sweep(args: &SweepArgs) -> Result<()> {
 }
 
 fn run_simulate(args: &SimulateArgs) -> Result<()> {
+    use crate::client::{Client, Transport};
     use crate::sim::{self, History, JogLimits, OperatorModel, Plan};
-    use crate::simulate::{Driver, LocalServer, Transport, run_experiment};
+    use crate::simulate::{LocalServer, run_experiment};
 
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
@@ -683,7 +645,7 @@ fn run_simulate(args: &SimulateArgs) -> Result<()> {
             }
         );
         let result = async {
-            let client = Driver::connect(transport, &base, args.token.clone()).await?;
+            let client = Client::connect(transport, &base, args.token.clone()).await?;
             run_experiment(&client, &plan, &programs, args.jobs, |done, total| {
                 if done % 20 == 0 || done == total {
                     eprintln!("  {done}/{total} sessions");

@@ -30,6 +30,7 @@ pub mod app;
 #[cfg(test)]
 mod architecture;
 pub mod cli;
+pub mod client;
 pub mod engine;
 pub mod grpc;
 pub mod http;

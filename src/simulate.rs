@@ -1,31 +1,28 @@
 //! The driver of `nextpose simulate`: the simulated operator ([`crate::sim`]) teaching corpus
-//! programs against a real nextpose server over its REST API or over gRPC ([`Transport`]).
+//! programs against a real nextpose server through the typed client ([`crate::client`]), over
+//! REST or gRPC.
 //!
-//! This is an adapter, like a pendant: it creates a cell per session with the condition's
-//! settings and the arm's placement, optionally teaches the cell a history first, then teaches
-//! each routine waypoint by waypoint as the operator does (append → the prediction for the next
-//! waypoint → the operator's decision → the waypoint taught → feedback), finishes the routines,
-//! and collects the simulated times and counts. [`LocalServer`] starts the real application on
-//! a loopback port with a temporary SQLite file for the command and the tests.
-//!
-//! The session logic is written once against [`Driver`] (the calls a session makes) and
-//! [`Teacher`] (teaching one routine after another): over REST each is an HTTP request
-//! ([`Client`]); over gRPC ([`grpc`]) the cells, programs, routines, feedback and stats are
-//! unary calls and the waypoints go through one `Teach` stream per session. Both read the
-//! answers into the same views, so a seed gives the same session either way.
-
-pub mod grpc;
+//! Like a pendant, it creates a cell per session with the condition's settings and the arm's
+//! placement, optionally teaches the cell a history first, then teaches each routine waypoint
+//! by waypoint as the operator does (append → the prediction for the next waypoint → the
+//! operator's decision → the waypoint taught → feedback), finishes the routines, and collects
+//! the simulated times and counts. Both transports answer with the same resources, so a seed
+//! gives the same session either way. [`LocalServer`] starts the real application on a
+//! loopback port with a temporary SQLite file for the command and the tests.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
-use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
-use serde_json::{Value, json};
+use serde::Serialize;
 use tokio::task::JoinSet;
 
-use crate::app::resources::PoseDto;
+use crate::app::resources::{
+    CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest,
+    NewWaypointDto, PoseDto, PredictionDto, UploadedFile, Verdict,
+};
+use crate::app::settings::CellSettingsInput;
+use crate::client::Client;
 use crate::engine::{Pose, Profile};
 use crate::kinematics::{ReachPolicy, bundled_robots_dir, load_robot};
 use crate::replay::Program;
@@ -34,229 +31,6 @@ use crate::sim::{
     Arm, Condition, ConditionSummary, Decision, Feedback, History, Operator, Plan, Suggestion,
     Time, summarise,
 };
-pub use grpc::{GrpcClient, TeachStream};
-
-// ---- the client -------------------------------------------------------------------------------
-
-/// A REST client of one server.
-#[derive(Debug, Clone)]
-pub struct Client {
-    base: String,
-    http: reqwest::Client,
-    token: Option<String>,
-}
-
-impl Client {
-    pub fn new(base: &str, token: Option<String>) -> Client {
-        Client {
-            base: base.trim_end_matches('/').to_string(),
-            http: reqwest::Client::new(),
-            token,
-        }
-    }
-
-    pub fn base(&self) -> &str {
-        &self.base
-    }
-
-    async fn send<T: DeserializeOwned>(
-        &self,
-        rb: reqwest::RequestBuilder,
-        what: &str,
-    ) -> Result<T> {
-        let rb = match &self.token {
-            Some(t) => rb.bearer_auth(t),
-            None => rb,
-        };
-        let r = rb
-            .send()
-            .await
-            .with_context(|| format!("{what}: cannot reach {}", self.base))?;
-        let status = r.status();
-        let text = r.text().await.with_context(|| format!("{what}: reading"))?;
-        if !status.is_success() {
-            bail!("{what}: server answered {status}: {text}");
-        }
-        let text = if text.is_empty() { "null" } else { &text };
-        serde_json::from_str(text).with_context(|| format!("{what}: unexpected answer {text}"))
-    }
-
-    pub async fn post<T: DeserializeOwned>(&self, path: &str, body: &Value) -> Result<T> {
-        let url = format!("{}{path}", self.base);
-        self.send(self.http.post(&url).json(body), &format!("POST {path}"))
-            .await
-    }
-
-    pub async fn get<T: DeserializeOwned>(&self, path: &str) -> Result<T> {
-        let url = format!("{}{path}", self.base);
-        self.send(self.http.get(&url), &format!("GET {path}")).await
-    }
-
-    pub async fn delete<T: DeserializeOwned>(&self, path: &str) -> Result<T> {
-        let url = format!("{}{path}", self.base);
-        self.send(self.http.delete(&url), &format!("DELETE {path}"))
-            .await
-    }
-
-    pub async fn create_cell(&self, name: &str, settings: &Value) -> Result<i64> {
-        let c: Id = self
-            .post("/v1/cells", &json!({ "name": name, "settings": settings }))
-            .await?;
-        Ok(c.id)
-    }
-
-    pub async fn create_program(&self, cell: i64, name: &str) -> Result<i64> {
-        let p: Id = self
-            .post(
-                &format!("/v1/cells/{cell}/programs"),
-                &json!({ "name": name }),
-            )
-            .await?;
-        Ok(p.id)
-    }
-
-    pub async fn create_routine(&self, program: i64, name: &str) -> Result<i64> {
-        let r: Id = self
-            .post(
-                &format!("/v1/programs/{program}/routines"),
-                &json!({ "name": name }),
-            )
-            .await?;
-        Ok(r.id)
-    }
-
-    pub async fn append(&self, routine: i64, pose: &Pose) -> Result<TaughtView> {
-        self.post(
-            &format!("/v1/routines/{routine}/waypoints"),
-            &json!({ "pose": PoseDto::from(pose) }),
-        )
-        .await
-    }
-
-    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<()> {
-        let body = match feedback {
-            Feedback::Accepted => json!({ "verdict": "accepted" }),
-            Feedback::Adjusted(p) => json!({ "verdict": "adjusted", "pose": PoseDto::from(p) }),
-            Feedback::Rejected => json!({ "verdict": "rejected" }),
-        };
-        let _: Value = self
-            .post(&format!("/v1/predictions/{prediction}/feedback"), &body)
-            .await?;
-        Ok(())
-    }
-
-    pub async fn finish(&self, routine: i64) -> Result<()> {
-        let _: Value = self
-            .post(&format!("/v1/routines/{routine}/finish"), &json!({}))
-            .await?;
-        Ok(())
-    }
-
-    pub async fn stats(&self, cell: i64) -> Result<CellStatsView> {
-        self.get(&format!("/v1/cells/{cell}/stats")).await
-    }
-
-    pub async fn rebuild(&self, cell: i64) -> Result<ModelView> {
-        self.post(&format!("/v1/cells/{cell}/rebuild"), &json!({}))
-            .await
-    }
-
-    /// Open-loop completion of up to `k` waypoints for an open routine.
-    pub async fn predict(&self, routine: i64, k: usize) -> Result<Vec<PredictionView>> {
-        let set: PredictionSetView = self
-            .get(&format!("/v1/routines/{routine}/prediction?k={k}"))
-            .await?;
-        Ok(set.predictions)
-    }
-
-    /// Imports offline program files (`(name, text)`) into a cell and learns them.
-    pub async fn import(&self, cell: i64, files: &[(String, String)]) -> Result<Value> {
-        let files: Vec<Value> = files
-            .iter()
-            .map(|(name, content)| json!({ "name": name, "content": content }))
-            .collect();
-        self.post(
-            &format!("/v1/cells/{cell}/imports"),
-            &json!({ "files": files, "learn": true }),
-        )
-        .await
-    }
-}
-
-#[derive(Debug, Deserialize)]
-struct Id {
-    id: i64,
-}
-
-/// What the driver reads of a taught waypoint's answer.
-#[derive(Debug, Clone, Deserialize)]
-pub struct TaughtView {
-    pub waypoint: WaypointView,
-    pub prediction: PredictionView,
-}
-
-#[derive(Debug, Clone, Deserialize)]
-pub struct WaypointView {
-    pub id: i64,
-    pub seq: i64,
-    pub reachable: Option<bool>,
-}
-
-/// What the driver reads of a prediction.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct PredictionView {
-    pub id: Option<i64>,
-    pub offered: bool,
-    pub withheld: Option<WithheldView>,
-    pub reachability: Option<ReachabilityView>,
-    pub pose: Option<PoseDto>,
-    pub phi: f64,
-    pub after_waypoints: i64,
-    pub model_version: i64,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct WithheldView {
-    pub reason: String,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct ReachabilityView {
-    pub reachable: bool,
-}
-
-#[derive(Debug, Deserialize)]
-struct PredictionSetView {
-    predictions: Vec<PredictionView>,
-}
-
-/// A cell's model as the stats and rebuild routes report it.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct ModelView {
-    pub states: usize,
-    pub edges: usize,
-    pub perplexity: f64,
-    pub routines: u32,
-    pub depth: usize,
-    pub observations: u64,
-    pub version: i64,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct FeedbackView {
-    pub offered: i64,
-    pub accepted: i64,
-    pub adjusted: i64,
-    pub rejected: i64,
-    pub pending: i64,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-pub struct CellStatsView {
-    pub cell_id: i64,
-    pub model: ModelView,
-    pub feedback: FeedbackView,
-}
 
 // ---- a session --------------------------------------------------------------------------------
 
@@ -304,7 +78,7 @@ pub struct SessionOutcome {
     pub routines: Vec<RoutineResult>,
     pub predictions: Vec<PredictionSeen>,
     /// The cell's statistics after the session.
-    pub stats: CellStatsView,
+    pub stats: CellStats,
     /// Routine ids on the server, in teaching order.
     pub routine_ids: Vec<i64>,
 }
@@ -348,222 +122,83 @@ impl CellSetup {
         }
     }
 
-    /// The `settings` object of `POST /v1/cells`.
-    pub fn json(&self) -> Value {
-        let mut s = json!({
-            "profile": self.profile.name(),
-            "sigma_t_mm": self.sigma_t_mm,
-            "sigma_q": self.sigma_q,
-            "robot": self.robot,
-            "base": PoseDto::from(&self.base),
-            "tool": PoseDto::from(&self.tool),
-            "reach_policy": self.reach_policy,
-        });
-        for (key, v) in [("delta", self.delta), ("phi_min", self.phi_min)] {
-            if let Some(v) = v {
-                s[key] = json!(v);
-            }
-        }
-        if let Some(h) = self.horizon {
-            s["horizon"] = json!(h);
-        }
-        s
-    }
-}
-
-// ---- the transports ---------------------------------------------------------------------------
-
-/// How the driver talks to the server.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Transport {
-    /// The REST API (JSON over HTTP).
-    #[default]
-    Rest,
-    /// The gRPC API on the same port: unary calls and a `Teach` stream per session.
-    Grpc,
-}
-
-/// The calls a session makes, over one transport.
-#[derive(Debug, Clone)]
-pub enum Driver {
-    Rest(Client),
-    Grpc(GrpcClient),
-}
-
-impl From<Client> for Driver {
-    fn from(c: Client) -> Driver {
-        Driver::Rest(c)
-    }
-}
-
-impl From<GrpcClient> for Driver {
-    fn from(c: GrpcClient) -> Driver {
-        Driver::Grpc(c)
-    }
-}
-
-impl Driver {
-    /// A client of the server at `base` (`http://host:port`) over `transport`.
-    pub async fn connect(
-        transport: Transport,
-        base: &str,
-        token: Option<String>,
-    ) -> Result<Driver> {
-        Ok(match transport {
-            Transport::Rest => Driver::Rest(Client::new(base, token)),
-            Transport::Grpc => Driver::Grpc(GrpcClient::connect(base, token).await?),
-        })
-    }
-
-    pub fn transport(&self) -> Transport {
-        match self {
-            Driver::Rest(_) => Transport::Rest,
-            Driver::Grpc(_) => Transport::Grpc,
-        }
-    }
-
-    pub fn base(&self) -> &str {
-        match self {
-            Driver::Rest(c) => c.base(),
-            Driver::Grpc(c) => c.base(),
-        }
-    }
-
-    pub async fn create_cell(&self, name: &str, setup: &CellSetup) -> Result<i64> {
-        match self {
-            Driver::Rest(c) => c.create_cell(name, &setup.json()).await,
-            Driver::Grpc(c) => c.create_cell(name, setup).await,
-        }
-    }
-
-    pub async fn create_program(&self, cell: i64, name: &str) -> Result<i64> {
-        match self {
-            Driver::Rest(c) => c.create_program(cell, name).await,
-            Driver::Grpc(c) => c.create_program(cell, name).await,
-        }
-    }
-
-    pub async fn create_routine(&self, program: i64, name: &str) -> Result<i64> {
-        match self {
-            Driver::Rest(c) => c.create_routine(program, name).await,
-            Driver::Grpc(c) => c.create_routine(program, name).await,
-        }
-    }
-
-    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<()> {
-        match self {
-            Driver::Rest(c) => c.feedback(prediction, feedback).await,
-            Driver::Grpc(c) => c.feedback(prediction, feedback).await,
-        }
-    }
-
-    pub async fn stats(&self, cell: i64) -> Result<CellStatsView> {
-        match self {
-            Driver::Rest(c) => c.stats(cell).await,
-            Driver::Grpc(c) => c.stats(cell).await,
-        }
-    }
-
-    pub async fn rebuild(&self, cell: i64) -> Result<ModelView> {
-        match self {
-            Driver::Rest(c) => c.rebuild(cell).await,
-            Driver::Grpc(c) => c.rebuild(cell).await,
-        }
-    }
-
-    /// Open-loop completion of up to `k` waypoints for an open routine.
-    pub async fn predict(&self, routine: i64, k: usize) -> Result<Vec<PredictionView>> {
-        match self {
-            Driver::Rest(c) => c.predict(routine, k).await,
-            Driver::Grpc(c) => c.predict(routine, k).await,
-        }
-    }
-
-    /// Imports offline program files (`(name, text)`) into a cell and learns them.
-    pub async fn import(&self, cell: i64, files: &[(String, String)]) -> Result<()> {
-        match self {
-            Driver::Rest(c) => c.import(cell, files).await.map(|_| ()),
-            Driver::Grpc(c) => c.import(cell, files).await,
-        }
-    }
-
-    /// Ready to teach routines, one at a time (over gRPC: opens a `Teach` stream).
-    pub async fn teacher(&self) -> Result<Teacher> {
-        Ok(match self {
-            Driver::Rest(c) => Teacher::Rest {
-                client: c.clone(),
-                routine: None,
+    /// The request that creates the cell named `name`.
+    pub fn create_cell(&self, name: &str) -> CreateCell {
+        CreateCell {
+            name: name.to_string(),
+            settings: CellSettingsInput {
+                profile: Some(self.profile),
+                delta: self.delta,
+                phi_min: self.phi_min,
+                horizon: self.horizon,
+                sigma_t_mm: Some(self.sigma_t_mm),
+                sigma_q: Some(self.sigma_q),
+                scale: None,
+                robot: Some(self.robot.clone()),
+                base: Some(PoseDto::from(&self.base)),
+                tool: Some(PoseDto::from(&self.tool)),
+                reach_policy: Some(self.reach_policy),
             },
-            Driver::Grpc(c) => Teacher::Grpc(c.teach().await?),
-        })
+        }
     }
 }
 
-/// Teaches routines one after another: `start`, `waypoint`s, `finish`.
-#[derive(Debug)]
-pub enum Teacher {
-    /// REST: each waypoint and the finish are requests on the routine started.
-    Rest {
-        client: Client,
-        routine: Option<i64>,
-    },
-    /// gRPC: the commands of one `Teach` stream.
-    Grpc(TeachStream),
+/// A waypoint taught by its pose alone.
+fn at(pose: &Pose) -> NewWaypointDto {
+    NewWaypointDto {
+        pose: pose.into(),
+        joints: None,
+        motion: None,
+        name: None,
+    }
 }
 
-impl Teacher {
-    /// Selects the open routine the following waypoints go to.
-    pub async fn start(&mut self, routine_id: i64) -> Result<()> {
-        match self {
-            Teacher::Rest { routine, .. } => {
-                *routine = Some(routine_id);
-                Ok(())
-            }
-            Teacher::Grpc(s) => s.start(routine_id).await,
-        }
+fn program_named(name: &str) -> CreateProgram {
+    CreateProgram {
+        name: name.to_string(),
     }
+}
 
-    /// Teaches a waypoint: the stored waypoint and the prediction for the next one.
-    pub async fn waypoint(&mut self, pose: &Pose) -> Result<TaughtView> {
-        match self {
-            Teacher::Rest {
-                client,
-                routine: Some(r),
-            } => client.append(*r, pose).await,
-            Teacher::Rest { routine: None, .. } => bail!("a waypoint before start"),
-            Teacher::Grpc(s) => s.waypoint(pose).await,
-        }
+fn named(name: &str) -> CreateRoutine {
+    CreateRoutine {
+        name: Some(name.to_string()),
     }
+}
 
-    /// Finishes the routine started.
-    pub async fn finish(&mut self) -> Result<()> {
-        match self {
-            Teacher::Rest { client, routine } => match routine.take() {
-                Some(r) => client.finish(r).await,
-                None => bail!("finish before start"),
-            },
-            Teacher::Grpc(s) => s.finish().await,
-        }
+/// The operator's decision as the feedback the pendant sends.
+fn feedback_of(f: &Feedback) -> FeedbackDto {
+    match f {
+        Feedback::Accepted => FeedbackDto {
+            verdict: Verdict::Accepted,
+            pose: None,
+        },
+        Feedback::Adjusted(p) => FeedbackDto {
+            verdict: Verdict::Adjusted,
+            pose: Some(p.into()),
+        },
+        Feedback::Rejected => FeedbackDto {
+            verdict: Verdict::Rejected,
+            pose: None,
+        },
     }
 }
 
 /// Teaches a program's routines exactly (no operator, no time): a cell's history.
-async fn teach_exactly(client: &Driver, cell: i64, program: &Program, name: &str) -> Result<()> {
-    let pid = client.create_program(cell, name).await?;
-    let mut teacher = client.teacher().await?;
+async fn teach_exactly(client: &Client, cell: i64, program: &Program, name: &str) -> Result<()> {
+    let pid = client.create_program(cell, &program_named(name)).await?;
+    let mut teaching = client.teaching().await?;
     for r in &program.routines {
-        let rid = client.create_routine(pid, &r.name).await?;
-        teacher.start(rid).await?;
+        let rid = client.create_routine(pid, &named(&r.name)).await?;
+        teaching.start(rid).await?;
         for w in &r.waypoints {
-            teacher.waypoint(w).await?;
+            teaching.waypoint(&at(w)).await?;
         }
-        teacher.finish().await?;
+        teaching.finish().await?;
     }
     Ok(())
 }
 
-fn suggestion_of(p: &PredictionView) -> Result<Option<(i64, Suggestion)>> {
+fn suggestion_of(p: &PredictionDto) -> Result<Option<(i64, Suggestion)>> {
     if !p.offered {
         return Ok(None);
     }
@@ -577,18 +212,16 @@ fn suggestion_of(p: &PredictionView) -> Result<Option<(i64, Suggestion)>> {
 
 /// Runs one session against the server.
 pub async fn run_session(
-    client: &Driver,
+    client: &Client,
     plan: &Plan,
     session: &Session,
 ) -> Result<SessionOutcome> {
     let program = &session.program;
     let (robot_name, frames) = placement(program)?;
     let robot = load_robot(&bundled_robots_dir(), &robot_name)?;
+    let setup = CellSetup::new(plan, session, &robot_name, &frames);
     let cell = client
-        .create_cell(
-            &session.cell_name,
-            &CellSetup::new(plan, session, &robot_name, &frames),
-        )
+        .create_cell(&setup.create_cell(&session.cell_name))
         .await?;
     match &session.warmup {
         Warmup::None => {}
@@ -598,7 +231,18 @@ pub async fn run_session(
             }
         }
         Warmup::Import(files) => {
-            client.import(cell, files).await?;
+            let files = files
+                .iter()
+                .map(|(name, content)| UploadedFile {
+                    name: name.clone(),
+                    content: content.clone(),
+                })
+                .collect();
+            let request = ImportRequest {
+                files,
+                learn: Some(true),
+            };
+            client.import(cell, &request).await?;
         }
     }
     let Some(first) = program
@@ -613,15 +257,17 @@ pub async fn run_session(
         plan.operator.clone(),
         Arm::new(robot, frames, plan.limits, first),
     );
-    let pid = client.create_program(cell, &program.name).await?;
-    let mut teacher = client.teacher().await?;
+    let pid = client
+        .create_program(cell, &program_named(&program.name))
+        .await?;
+    let mut teaching = client.teaching().await?;
     let c = &session.condition;
     let mut routines = Vec::with_capacity(program.routines.len());
     let mut predictions: Vec<PredictionSeen> = Vec::new();
     let mut routine_ids = Vec::with_capacity(program.routines.len());
     for (ri, routine) in program.routines.iter().enumerate() {
-        let rid = client.create_routine(pid, &routine.name).await?;
-        teacher.start(rid).await?;
+        let rid = client.create_routine(pid, &named(&routine.name)).await?;
+        teaching.start(rid).await?;
         routine_ids.push(rid);
         let mut result = RoutineResult {
             condition: c.key.clone(),
@@ -650,9 +296,9 @@ pub async fn run_session(
                 None
             };
             let step = operator.teach(target, shown.map(|(_, s)| s), &mut rng);
-            let taught = teacher.waypoint(&step.pose).await?;
+            let taught = teaching.waypoint(&at(&step.pose)).await?;
             if let (Some((id, _)), Some(fb)) = (shown, step.feedback.as_ref()) {
-                client.feedback(*id, fb).await?;
+                client.feedback(*id, &feedback_of(fb)).await?;
                 match fb {
                     Feedback::Accepted => result.accepted += 1,
                     Feedback::Adjusted(_) => result.adjusted += 1,
@@ -687,14 +333,16 @@ pub async fn run_session(
             && let Some((id, _)) = pending
         {
             result.time.add(&operator.dismiss());
-            client.feedback(id, &Feedback::Rejected).await?;
+            client
+                .feedback(id, &feedback_of(&Feedback::Rejected))
+                .await?;
             result.rejected += 1;
             result.dismissed += 1;
             if let Some(seen) = predictions.last_mut() {
                 seen.decision = Some(Decision::Dismiss);
             }
         }
-        teacher.finish().await?;
+        teaching.finish().await?;
         result.time_s = result.time.total();
         routines.push(result);
     }
@@ -760,7 +408,7 @@ pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
 /// results do not depend on the interleaving), and summarises. `progress` is told after each
 /// session how many are done of how many.
 pub async fn run_experiment(
-    client: &Driver,
+    client: &Client,
     plan: &Plan,
     programs: &[Program],
     jobs: usize,

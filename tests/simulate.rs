@@ -5,16 +5,18 @@
 
 use std::path::{Path, PathBuf};
 
+use nextpose::app::resources::{
+    CreateProgram, CreateRoutine, NewWaypointDto, PredictQuery, PredictionDto,
+};
+use nextpose::client::{Client, RestClient, Transport};
+use nextpose::engine::Pose;
 use nextpose::kinematics::ReachPolicy;
 use nextpose::replay::{Program, load_paths};
 use nextpose::sim::{
     Condition, Decision, History, JogLimits, OperatorModel, Plan, RoutineResult,
     table_4_1_conditions,
 };
-use nextpose::simulate::{
-    Client, Driver, LocalServer, PredictionView, Session, SessionOutcome, Transport, Warmup,
-    run_session,
-};
+use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, run_session};
 
 const TEMPLATE: &str =
     "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20023_Module.mod.json";
@@ -79,7 +81,16 @@ fn time(o: &SessionOutcome) -> f64 {
 }
 
 /// A prediction without the id the server gave its record (a new record gets a new id).
-fn without_ids(mut ps: Vec<PredictionView>) -> Vec<PredictionView> {
+fn at(pose: &Pose) -> NewWaypointDto {
+    NewWaypointDto {
+        pose: pose.into(),
+        joints: None,
+        motion: None,
+        name: None,
+    }
+}
+
+fn without_ids(mut ps: Vec<PredictionDto>) -> Vec<PredictionDto> {
     for p in &mut ps {
         p.id = None;
     }
@@ -89,8 +100,8 @@ fn without_ids(mut ps: Vec<PredictionView>) -> Vec<PredictionView> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn three_corpus_programs_end_to_end() {
     let server = LocalServer::start().await.expect("server");
-    let client = Client::new(&server.base, None);
-    let driver = Driver::from(client.clone());
+    let client = RestClient::new(&server.base, None);
+    let driver = Client::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     for (i, name) in [TEMPLATE, PALLETIZING, MODULE].into_iter().enumerate() {
         let p = program(name);
@@ -136,19 +147,34 @@ async fn three_corpus_programs_end_to_end() {
 
         // The model after the session is the one a rebuild from the database gives: the same
         // figures, and the same predictions for a routine that repeats the program's start.
+        let program = CreateProgram {
+            name: "rebuild check".into(),
+        };
         let pid = client
-            .create_program(o.stats.cell_id, "rebuild check")
+            .create_program(o.stats.cell_id, &program)
             .await
-            .expect("program");
-        let rid = client.create_routine(pid, "again").await.expect("routine");
+            .expect("program")
+            .id;
+        let again = CreateRoutine {
+            name: Some("again".into()),
+        };
+        let rid = client
+            .create_routine(pid, &again)
+            .await
+            .expect("routine")
+            .id;
         let first = &p.routines[0].waypoints;
         for w in first.iter().take(3.min(first.len())) {
-            client.append(rid, w).await.expect("append");
+            client.append(rid, &at(w)).await.expect("append");
         }
         let before_model = client.stats(o.stats.cell_id).await.expect("stats").model;
-        let before = client.predict(rid, 3).await.expect("predict");
+        let k3 = PredictQuery {
+            k: Some(3),
+            ..Default::default()
+        };
+        let before = client.predict(rid, &k3).await.expect("predict").predictions;
         let rebuilt = client.rebuild(o.stats.cell_id).await.expect("rebuild");
-        let after = client.predict(rid, 3).await.expect("predict");
+        let after = client.predict(rid, &k3).await.expect("predict").predictions;
         assert_eq!(rebuilt, before_model, "{name}: the rebuilt model differs");
         assert_eq!(without_ids(before), without_ids(after), "{name}");
         assert_eq!(o.stats.model.routines, before_model.routines, "{name}");
@@ -163,8 +189,8 @@ async fn three_corpus_programs_end_to_end() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
     let server = LocalServer::start().await.expect("server");
-    let client = Client::new(&server.base, None);
-    let driver = Driver::from(client.clone());
+    let client = RestClient::new(&server.base, None);
+    let driver = Client::from(client.clone());
     let p = program(TEMPLATE);
     let withhold = plan(precise(), ReachPolicy::Withhold);
     let flag = plan(precise(), ReachPolicy::Flag);
@@ -223,8 +249,8 @@ async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sessions_are_deterministic_given_a_seed() {
     let server = LocalServer::start().await.expect("server");
-    let client = Client::new(&server.base, None);
-    let driver = Driver::from(client.clone());
+    let client = RestClient::new(&server.base, None);
+    let driver = Client::from(client.clone());
     let plan = plan(online(), ReachPolicy::Withhold);
     let p = program(MODULE);
     let key = "seed_phi05_h2";
@@ -253,8 +279,8 @@ async fn sessions_are_deterministic_given_a_seed() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn suggestions_save_time_only_when_shown() {
     let server = LocalServer::start().await.expect("server");
-    let client = Client::new(&server.base, None);
-    let driver = Driver::from(client.clone());
+    let client = RestClient::new(&server.base, None);
+    let driver = Client::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     let p = program(PALLETIZING);
     let none = run_session(&driver, &plan, &session(&plan, "none", &p, 1, "none"))
@@ -283,8 +309,8 @@ async fn suggestions_save_time_only_when_shown() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_imported_offline_program_seeds_the_cell() {
     let server = LocalServer::start().await.expect("server");
-    let client = Client::new(&server.base, None);
-    let driver = Driver::from(client.clone());
+    let client = RestClient::new(&server.base, None);
+    let driver = Client::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
     let raw = corpus()
         .join("raw/zwj12__AddInPackages/ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20014_Module.mod");
@@ -313,10 +339,10 @@ async fn an_imported_offline_program_seeds_the_cell() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rest_and_grpc_teach_the_same_session() {
     let server = LocalServer::start().await.expect("server");
-    let rest = Driver::connect(Transport::Rest, &server.base, None)
+    let rest = Client::connect(Transport::Rest, &server.base, None)
         .await
         .expect("rest");
-    let grpc = Driver::connect(Transport::Grpc, &server.base, None)
+    let grpc = Client::connect(Transport::Grpc, &server.base, None)
         .await
         .expect("grpc");
     assert_eq!(grpc.transport(), Transport::Grpc);
@@ -368,5 +394,49 @@ async fn rest_and_grpc_teach_the_same_session() {
     assert_eq!(rebuilt, g.stats.model);
     let rebuilt = rest.rebuild(r.cell_id).await.expect("rebuild");
     assert_eq!(rebuilt, r.stats.model);
+    server.stop().await.expect("stop");
+}
+
+/// A refusal reaches the caller as the server gave it: the REST error body's status and code,
+/// or the gRPC status, named by the call that failed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_typed_client_reports_a_refusal_with_the_servers_reason() {
+    use nextpose::app::resources::CreateCell;
+    use nextpose::client::ClientError;
+
+    let server = LocalServer::start().await.expect("server");
+    let cell = CreateCell {
+        name: "taken".into(),
+        settings: Default::default(),
+    };
+    let rest = RestClient::new(&server.base, None);
+    let created = rest.create_cell(&cell).await.expect("first create");
+    assert_eq!(created.name, "taken");
+    assert_eq!(rest.list_cells().await.expect("list")[0].id, created.id);
+    match rest.create_cell(&cell).await {
+        Err(ClientError::Refused {
+            what,
+            status,
+            code,
+            message,
+        }) => {
+            assert_eq!(
+                (what.as_str(), status, code.as_str()),
+                ("POST /v1/cells", 409, "conflict")
+            );
+            assert!(message.contains("taken"), "{message}");
+        }
+        other => panic!("a second cell of the same name: {other:?}"),
+    }
+    let grpc = Client::connect(Transport::Grpc, &server.base, None)
+        .await
+        .expect("grpc");
+    match grpc.create_cell(&cell).await {
+        Err(ClientError::Grpc { what, status }) => {
+            assert_eq!(what, "CreateCell");
+            assert_eq!(status.code(), tonic::Code::AlreadyExists, "{status:?}");
+        }
+        other => panic!("a second cell of the same name over gRPC: {other:?}"),
+    }
     server.stop().await.expect("stop");
 }

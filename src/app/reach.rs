@@ -93,7 +93,7 @@ impl CellArm {
             robot,
             frames: Frames::new(settings.base.to_pose()?, settings.tool.to_pose()?),
             config: ReachConfig {
-                policy: settings.reach_policy.into(),
+                policy: settings.reach_policy,
                 ..ReachConfig::default()
             },
             trail: Vec::new(),

@@ -1,12 +1,12 @@
 //! Replaying uploaded files or a cell's stored programs through the engine and the baselines:
 //! the scoreboard of `nextpose replay`, served.
 
+use super::cell_model;
 use super::error::AppError;
 use super::registry::blocking;
 use super::resources::*;
 use super::settings::MAX_HORIZON;
 use super::{App, Result};
-use super::{cell_model, settings};
 
 impl App {
     /// Replays programs (uploaded files or a cell's stored programs) through the engine and the
@@ -17,8 +17,8 @@ impl App {
         use crate::replay::report::{RunConfig, replay_all};
         use crate::replay::{Method, baselines, engine_method::EngineMethod};
 
-        let profile = input.profile.unwrap_or(settings::ProfileName::Default);
-        let mut config = crate::engine::EngineConfig::profile(profile.into());
+        let profile = input.profile.unwrap_or(crate::engine::Profile::Default);
+        let mut config = crate::engine::EngineConfig::profile(profile);
         if let Some(v) = input.delta {
             config.delta = v;
         }
@@ -76,7 +76,7 @@ impl App {
             }
         };
         let gate = baselines::DEFAULT_NEAREST_SEQ_GATE;
-        let profile_name = crate::engine::Profile::from(profile).name();
+        let profile_name = profile.name();
         // The replay is CPU work (seconds for a large corpus): off the async workers.
         blocking(move || -> Result<_> {
             let mut methods: Vec<Box<dyn Method>> = vec![Box::new(

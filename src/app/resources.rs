@@ -13,7 +13,7 @@ pub use super::pose::PoseDto;
 
 // ---- cells ------------------------------------------------------------------------------------
 
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateCell {
     /// Unique name of the work cell (not blank; at most 200 characters).
@@ -24,7 +24,7 @@ pub struct CreateCell {
     pub settings: CellSettingsInput,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Cell {
     pub id: i64,
     pub name: String,
@@ -33,7 +33,7 @@ pub struct Cell {
 }
 
 /// The learned model of a cell.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct ModelInfo {
     pub states: usize,
     /// Distinct transitions between states.
@@ -51,7 +51,7 @@ pub struct ModelInfo {
 }
 
 /// What operators did with the offered predictions.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct FeedbackStats {
     /// Predictions offered (recorded).
     pub offered: i64,
@@ -66,7 +66,7 @@ pub struct FeedbackStats {
     pub median_adjustment_mm: Option<f64>,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct CellStats {
     pub cell_id: i64,
     pub model: ModelInfo,
@@ -75,7 +75,7 @@ pub struct CellStats {
 
 // ---- programs and routines --------------------------------------------------------------------
 
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateProgram {
     /// Name, unique within the cell (not blank; at most 200 characters).
@@ -83,7 +83,7 @@ pub struct CreateProgram {
     pub name: String,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Program {
     pub id: i64,
     pub cell_id: i64,
@@ -91,7 +91,7 @@ pub struct Program {
     pub created_at: String,
 }
 
-#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CreateRoutine {
     /// Not blank; at most 200 characters.
@@ -99,7 +99,7 @@ pub struct CreateRoutine {
     pub name: Option<String>,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Routine {
     pub id: i64,
     pub program_id: i64,
@@ -120,7 +120,7 @@ pub struct Routine {
     pub created_at: String,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct RoutineDetail {
     #[serde(flatten)]
     pub routine: Routine,
@@ -157,7 +157,7 @@ impl MotionType {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewWaypointDto {
     pub pose: PoseDto,
@@ -170,7 +170,7 @@ pub struct NewWaypointDto {
     pub name: Option<String>,
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct Waypoint {
     pub id: i64,
     pub routine_id: i64,
@@ -189,7 +189,7 @@ pub struct Waypoint {
 // ---- predictions ------------------------------------------------------------------------------
 
 /// Why no prediction is offered.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct WithheldDto {
     /// One of `nothing_taught`, `empty_model`, `too_few_states`, `no_match`, `likely_end`,
     /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence`, `unreachable` (the
@@ -200,7 +200,7 @@ pub struct WithheldDto {
 
 /// The relative move from the last waypoint to the proposal (SRHCT 7-vector, mm and
 /// quaternion with `qw ≥ 0`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct RelativeMove {
     pub x: f64,
     pub y: f64,
@@ -212,7 +212,7 @@ pub struct RelativeMove {
 }
 
 /// A prediction of the next waypoint, offered or not, with every figure that decided it.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct PredictionDto {
     /// Id of the recorded prediction, for feedback (offered predictions only).
     pub id: Option<i64>,
@@ -250,27 +250,27 @@ pub struct PredictionDto {
 }
 
 /// A taught waypoint and the prediction for the next one.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Taught {
     pub waypoint: Waypoint,
     pub prediction: PredictionDto,
 }
 
 /// The waypoint an undo removed and the prediction for the routine as it is now.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Undone {
     pub removed: Waypoint,
     pub prediction: PredictionDto,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Finished {
     pub routine: Routine,
     pub model: ModelInfo,
 }
 
 /// Per-request overrides of the cell's settings for `GET .../prediction`.
-#[derive(Debug, Clone, Default, Deserialize, IntoParams)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, IntoParams)]
 #[serde(deny_unknown_fields)]
 #[into_params(parameter_in = Query)]
 pub struct PredictQuery {
@@ -288,7 +288,7 @@ pub struct PredictQuery {
     pub k: Option<usize>,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct PredictionSet {
     pub routine_id: i64,
     /// The predictions in order; the last one says why the completion stopped when it is not
@@ -318,7 +318,7 @@ impl Verdict {
     }
 }
 
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FeedbackDto {
     pub verdict: Verdict,
@@ -326,7 +326,7 @@ pub struct FeedbackDto {
     pub pose: Option<PoseDto>,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct FeedbackRecorded {
     pub prediction_id: i64,
     pub verdict: Verdict,
@@ -337,7 +337,7 @@ pub struct FeedbackRecorded {
 // ---- import -----------------------------------------------------------------------------------
 
 /// One uploaded program file.
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct UploadedFile {
     /// File name with its extension (`.mod`, `.modx`, `.prg`, `.sys`, `.src`, `.dat`, `.ls`);
@@ -350,7 +350,7 @@ pub struct UploadedFile {
 }
 
 /// Offline programs to import into a cell.
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ImportRequest {
     /// The files of one upload, parsed together (RAPID targets resolve across modules; a KRL
@@ -363,7 +363,7 @@ pub struct ImportRequest {
 }
 
 /// A program created by an import.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ImportedProgramDto {
     pub program: Program,
     /// `rapid`, `krl` or `fanuc`.
@@ -374,7 +374,7 @@ pub struct ImportedProgramDto {
 }
 
 /// Something in the upload that was not imported, and why.
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct SkippedDto {
     pub file: String,
     pub line: usize,
@@ -386,7 +386,7 @@ pub struct SkippedDto {
     pub text: String,
 }
 
-#[derive(Debug, Clone, Serialize, ToSchema)]
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct ImportResult {
     pub programs: Vec<ImportedProgramDto>,
     pub skipped: Vec<SkippedDto>,
@@ -397,7 +397,7 @@ pub struct ImportResult {
 // ---- replay -----------------------------------------------------------------------------------
 
 /// A replay of programs through the engine and the baselines (the scoreboard).
-#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReplayRequest {
     /// Program files to replay (as for an import). Give these or `cell_id`.
@@ -406,7 +406,7 @@ pub struct ReplayRequest {
     /// Replay a cell's stored programs (taught and imported), in the order they were created.
     pub cell_id: Option<i64>,
     /// Engine settings to start from (default `default`).
-    pub profile: Option<super::settings::ProfileName>,
+    pub profile: Option<crate::engine::Profile>,
     /// Complexity δ ∈ (0, 1].
     #[schema(exclusive_minimum = 0, maximum = 1)]
     pub delta: Option<f64>,
@@ -423,7 +423,7 @@ pub struct ReplayRequest {
 // ---- reachability ------------------------------------------------------------------------------
 
 /// Why a pose is unreachable, for clients.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct UnreachableDto {
     /// `outside_reach`, `joint_limit` or `singular`.
     pub reason: String,
@@ -431,7 +431,7 @@ pub struct UnreachableDto {
 }
 
 /// The joint nearest its limit.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct JointMarginDto {
     pub name: String,
     /// Radians to the nearer limit.
@@ -439,7 +439,7 @@ pub struct JointMarginDto {
 }
 
 /// Whether the cell's arm reaches a pose, and how.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct ReachabilityDto {
     pub robot: String,
     pub reachable: bool,

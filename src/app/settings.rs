@@ -22,50 +22,11 @@ pub struct ScaleSettings {
     pub psi_max: f64,
 }
 
-/// Engine profile names.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum ProfileName {
-    /// The dissertation's engine as specified.
-    Seed,
-    /// The best combination measured on the shared corpus.
-    Default,
-}
-
-impl From<ProfileName> for Profile {
-    fn from(p: ProfileName) -> Profile {
-        match p {
-            ProfileName::Seed => Profile::Seed,
-            ProfileName::Default => Profile::Default,
-        }
-    }
-}
-
-/// What to do with a prediction the cell's arm cannot reach.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum ReachPolicyName {
-    /// Do not offer it (the reason is `unreachable`).
-    #[default]
-    Withhold,
-    /// Offer it, with `reachability.reachable = false` and why.
-    Flag,
-}
-
-impl From<ReachPolicyName> for ReachPolicy {
-    fn from(p: ReachPolicyName) -> ReachPolicy {
-        match p {
-            ReachPolicyName::Withhold => ReachPolicy::Withhold,
-            ReachPolicyName::Flag => ReachPolicy::Flag,
-        }
-    }
-}
-
 /// A cell's settings, resolved.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CellSettings {
-    pub profile: ProfileName,
+    pub profile: Profile,
     /// Complexity δ ∈ (0, 1]: larger → stricter merging, more states.
     pub delta: f64,
     /// Minimum confidence φ ∈ [0, 1] for a prediction to be offered.
@@ -84,14 +45,14 @@ pub struct CellSettings {
     /// The tool centre point in the flange frame.
     pub tool: PoseDto,
     /// Predictions the arm cannot reach: withheld (default) or offered flagged.
-    pub reach_policy: ReachPolicyName,
+    pub reach_policy: ReachPolicy,
 }
 
 /// Settings given when a cell is created; anything left out takes the profile's value.
-#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CellSettingsInput {
-    pub profile: Option<ProfileName>,
+    pub profile: Option<Profile>,
     pub delta: Option<f64>,
     pub phi_min: Option<f64>,
     pub horizon: Option<usize>,
@@ -101,7 +62,7 @@ pub struct CellSettingsInput {
     pub robot: Option<String>,
     pub base: Option<PoseDto>,
     pub tool: Option<PoseDto>,
-    pub reach_policy: Option<ReachPolicyName>,
+    pub reach_policy: Option<ReachPolicy>,
 }
 
 /// Largest horizon a cell or a request may ask for.
@@ -119,8 +80,8 @@ fn identity() -> PoseDto {
 impl CellSettingsInput {
     /// Fills in defaults and checks everything.
     pub fn resolve(self) -> Result<CellSettings, AppError> {
-        let profile = self.profile.unwrap_or(ProfileName::Default);
-        let base = EngineConfig::profile(profile.into());
+        let profile = self.profile.unwrap_or(Profile::Default);
+        let base = EngineConfig::profile(profile);
         let settings = CellSettings {
             profile,
             delta: self.delta.unwrap_or(base.delta),
@@ -146,7 +107,7 @@ impl CellSettingsInput {
 impl CellSettings {
     /// The engine configuration these settings describe.
     pub fn engine_config(&self) -> EngineConfig {
-        let mut c = EngineConfig::profile(self.profile.into());
+        let mut c = EngineConfig::profile(self.profile);
         c.delta = self.delta;
         c.phi_min = self.phi_min;
         c.horizon = self.horizon;
@@ -198,7 +159,7 @@ mod tests {
         let s = CellSettingsInput::default().resolve().unwrap();
         assert_eq!(s.engine_config(), EngineConfig::profile(Profile::Default));
         let seed = CellSettingsInput {
-            profile: Some(ProfileName::Seed),
+            profile: Some(Profile::Seed),
             horizon: Some(2),
             ..Default::default()
         }

@@ -109,8 +109,8 @@ pub struct RecallGate {
     pub min_window: usize,
 }
 
-/// Named configurations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// Engine profile: a named configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Profile {
     /// The dissertation's engine as specified in ALGORITHM.md.

@@ -7,10 +7,9 @@ use tonic::Status;
 use super::pb;
 use crate::app::resources::*;
 use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
-use crate::app::settings::{
-    CellSettings, CellSettingsInput, ProfileName, ReachPolicyName, ScaleSettings,
-};
-use crate::kinematics::{RobotModel, SolverKind};
+use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
+use crate::engine::Profile;
+use crate::kinematics::{ReachPolicy, RobotModel, SolverKind};
 use crate::replay::metrics::Scores;
 use crate::replay::report::{MethodMetrics, Report};
 
@@ -56,37 +55,37 @@ impl From<pb::Pose> for PoseDto {
 
 // ---- cells ------------------------------------------------------------------------------------
 
-fn profile_in(v: i32) -> In<Option<ProfileName>> {
+fn profile_in(v: i32) -> In<Option<Profile>> {
     match pb::Profile::try_from(v) {
         Ok(pb::Profile::Unspecified) => Ok(None),
-        Ok(pb::Profile::Seed) => Ok(Some(ProfileName::Seed)),
-        Ok(pb::Profile::Default) => Ok(Some(ProfileName::Default)),
+        Ok(pb::Profile::Seed) => Ok(Some(Profile::Seed)),
+        Ok(pb::Profile::Default) => Ok(Some(Profile::Default)),
         Err(_) => Err(Status::invalid_argument(format!("unknown profile {v}"))),
     }
 }
 
-fn profile_out(p: ProfileName) -> pb::Profile {
+fn profile_out(p: Profile) -> pb::Profile {
     match p {
-        ProfileName::Seed => pb::Profile::Seed,
-        ProfileName::Default => pb::Profile::Default,
+        Profile::Seed => pb::Profile::Seed,
+        Profile::Default => pb::Profile::Default,
     }
 }
 
-fn reach_policy_in(v: i32) -> In<Option<ReachPolicyName>> {
+fn reach_policy_in(v: i32) -> In<Option<ReachPolicy>> {
     match pb::ReachPolicy::try_from(v) {
         Ok(pb::ReachPolicy::Unspecified) => Ok(None),
-        Ok(pb::ReachPolicy::Withhold) => Ok(Some(ReachPolicyName::Withhold)),
-        Ok(pb::ReachPolicy::Flag) => Ok(Some(ReachPolicyName::Flag)),
+        Ok(pb::ReachPolicy::Withhold) => Ok(Some(ReachPolicy::Withhold)),
+        Ok(pb::ReachPolicy::Flag) => Ok(Some(ReachPolicy::Flag)),
         Err(_) => Err(Status::invalid_argument(format!(
             "unknown reach policy {v}"
         ))),
     }
 }
 
-fn reach_policy_out(p: ReachPolicyName) -> pb::ReachPolicy {
+fn reach_policy_out(p: ReachPolicy) -> pb::ReachPolicy {
     match p {
-        ReachPolicyName::Withhold => pb::ReachPolicy::Withhold,
-        ReachPolicyName::Flag => pb::ReachPolicy::Flag,
+        ReachPolicy::Withhold => pb::ReachPolicy::Withhold,
+        ReachPolicy::Flag => pb::ReachPolicy::Flag,
     }
 }
 
@@ -590,5 +589,214 @@ impl From<Report> for pb::ReplayReport {
                 })
                 .collect(),
         }
+    }
+}
+
+// ---- the client's direction: resources → requests, answers → resources ------------------------
+//
+// Used by `crate::client::grpc`. Requests are built from the same resource types the REST
+// client sends; an answer missing a message the server always sets is `INVALID_ARGUMENT`.
+
+fn settings_input_out(s: CellSettingsInput) -> pb::CellSettingsInput {
+    pb::CellSettingsInput {
+        profile: s
+            .profile
+            .map_or(pb::Profile::Unspecified, profile_out)
+            .into(),
+        delta: s.delta,
+        phi_min: s.phi_min,
+        horizon: s.horizon.map(|h| h as u64),
+        sigma_t_mm: s.sigma_t_mm,
+        sigma_q: s.sigma_q,
+        scale: s.scale.map(scale_out),
+        robot: s.robot,
+        base: s.base.map(Into::into),
+        tool: s.tool.map(Into::into),
+        reach_policy: s
+            .reach_policy
+            .map_or(pb::ReachPolicy::Unspecified, reach_policy_out)
+            .into(),
+    }
+}
+
+pub fn create_cell_request(c: CreateCell) -> pb::CreateCellRequest {
+    pb::CreateCellRequest {
+        name: c.name,
+        settings: Some(settings_input_out(c.settings)),
+    }
+}
+
+pub fn new_waypoint_out(w: NewWaypointDto) -> pb::NewWaypoint {
+    pb::NewWaypoint {
+        pose: Some(w.pose.into()),
+        joints: w.joints.unwrap_or_default(),
+        motion: motion_out(w.motion).into(),
+        name: w.name,
+    }
+}
+
+pub fn feedback_request(prediction_id: i64, f: FeedbackDto) -> pb::FeedbackRequest {
+    pb::FeedbackRequest {
+        prediction_id,
+        verdict: verdict_out(f.verdict).into(),
+        pose: f.pose.map(Into::into),
+    }
+}
+
+pub fn predict_request(routine_id: i64, q: PredictQuery) -> pb::PredictRequest {
+    pb::PredictRequest {
+        routine_id,
+        horizon: q.horizon.map(|h| h as u64),
+        phi_min: q.phi_min,
+        scale: q.scale,
+        k: q.k.map(|k| k as u64),
+    }
+}
+
+pub fn import_programs_request(cell_id: i64, r: ImportRequest) -> pb::ImportProgramsRequest {
+    pb::ImportProgramsRequest {
+        cell_id,
+        files: r
+            .files
+            .into_iter()
+            .map(|f| pb::UploadedFile {
+                name: f.name,
+                content: f.content,
+            })
+            .collect(),
+        learn: r.learn,
+    }
+}
+
+impl TryFrom<pb::Waypoint> for Waypoint {
+    type Error = Status;
+    fn try_from(w: pb::Waypoint) -> In<Waypoint> {
+        Ok(Waypoint {
+            id: w.id,
+            routine_id: w.routine_id,
+            seq: w.seq,
+            pose: required(w.pose, "waypoint.pose")?.into(),
+            joints: (!w.joints.is_empty()).then_some(w.joints),
+            motion: motion_in(w.motion)?,
+            name: w.name,
+            reachable: w.reachable,
+            created_at: w.created_at,
+        })
+    }
+}
+
+impl From<pb::Reachability> for ReachabilityDto {
+    fn from(r: pb::Reachability) -> ReachabilityDto {
+        ReachabilityDto {
+            robot: r.robot,
+            reachable: r.reachable,
+            unreachable: r.unreachable.map(|u| UnreachableDto {
+                reason: u.reason,
+                message: u.message,
+            }),
+            solutions: r.solutions as usize,
+            chosen: (!r.chosen.is_empty()).then_some(r.chosen),
+            sigma_min: r.sigma_min,
+            manipulability: r.manipulability,
+            limiting_joint: r.limiting_joint.map(|m| JointMarginDto {
+                name: m.name,
+                margin_rad: m.margin_rad,
+            }),
+        }
+    }
+}
+
+impl TryFrom<pb::Prediction> for PredictionDto {
+    type Error = Status;
+    fn try_from(p: pb::Prediction) -> In<PredictionDto> {
+        Ok(PredictionDto {
+            id: p.id,
+            offered: p.offered,
+            withheld: p.withheld.map(|w| WithheldDto {
+                reason: w.reason,
+                message: w.message,
+            }),
+            reachability: p.reachability.map(Into::into),
+            pose: p.pose.map(Into::into),
+            relative: p.relative.map(|r| RelativeMove {
+                x: r.x,
+                y: r.y,
+                z: r.z,
+                qw: r.qw,
+                qx: r.qx,
+                qy: r.qy,
+                qz: r.qz,
+            }),
+            phi: p.phi,
+            psi: p.psi,
+            routine_scale: p.routine_scale,
+            end_probability: p.end_probability,
+            misfit: p.misfit,
+            spread: p.spread,
+            support: p.support,
+            window: usize_from(p.window, "window")?,
+            states: usize_from(p.states, "states")?,
+            after_waypoints: p.after_waypoints,
+            model_version: p.model_version,
+        })
+    }
+}
+
+impl TryFrom<pb::Taught> for Taught {
+    type Error = Status;
+    fn try_from(t: pb::Taught) -> In<Taught> {
+        Ok(Taught {
+            waypoint: required(t.waypoint, "taught.waypoint")?.try_into()?,
+            prediction: required(t.prediction, "taught.prediction")?.try_into()?,
+        })
+    }
+}
+
+impl TryFrom<pb::PredictionSet> for PredictionSet {
+    type Error = Status;
+    fn try_from(s: pb::PredictionSet) -> In<PredictionSet> {
+        Ok(PredictionSet {
+            routine_id: s.routine_id,
+            predictions: s
+                .predictions
+                .into_iter()
+                .map(TryInto::try_into)
+                .collect::<In<_>>()?,
+        })
+    }
+}
+
+impl TryFrom<pb::ModelInfo> for ModelInfo {
+    type Error = Status;
+    fn try_from(m: pb::ModelInfo) -> In<ModelInfo> {
+        Ok(ModelInfo {
+            states: usize_from(m.states, "states")?,
+            edges: usize_from(m.edges, "edges")?,
+            perplexity: m.perplexity,
+            routines: m.routines,
+            depth: usize_from(m.depth, "depth")?,
+            observations: m.observations,
+            version: m.version,
+        })
+    }
+}
+
+impl TryFrom<pb::CellStats> for CellStats {
+    type Error = Status;
+    fn try_from(s: pb::CellStats) -> In<CellStats> {
+        let f = required(s.feedback, "stats.feedback")?;
+        Ok(CellStats {
+            cell_id: s.cell_id,
+            model: required(s.model, "stats.model")?.try_into()?,
+            feedback: FeedbackStats {
+                offered: f.offered,
+                accepted: f.accepted,
+                adjusted: f.adjusted,
+                rejected: f.rejected,
+                pending: f.pending,
+                acceptance: f.acceptance,
+                median_adjustment_mm: f.median_adjustment_mm,
+            },
+        })
     }
 }

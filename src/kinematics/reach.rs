@@ -48,13 +48,13 @@ impl Cell {
 }
 
 /// What the service does with a prediction the arm cannot reach.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ReachPolicy {
-    /// Do not offer it (default).
+    /// Do not offer it (default; the reason is `unreachable`).
     #[default]
     Withhold,
-    /// Offer it, marked unreachable with the reason.
+    /// Offer it, with `reachability.reachable = false` and why.
     Flag,
 }
 
