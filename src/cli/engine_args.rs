@@ -1,0 +1,211 @@
+//! Engine settings on the command line: a named profile, then one flag per overridden field.
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+
+use crate::engine::config::{MergeRule, RecallGate};
+use crate::engine::{EngineConfig, Profile};
+
+/// Engine settings on the command line: a profile, then per-field overrides.
+#[derive(Debug, Clone, Args)]
+pub struct EngineArgs {
+    /// Settings to start from.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Default)]
+    pub profile: ProfileArg,
+    /// Complexity δ in (0, 1]: larger = stricter merging, more states.
+    #[arg(long)]
+    pub delta: Option<f64>,
+    /// Minimum confidence φ for a guess to be offered.
+    #[arg(long)]
+    pub phi_min: Option<f64>,
+    /// Number of most recent moves a guess conditions on (h).
+    #[arg(long)]
+    pub horizon: Option<usize>,
+    /// Estimate the scale ψ at prediction time.
+    #[arg(long, value_enum)]
+    pub scale: Option<Switch>,
+    /// Merge test of the learner.
+    #[arg(long, value_enum)]
+    pub merge: Option<MergeArg>,
+    /// Learn each move as it is taught (on) or only finished routines (off).
+    #[arg(long, value_enum)]
+    pub within: Option<Switch>,
+    /// Misfit gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_misfit: Option<Limit>,
+    /// Spread gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_spread: Option<Limit>,
+    /// End-of-routine probability gate (number, or "none" for no gate).
+    #[arg(long, value_name = "F|none", value_parser = parse_limit)]
+    pub max_end_prob: Option<Limit>,
+    /// Recall of the most recent occurrence: "K" or "K:COST" (fewest window moves, mean squared
+    /// distance allowed), or "none".
+    #[arg(long, value_name = "K[:COST]|none", value_parser = parse_gate)]
+    pub recall: Option<GateArg>,
+}
+
+/// A recall gate given on the command line, `None` meaning "off".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GateArg(pub Option<RecallGate>);
+
+fn parse_gate(s: &str) -> Result<GateArg, String> {
+    if s.eq_ignore_ascii_case("none") {
+        return Ok(GateArg(None));
+    }
+    let bad = || format!("expected K, K:COST or \"none\", got {s:?}");
+    let (k, cost) = s.split_once(':').unwrap_or((s, "0.1"));
+    let min_window = k.parse::<usize>().map_err(|_| bad())?;
+    let max_cost = cost.parse::<f64>().map_err(|_| bad())?;
+    Ok(GateArg(Some(RecallGate {
+        max_cost,
+        min_window,
+    })))
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ProfileArg {
+    Seed,
+    Default,
+}
+
+impl From<ProfileArg> for Profile {
+    fn from(p: ProfileArg) -> Profile {
+        match p {
+            ProfileArg::Seed => Profile::Seed,
+            ProfileArg::Default => Profile::Default,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
+impl Switch {
+    fn on(self) -> bool {
+        self == Switch::On
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MergeArg {
+    Total,
+    Incremental,
+}
+
+/// A gate threshold, `None` meaning "no gate".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limit(pub Option<f64>);
+
+fn parse_limit(s: &str) -> Result<Limit, String> {
+    if s.eq_ignore_ascii_case("none") {
+        return Ok(Limit(None));
+    }
+    s.parse::<f64>()
+        .map(|v| Limit(Some(v)))
+        .map_err(|_| format!("expected a number or \"none\", got {s:?}"))
+}
+
+impl EngineArgs {
+    /// The profile's settings with the given overrides, validated.
+    pub fn config(&self) -> Result<EngineConfig> {
+        let mut c = EngineConfig::profile(self.profile.into());
+        if let Some(v) = self.delta {
+            c.delta = v;
+        }
+        if let Some(v) = self.phi_min {
+            c.phi_min = v;
+        }
+        if let Some(v) = self.horizon {
+            c.horizon = v;
+        }
+        if let Some(v) = self.scale {
+            c.scale.enabled = v.on();
+        }
+        if let Some(v) = self.merge {
+            c.merge = match v {
+                MergeArg::Total => MergeRule::Total,
+                MergeArg::Incremental => MergeRule::Incremental,
+            };
+        }
+        if let Some(v) = self.within {
+            c.learn_within_routine = v.on();
+        }
+        if let Some(Limit(v)) = self.max_misfit {
+            c.max_misfit = v;
+        }
+        if let Some(Limit(v)) = self.max_spread {
+            c.max_spread = v;
+        }
+        if let Some(Limit(v)) = self.max_end_prob {
+            c.max_end_prob = v;
+        }
+        if let Some(GateArg(v)) = self.recall {
+            c.recall = v;
+        }
+        c.validate().context("invalid engine settings")?;
+        Ok(c)
+    }
+
+    pub fn profile_name(&self) -> &'static str {
+        Profile::from(self.profile).name()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command, run_cli};
+    use clap::Parser;
+
+    fn parse(args: &[&str]) -> Cli {
+        Cli::try_parse_from(args).unwrap()
+    }
+
+    #[test]
+    fn overrides_apply_on_top_of_the_profile() {
+        let cli = parse(&[
+            "nextpose",
+            "replay",
+            "x.json",
+            "--profile",
+            "seed",
+            "--delta",
+            "0.5",
+            "--within",
+            "on",
+            "--max-misfit",
+            "2.5",
+            "--max-end-prob",
+            "none",
+            "--scale",
+            "off",
+        ]);
+        let Command::Replay(args) = cli.command else {
+            panic!("not replay")
+        };
+        let c = args.engine.config().unwrap();
+        assert_eq!(c.delta, 0.5);
+        assert!(c.learn_within_routine);
+        assert_eq!(c.max_misfit, Some(2.5));
+        assert_eq!(c.max_end_prob, None);
+        assert!(!c.scale.enabled);
+        assert_eq!(c.merge, MergeRule::Total);
+    }
+
+    #[test]
+    fn invalid_values_are_errors_not_panics() {
+        let cli = parse(&["nextpose", "replay", "x.json", "--delta", "1.5"]);
+        let err = run_cli(cli).unwrap_err();
+        assert!(format!("{err:#}").contains("delta"), "{err:#}");
+        assert!(
+            Cli::try_parse_from(["nextpose", "replay", "x.json", "--max-spread", "lots"]).is_err()
+        );
+        let cli = parse(&["nextpose", "sweep", "x.json", "--horizons", "1,0"]);
+        let err = run_cli(cli).unwrap_err();
+        assert!(format!("{err:#}").contains("x.json"), "{err:#}");
+    }
+}

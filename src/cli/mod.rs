@@ -1,0 +1,95 @@
+//! The `nextpose` command line: one module per command, each holding its arguments and a thin
+//! `run` over the library.
+//!
+//! - `replay` / `sweep` ([`replay`]): the scoreboard of the engine and the baselines over
+//!   corpus programs, and the engine over a grid of δ, φ_min and h.
+//! - `serve` ([`serve`]): the service until SIGINT/SIGTERM.
+//! - `import` ([`import`]): offline program files into a cell of a running server.
+//! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
+//! - `openapi`: the REST API's description.
+//!
+//! Engine settings ([`engine_args`]) start from a named profile; each flag overrides one
+//! field, and the result is validated before anything runs, so a bad value is a one-line
+//! error, not a panic.
+
+mod engine_args;
+mod import;
+mod replay;
+mod serve;
+mod simulate;
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use serde::Serialize;
+
+pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
+pub use import::ImportArgs;
+pub use replay::{ReplayArgs, SweepArgs};
+pub use serve::ServeArgs;
+pub use simulate::{HistoryArg, OperatorArg, ReachPolicyArg, SimulateArgs, TransportArg};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "nextpose",
+    version,
+    about = "Teach-pendant next-waypoint prediction for industrial robot arms"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Replay corpus programs through the engine and the baselines; print the scoreboard.
+    Replay(ReplayArgs),
+    /// Replay the engine over a grid of delta, phi_min and horizon; print one line per setting.
+    Sweep(SweepArgs),
+    /// Run the service (REST API) until SIGINT/SIGTERM.
+    Serve(ServeArgs),
+    /// Print the OpenAPI description of the REST API (YAML), as committed in openapi.yaml.
+    Openapi,
+    /// Import offline program files (RAPID, KRL, FANUC TP) into a cell of a running server.
+    Import(ImportArgs),
+    /// Simulated operators teach corpus programs against the service; print the
+    /// programming-time table (the shape of the seed's Table 4.1).
+    Simulate(SimulateArgs),
+}
+
+/// Parses the process arguments and runs the command.
+pub fn run() -> Result<()> {
+    run_cli(Cli::parse())
+}
+
+/// Runs a parsed command line (separate from [`run`] so tests can drive it).
+pub fn run_cli(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Replay(args) => replay::run_replay(&args),
+        Command::Sweep(args) => replay::run_sweep(&args),
+        Command::Serve(args) => serve::run_serve(args),
+        Command::Import(args) => import::run_import(args),
+        Command::Simulate(args) => simulate::run_simulate(&args),
+        Command::Openapi => {
+            let yaml = crate::http::openapi()
+                .to_yaml()
+                .context("rendering the OpenAPI description")?;
+            print!("{yaml}");
+            Ok(())
+        }
+    }
+}
+
+pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let file = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
+    let mut w = BufWriter::new(file);
+    serde_json::to_writer_pretty(&mut w, value)
+        .with_context(|| format!("{}: cannot write JSON", path.display()))?;
+    writeln!(w)
+        .and_then(|()| w.flush())
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}

@@ -1,0 +1,80 @@
+//! `nextpose serve`: the service on one SQLite file until SIGINT/SIGTERM.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// SQLite database file (created when missing).
+    #[arg(long, env = "NEXTPOSE_DB", default_value = "nextpose.db")]
+    pub db: PathBuf,
+    /// Address to listen on.
+    #[arg(long, env = "NEXTPOSE_ADDR", default_value = "127.0.0.1:8080")]
+    pub addr: String,
+    /// Bearer token required on every route but /healthz (unset: no authentication).
+    #[arg(long, env = "NEXTPOSE_TOKEN", hide_env_values = true)]
+    pub token: Option<String>,
+    /// fsync every commit, so acknowledged writes survive a power loss too (slower). Without
+    /// it they survive a crash or kill of the process.
+    #[arg(long, env = "NEXTPOSE_SYNC_FULL")]
+    pub sync_full: bool,
+    /// Largest request body accepted, in bytes.
+    #[arg(long, default_value_t = 2 * 1024 * 1024)]
+    pub body_limit: usize,
+    /// Requests taking longer than this many seconds are answered 408.
+    #[arg(long, default_value_t = 30)]
+    pub request_timeout_s: u64,
+    /// Directory of robot models (*.urdf); default: the bundled robots/.
+    #[arg(long, env = "NEXTPOSE_ROBOTS")]
+    pub robots: Option<PathBuf>,
+}
+
+pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
+    use crate::server::{Application, Database, ServerSettings, shutdown_signal};
+    use crate::storage::Durability;
+    use std::io::Write;
+
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "info,sqlx=warn".into()),
+        )
+        .init();
+    let settings = ServerSettings {
+        database: Database::File(args.db.clone()),
+        durability: if args.sync_full {
+            Durability::Full
+        } else {
+            Durability::Process
+        },
+        addr: args.addr.clone(),
+        http: crate::transport::TransportOptions {
+            body_limit: args.body_limit,
+            request_timeout: std::time::Duration::from_secs(args.request_timeout_s.max(1)),
+            token: args.token.clone(),
+        },
+        robots: args
+            .robots
+            .clone()
+            .unwrap_or_else(crate::kinematics::bundled_robots_dir),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(async move {
+        let application = Application::build(settings).await?;
+        let addr = application.local_addr()?;
+        // Tests and scripts read this line to find the port.
+        println!(
+            "nextpose listening on http://{addr} (database {})",
+            args.db.display()
+        );
+        std::io::stdout().flush().ok();
+        tracing::info!(%addr, db = %args.db.display(), "serving");
+        application.run_until_stopped(shutdown_signal()).await?;
+        Ok(())
+    })
+}
