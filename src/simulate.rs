@@ -19,7 +19,7 @@ use tokio::task::JoinSet;
 
 use crate::app::resources::{
     CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest,
-    NewWaypointDto, PoseDto, PredictionDto, UploadedFile, Verdict,
+    NewWaypointDto, PoseValues, PredictionDto, UploadedFile, Verdict,
 };
 use crate::app::settings::CellSettingsInput;
 use crate::client::Client;
@@ -135,8 +135,8 @@ impl CellSetup {
                 sigma_q: Some(self.sigma_q),
                 scale: None,
                 robot: Some(self.robot.clone()),
-                base: Some(PoseDto::from(&self.base)),
-                tool: Some(PoseDto::from(&self.tool)),
+                base: Some(PoseValues::from(&self.base)),
+                tool: Some(PoseValues::from(&self.tool)),
                 reach_policy: Some(self.reach_policy),
             },
         }

@@ -71,7 +71,7 @@ impl App {
                 let mut waypoints = Vec::with_capacity(r.waypoints.len());
                 let mut taught = Vec::with_capacity(r.waypoints.len());
                 for w in &r.waypoints {
-                    let stored = PoseDto::from(&w.pose);
+                    let stored = PoseValues::from(&w.pose);
                     taught.push(stored.to_pose()?);
                     waypoints.push(NewWaypoint {
                         routine_id: 0,

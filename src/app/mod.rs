@@ -25,7 +25,6 @@ pub mod error;
 mod feedback;
 mod imports;
 mod offer;
-pub mod pose;
 mod programs;
 pub mod reach;
 mod registry;

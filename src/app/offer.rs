@@ -172,8 +172,8 @@ pub(super) fn dto(
         offered: c.offered(),
         withheld,
         reachability,
-        pose: p.pose.as_ref().map(PoseDto::from),
-        relative: p.relative.as_ref().map(|x| RelativeMove {
+        pose: p.pose.as_ref().map(PoseValues::from),
+        relative: p.relative.as_ref().map(|x| PoseValues {
             x: x[0],
             y: x[1],
             z: x[2],

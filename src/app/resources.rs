@@ -9,7 +9,7 @@ use utoipa::{IntoParams, ToSchema};
 
 use super::settings::{CellSettings, CellSettingsInput};
 
-pub use super::pose::PoseDto;
+pub use crate::engine::PoseValues;
 
 // ---- cells ------------------------------------------------------------------------------------
 
@@ -160,7 +160,7 @@ impl MotionType {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewWaypointDto {
-    pub pose: PoseDto,
+    pub pose: PoseValues,
     /// Taught joint values (rad), when the pendant sends them (1 to 12 values).
     #[schema(min_items = 1, max_items = 12)]
     pub joints: Option<Vec<f64>>,
@@ -176,7 +176,7 @@ pub struct Waypoint {
     pub routine_id: i64,
     /// Teaching order within the routine (1, 2, ...).
     pub seq: i64,
-    pub pose: PoseDto,
+    pub pose: PoseValues,
     pub joints: Option<Vec<f64>>,
     pub motion: Option<MotionType>,
     pub name: Option<String>,
@@ -198,19 +198,6 @@ pub struct WithheldDto {
     pub message: String,
 }
 
-/// The relative move from the last waypoint to the proposal (SRHCT 7-vector, mm and
-/// quaternion with `qw ≥ 0`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct RelativeMove {
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
-    pub qw: f64,
-    pub qx: f64,
-    pub qy: f64,
-    pub qz: f64,
-}
-
 /// A prediction of the next waypoint, offered or not, with every figure that decided it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct PredictionDto {
@@ -223,8 +210,10 @@ pub struct PredictionDto {
     /// cell's robot model is not installed).
     pub reachability: Option<ReachabilityDto>,
     /// The proposed next pose (null when nothing could be proposed).
-    pub pose: Option<PoseDto>,
-    pub relative: Option<RelativeMove>,
+    pub pose: Option<PoseValues>,
+    /// The relative move from the last waypoint to the proposal, in the last waypoint's frame
+    /// (SRHCT 7-vector: mm and a quaternion with `qw ≥ 0`).
+    pub relative: Option<PoseValues>,
     /// Confidence φ ∈ [0, 1] (entropy of the next-state distribution).
     pub phi: f64,
     /// ψ: the factor mapping the taught window onto the learned pattern.
@@ -323,7 +312,7 @@ impl Verdict {
 pub struct FeedbackDto {
     pub verdict: Verdict,
     /// The pose finally taught; required when `adjusted`, refused otherwise.
-    pub pose: Option<PoseDto>,
+    pub pose: Option<PoseValues>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]

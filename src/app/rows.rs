@@ -6,7 +6,7 @@ use super::error::AppError;
 use super::resources::*;
 use crate::storage::{PoseColumns, ProgramRow, RoutineRow, WaypointRow};
 
-pub(super) fn pose_columns(p: &PoseDto) -> PoseColumns {
+pub(super) fn pose_columns(p: &PoseValues) -> PoseColumns {
     PoseColumns {
         x: p.x,
         y: p.y,
@@ -18,8 +18,8 @@ pub(super) fn pose_columns(p: &PoseDto) -> PoseColumns {
     }
 }
 
-pub(super) fn pose_dto(p: &PoseColumns) -> PoseDto {
-    PoseDto {
+pub(super) fn pose_dto(p: &PoseColumns) -> PoseValues {
+    PoseValues {
         x: p.x,
         y: p.y,
         z: p.z,

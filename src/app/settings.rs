@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::AppError;
-use super::pose::PoseDto;
+use crate::engine::PoseValues;
 use crate::engine::{EngineConfig, Pose, Profile};
 use crate::kinematics::ReachPolicy;
 
@@ -41,9 +41,9 @@ pub struct CellSettings {
     /// Robot model (a URDF in `robots/`; `GET /v1/robots` lists them).
     pub robot: String,
     /// The robot base in the cell's work frame.
-    pub base: PoseDto,
+    pub base: PoseValues,
     /// The tool centre point in the flange frame.
-    pub tool: PoseDto,
+    pub tool: PoseValues,
     /// Predictions the arm cannot reach: withheld (default) or offered flagged.
     pub reach_policy: ReachPolicy,
 }
@@ -60,8 +60,8 @@ pub struct CellSettingsInput {
     pub sigma_q: Option<f64>,
     pub scale: Option<ScaleSettings>,
     pub robot: Option<String>,
-    pub base: Option<PoseDto>,
-    pub tool: Option<PoseDto>,
+    pub base: Option<PoseValues>,
+    pub tool: Option<PoseValues>,
     pub reach_policy: Option<ReachPolicy>,
 }
 
@@ -73,7 +73,7 @@ pub const SIGMA_T_MM: std::ops::RangeInclusive<f64> = 1e-3..=1e3;
 /// Quaternion-component repeatability σ_q a cell may have (a component lies in [-1, 1]).
 pub const SIGMA_Q: std::ops::RangeInclusive<f64> = 1e-6..=1.0;
 
-fn identity() -> PoseDto {
+fn identity() -> PoseValues {
     (&Pose::identity()).into()
 }
 

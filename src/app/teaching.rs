@@ -44,7 +44,7 @@ impl App {
         // Everything the client can get wrong is checked before anything changes.
         let joints = Self::validate_waypoint(&input)?;
         let pose = input.pose.to_pose()?;
-        let stored = PoseDto::from(&pose);
+        let stored = PoseValues::from(&pose);
         // The model learns the pose as it will be read back from the database, so a rebuild
         // gives bit-identical results.
         let pose = stored.to_pose()?;

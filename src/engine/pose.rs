@@ -26,11 +26,17 @@ pub struct Pose {
     iso: Isometry3<f64>,
 }
 
-/// A pose as plain numbers, for input and output: position in mm and quaternion `w, x, y, z`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+// The schema derive describes the wire form for the API's description; it does no I/O.
+/// A pose as plain numbers, as clients send and see it: position in mm and a unit quaternion
+/// `w, x, y, z`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
 pub struct PoseValues {
+    /// mm
     pub x: f64,
+    /// mm
     pub y: f64,
+    /// mm
     pub z: f64,
     pub qw: f64,
     pub qx: f64,
@@ -111,6 +117,19 @@ impl Pose {
     /// Geodesic angle between orientations, radians in `[0, π]`.
     pub fn angle_to(&self, other: &Pose) -> f64 {
         self.iso.rotation.angle_to(&other.iso.rotation)
+    }
+}
+
+impl PoseValues {
+    /// The pose (typed error for non-finite numbers or a quaternion far from unit).
+    pub fn to_pose(&self) -> Result<Pose, PoseError> {
+        Pose::try_from(*self)
+    }
+}
+
+impl From<&Pose> for PoseValues {
+    fn from(p: &Pose) -> PoseValues {
+        p.values()
     }
 }
 

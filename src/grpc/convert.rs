@@ -25,8 +25,8 @@ fn usize_from(v: u64, what: &str) -> In<usize> {
 
 // ---- poses ------------------------------------------------------------------------------------
 
-impl From<PoseDto> for pb::Pose {
-    fn from(p: PoseDto) -> pb::Pose {
+impl From<PoseValues> for pb::Pose {
+    fn from(p: PoseValues) -> pb::Pose {
         pb::Pose {
             x: p.x,
             y: p.y,
@@ -39,9 +39,9 @@ impl From<PoseDto> for pb::Pose {
     }
 }
 
-impl From<pb::Pose> for PoseDto {
-    fn from(p: pb::Pose) -> PoseDto {
-        PoseDto {
+impl From<pb::Pose> for PoseValues {
+    fn from(p: pb::Pose) -> PoseValues {
+        PoseValues {
             x: p.x,
             y: p.y,
             z: p.z,
@@ -118,8 +118,8 @@ pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
             sigma_q: s.sigma_q,
             scale: s.scale.map(scale_in),
             robot: s.robot,
-            base: s.base.map(PoseDto::from),
-            tool: s.tool.map(PoseDto::from),
+            base: s.base.map(PoseValues::from),
+            tool: s.tool.map(PoseValues::from),
             reach_policy: reach_policy_in(s.reach_policy)?,
         },
     })
@@ -718,7 +718,7 @@ impl TryFrom<pb::Prediction> for PredictionDto {
             }),
             reachability: p.reachability.map(Into::into),
             pose: p.pose.map(Into::into),
-            relative: p.relative.map(|r| RelativeMove {
+            relative: p.relative.map(|r| PoseValues {
                 x: r.x,
                 y: r.y,
                 z: r.z,

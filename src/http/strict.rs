@@ -5,7 +5,7 @@
 //! [`from_value`] deserializes through [`Strict`], a view of a parsed [`Value`] that refuses
 //! anything but an object for `deserialize_struct`, at every nesting level and for every type,
 //! and names the path of the offending value (`pose: invalid type: sequence, expected an object
-//! (struct PoseDto)`). Numbers reach the target exactly as `serde_json` parsed them
+//! (struct PoseValues)`). Numbers reach the target exactly as `serde_json` parsed them
 //! (`float_roundtrip`), so poses are bit-identical to a direct parse.
 
 use serde::de::value::{MapDeserializer, SeqDeserializer};
