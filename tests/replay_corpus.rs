@@ -70,6 +70,11 @@ fn default_profile_is_precise_and_beats_every_baseline() {
         saved > totals(&seed, "engine").saved_pct.unwrap() + 2.0,
         "default saves {saved}"
     );
+    // issue 13: the engine must beat these too: the absolute-pose and work-frame baselines
+    // (`baselines::frames`: abs_seq, abs_seq_gated, abs_seq_within, abs_seq_within_gated,
+    // work_seq, …). They are not in this run yet: measured, abs_seq_within_gated saves 15.13 %
+    // (engine 15.11 %), and abs_seq_gated, work_seq_gated and work_seq_within_gated are more
+    // precise than the engine (91.1 %, 94.4 %, 91.7 % vs 91.0 %).
     for baseline in [
         "repeat_last",
         "nearest_seq",

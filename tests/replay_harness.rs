@@ -6,7 +6,9 @@ use nalgebra::{Unit, UnitQuaternion, Vector3};
 use nextpose::engine::{EngineConfig, Pose};
 use nextpose::replay::baselines::{self, NearestSeq, RepeatLast};
 use nextpose::replay::engine_method::EngineMethod;
+use nextpose::replay::frames::Frame;
 use nextpose::replay::metrics::{Scores, spearman};
+use nextpose::replay::oracle::oracle_records;
 use nextpose::replay::report::RunConfig;
 use nextpose::replay::{
     CorpusError, Method, ModelSummary, Program, ProgramRecord, Routine, WaypointRecord, load_paths,
@@ -375,5 +377,327 @@ fn report_json_has_the_stable_shape() {
     let table = report.totals_table();
     for name in expected {
         assert!(table.lines().any(|l| l.starts_with(name)), "{table}");
+    }
+}
+
+// --- Issue 13: absolute-pose and work-frame baselines, oracle bounds -------------------------
+
+/// `name`'s records among a program's oracle records.
+fn oracle<'a>(records: &'a [ProgramRecord], name: &str) -> &'a ProgramRecord {
+    records
+        .iter()
+        .find(|r| r.method == name)
+        .unwrap_or_else(|| panic!("{name}"))
+}
+
+fn covered(record: &ProgramRecord) -> Vec<bool> {
+    record.waypoints.iter().map(|r| r.offered).collect()
+}
+
+/// Per waypoint, the union oracle covers exactly where one of the three does, so it is at
+/// least each of them.
+fn assert_union_is_the_union(records: &[ProgramRecord]) {
+    let any = covered(oracle(records, "oracle_any"));
+    let kinds: Vec<Vec<bool>> = ["oracle_tool", "oracle_absolute", "oracle_work"]
+        .iter()
+        .map(|k| covered(oracle(records, k)))
+        .collect();
+    for (i, a) in any.iter().enumerate() {
+        assert_eq!(*a, kinds.iter().any(|k| k[i]), "waypoint {i}");
+    }
+    let count = |c: &[bool]| c.iter().filter(|c| **c).count();
+    for k in &kinds {
+        assert!(count(&any) >= count(k));
+    }
+}
+
+/// Routines that leave home for points that are never the same twice and come back: the
+/// return is a known absolute pose, never a known move.
+#[test]
+fn return_to_home_is_an_absolute_repeat() {
+    let home = pose([0.0, 0.0, 800.0], [1.0, 0.0, 0.0], 3.1);
+    let routines: Vec<Vec<Pose>> = (0..5)
+        .map(|k| {
+            let t = k as f64;
+            // An approach and a work point near (but never within 1 mm of) the others'.
+            let a = pose(
+                [600.0 + 9.0 * t, 150.0 - 7.0 * t * t, 400.0 + 5.0 * t],
+                [1.0, 0.1 * t, 0.0],
+                3.0 - 0.03 * t,
+            );
+            let b = pose(
+                [640.0 + 11.0 * t, 170.0 + 4.0 * t, 300.0 - 6.0 * t],
+                [1.0, 0.0, 0.1 * t],
+                2.9 + 0.02 * t,
+            );
+            vec![home, a, b, home]
+        })
+        .collect();
+    let prog = program(routines);
+    let records = oracle_records(&prog);
+    let returns = |r: &ProgramRecord| -> Vec<bool> {
+        r.waypoints
+            .iter()
+            .filter(|w| w.routine >= 1 && w.predecessors == 3)
+            .map(|w| w.offered)
+            .collect()
+    };
+    assert_eq!(returns(oracle(&records, "oracle_absolute")), [true; 4]);
+    assert_eq!(returns(oracle(&records, "oracle_tool")), [false; 4]);
+    assert_eq!(returns(oracle(&records, "oracle_work")), [false; 4]);
+    assert_eq!(returns(oracle(&records, "oracle_any")), [true; 4]);
+    assert_union_is_the_union(&records);
+
+    // The absolute nearest-sequence baseline goes home; the tool-frame one repeats an earlier
+    // return move from the wrong place.
+    let config = EngineConfig::default();
+    let useful_returns = |m: &mut dyn Method| -> Vec<bool> {
+        let record = replay_program(&prog, m);
+        record
+            .waypoints
+            .iter()
+            .filter(|w| w.routine >= 1 && w.predecessors == 3)
+            .map(WaypointRecord::useful)
+            .collect()
+    };
+    for within in [false, true] {
+        let mut abs = NearestSeq::in_frame(&config, Frame::Absolute, within, false);
+        assert_eq!(useful_returns(&mut abs), [true; 4], "{}", abs.name());
+        let mut tool = NearestSeq::new(&config, within, None);
+        assert_eq!(useful_returns(&mut tool), [false; 4], "{}", tool.name());
+    }
+
+    // A known pair of poses reached from a new start: the gated absolute baseline (context: two
+    // poses) offers home; the gated tool-frame one (context: the moves so far, the new first
+    // one included) withholds.
+    let (p, q) = (
+        pose([500.0, 0.0, 500.0], [0.0, 1.0, 0.0], 3.0),
+        pose([520.0, 40.0, 450.0], [0.0, 1.0, 0.2], 3.0),
+    );
+    let start = pose([-300.0, 250.0, 600.0], [1.0, 1.0, 0.0], 2.0);
+    let prog = program(vec![vec![home, p, q, home], vec![start, p, q, home]]);
+    let last = |m: &mut dyn Method| {
+        let record = replay_program(&prog, m);
+        record.waypoints.last().unwrap().clone()
+    };
+    let g = last(&mut NearestSeq::in_frame(
+        &config,
+        Frame::Absolute,
+        false,
+        true,
+    ));
+    assert!(g.useful(), "{g:?}");
+    assert_eq!(g.confidence, Some(1.0), "one earlier place agrees");
+    let t = last(&mut NearestSeq::new(&config, false, Some(1.0)));
+    assert!(!t.offered, "{t:?}");
+}
+
+/// A seam taught twice: each point's approach is `Offs(p, 0, 0, 100)` and the torch tilts a
+/// little more at every point, by another angle the second time. In the work frame both
+/// teachings are the same moves; in the tool frame none repeats.
+#[test]
+fn work_frame_offset_under_a_turning_tool_is_a_work_frame_repeat() {
+    let seam = |shift: [f64; 3], tilt: f64| -> Vec<Pose> {
+        let mut at = [shift[0], shift[1], shift[2]];
+        // A lead-in from a start point, so that the first approach's context is not ambiguous
+        // (every approach is the same work-frame move).
+        let start = [at[0] - 80.0, at[1] + 30.0, at[2] + 150.0];
+        let mut w = vec![pose(start, [0.0, 1.0, 0.0], tilt)];
+        for i in 0..6 {
+            let t = i as f64;
+            let angle = 0.2 * t + tilt;
+            w.push(pose(at, [0.0, 1.0, 0.0], angle));
+            w.push(pose([at[0], at[1], at[2] + 100.0], [0.0, 1.0, 0.0], angle));
+            at = [at[0] + 60.0 + 15.0 * t, at[1] + 8.0 * t, at[2] - 3.0 * t];
+        }
+        w
+    };
+    let prog = program(vec![seam([0.0; 3], 0.0), seam([0.0, 500.0, 0.0], 0.15)]);
+    let records = oracle_records(&prog);
+    let second = |r: &ProgramRecord| -> Vec<bool> {
+        r.waypoints
+            .iter()
+            .filter(|w| w.routine == 1)
+            .map(|w| w.offered)
+            .collect()
+    };
+    assert_eq!(second(oracle(&records, "oracle_work")), [true; 12]);
+    assert_eq!(second(oracle(&records, "oracle_tool")), [false; 12]);
+    assert_eq!(second(oracle(&records, "oracle_absolute")), [false; 12]);
+    assert_union_is_the_union(&records);
+
+    let config = EngineConfig::default();
+    let second_useful = |m: &mut dyn Method| -> (usize, usize) {
+        let record = replay_program(&prog, m);
+        let w: Vec<&WaypointRecord> = record
+            .waypoints
+            .iter()
+            .filter(|w| w.routine == 1 && w.predecessors >= 2)
+            .collect();
+        (
+            w.iter().filter(|w| w.offered).count(),
+            w.iter().filter(|w| w.useful()).count(),
+        )
+    };
+    // Eleven waypoints with ≥ 2 predecessors: the work-frame baselines offer and get every one.
+    for within in [false, true] {
+        for gated in [false, true] {
+            let mut work = NearestSeq::in_frame(&config, Frame::Work, within, gated);
+            assert_eq!(second_useful(&mut work), (11, 11), "{}", work.name());
+        }
+    }
+    // The tool-frame ones get none; gated, they see the mismatch and offer nothing.
+    for within in [false, true] {
+        let mut tool = NearestSeq::new(&config, within, None);
+        assert_eq!(second_useful(&mut tool).1, 0, "{}", tool.name());
+        let mut gated = NearestSeq::new(&config, within, Some(1.0));
+        assert_eq!(second_useful(&mut gated), (0, 0), "{}", gated.name());
+    }
+}
+
+/// The whole corpus: the oracles' shares as issue 13 measured them, the union at least each
+/// kind, and the absolute-pose predictor of the issue (`abs_seq_within_gated`).
+#[test]
+fn corpus_oracles_and_the_absolute_predictor() {
+    let programs = load_paths(&[Path::new(CORPUS)]).unwrap();
+    let config = EngineConfig::default();
+    let mut methods = baselines::frames(&config);
+    let mut report = replay_all(
+        &programs,
+        &mut methods,
+        RunConfig::new("default", config, 1.0),
+    )
+    .expect("the bundled arm loads");
+    report.add_oracles(&programs);
+    let share = |name: &str| report.totals.get(name).unwrap().useful_pct.unwrap();
+    for (name, expected) in [
+        ("oracle_tool", 33.1),
+        ("oracle_absolute", 34.3),
+        ("oracle_work", 35.4),
+        ("oracle_any", 47.3),
+    ] {
+        assert_eq!(report.totals.get(name).unwrap().predictable, 2969);
+        assert!(
+            (share(name) - expected).abs() < 0.05,
+            "{name}: {}",
+            share(name)
+        );
+    }
+    for name in ["oracle_tool", "oracle_absolute", "oracle_work"] {
+        assert!(share("oracle_any") > share(name));
+    }
+    let a = report.totals.get("abs_seq_within_gated").unwrap();
+    let (saved, precision) = (a.saved_pct.unwrap(), a.precision_pct.unwrap());
+    assert!((saved - 15.1).abs() < 0.05, "saved {saved}");
+    assert!((precision - 87.6).abs() < 0.05, "precision {precision}");
+    // A baseline offers candidates of its own kind, so it is useful at most where its oracle
+    // covers.
+    for (name, s) in report
+        .totals
+        .0
+        .iter()
+        .filter(|(n, _)| !n.starts_with("oracle_"))
+    {
+        let bound = if name.starts_with("abs_") {
+            "oracle_absolute"
+        } else {
+            "oracle_work"
+        };
+        assert!(
+            s.useful_pct.unwrap() <= share(bound) + 1e-9,
+            "{name} vs {bound}"
+        );
+        assert!(s.useful_pct.unwrap() > 10.0, "{name}");
+    }
+}
+
+/// `nextpose replay`'s report: every original key kept, the new methods after them, the
+/// oracles last and described in a section of their own, and tabled apart from the methods.
+#[test]
+fn report_with_new_baselines_and_oracles() {
+    let prog = program(vec![irregular_routine(), irregular_routine()]);
+    let config = EngineConfig::default();
+    let mut methods: Vec<Box<dyn Method>> =
+        vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
+    methods.extend(baselines::scoreboard(&config, 1.0));
+    let mut report = replay_all(
+        std::slice::from_ref(&prog),
+        &mut methods,
+        RunConfig::new("default", config, 1.0),
+    )
+    .expect("the bundled arm loads");
+    assert!(
+        serde_json::to_value(&report)
+            .unwrap()
+            .get("oracles")
+            .is_none()
+    );
+    report.add_oracles(std::slice::from_ref(&prog));
+    report.add_oracles(std::slice::from_ref(&prog)); // replaces, does not duplicate
+    let json = serde_json::to_value(&report).unwrap();
+    let expected = [
+        "engine",
+        "repeat_last",
+        "nearest_seq",
+        "nearest_seq_gated",
+        "nearest_seq_within",
+        "nearest_seq_within_gated",
+        "abs_seq",
+        "abs_seq_gated",
+        "abs_seq_within",
+        "abs_seq_within_gated",
+        "work_seq",
+        "work_seq_gated",
+        "work_seq_within",
+        "work_seq_within_gated",
+        "oracle_tool",
+        "oracle_absolute",
+        "oracle_work",
+        "oracle_any",
+    ];
+    let names: Vec<&str> = report.totals.0.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, expected);
+    let totals = json["totals"].as_object().unwrap();
+    assert_eq!(totals.len(), expected.len());
+    for name in expected {
+        assert!(totals[name]["predictable"].is_u64(), "{name}");
+        assert!(totals[name]["saved_pct"].is_number(), "{name}");
+    }
+    let programs = json["programs"].as_array().unwrap();
+    assert_eq!(
+        programs[0]["methods"].as_object().unwrap().len(),
+        expected.len()
+    );
+
+    // The second routine repeats the first exactly: every waypoint is covered by each kind.
+    let oracles = &json["oracles"];
+    assert!(oracles["meaning"].as_str().unwrap().contains("not methods"));
+    assert_eq!(oracles["useful_max_mm"], 1.0);
+    let kinds = oracles["kinds"].as_array().unwrap();
+    assert_eq!(kinds.len(), 4);
+    for k in kinds {
+        let name = k["name"].as_str().unwrap();
+        assert_eq!(k["covered"], totals[name]["useful"], "{name}");
+        assert_eq!(k["covered"], totals[name]["offered"], "{name}");
+        assert_eq!(k["predictable"], 14, "{name}");
+        assert_eq!(k["covered"], 7, "{name}: the second routine's n ≥ 2");
+        assert_eq!(totals[name]["precision_pct"], 100.0, "{name}");
+        assert!(totals[name]["us_per_waypoint"].is_null(), "{name}");
+    }
+
+    // Methods in the totals table, oracles only in their own table below it.
+    let table = report.totals_table();
+    let split = table
+        .find("Oracle bounds")
+        .expect("an oracle table after the methods");
+    let (methods_part, oracle_part) = table.split_at(split);
+    for name in expected {
+        let in_methods = methods_part.lines().any(|l| l.starts_with(name));
+        let in_oracles = oracle_part.lines().any(|l| l.starts_with(name));
+        assert_eq!(
+            (in_methods, in_oracles),
+            (!name.starts_with("oracle_"), name.starts_with("oracle_")),
+            "{name}\n{table}"
+        );
     }
 }

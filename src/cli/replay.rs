@@ -77,10 +77,11 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
     let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
         EngineMethod::new(config.clone()).context("invalid engine settings")?,
     )];
-    methods.extend(baselines::all(&config, args.gate));
+    methods.extend(baselines::scoreboard(&config, args.gate));
     let run_config = RunConfig::new(args.engine.profile_name(), config.clone(), args.gate);
-    let report = replay_all(&programs, &mut methods, run_config)
+    let mut report = replay_all(&programs, &mut methods, run_config)
         .context("loading the arm of the reachability figures")?;
+    report.add_oracles(&programs);
 
     let mut out = std::io::stdout().lock();
     if !args.quiet {

@@ -8,8 +8,11 @@
 //! - [`corpus`]: reads the shared corpus's JSON programs into [`Program`]s.
 //! - [`method`]: the [`Method`] trait every predictor implements.
 //! - [`engine_method`]: the engine behind that trait.
-//! - [`baselines`]: repeat-last-move and nearest-sequence.
+//! - [`baselines`]: repeat-last-move and nearest-sequence (tool-frame, work-frame, absolute).
+//! - [`frames`]: the three readings of a routine (tool-frame moves, work-frame moves, poses).
 //! - [`metrics`]: the replay loop ([`replay_program`]) and the figures computed from it.
+//! - [`oracle`]: oracle bounds, the share of waypoints some earlier candidate of each kind
+//!   would have got right (not methods: they see the answer).
 //! - [`reach`]: whether the cell's arm could reach the guesses (kinematics).
 //! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
@@ -19,8 +22,10 @@
 pub mod baselines;
 pub mod corpus;
 pub mod engine_method;
+pub mod frames;
 pub mod method;
 pub mod metrics;
+pub mod oracle;
 #[cfg(feature = "plots")]
 pub mod plots;
 pub mod reach;

@@ -5,11 +5,21 @@
 //!
 //! ```text
 //! { "config":   { ...EngineConfig fields..., "profile", "nearest_seq_gate", "useful_max_mm", ... },
-//!   "totals":   { "<method>": { ...Scores... }, ... },
+//!   "totals":   { "<method>": { ...Scores... }, ..., "oracle_tool": { ...Scores... }, ... },
+//!   "oracles":  { "meaning": ..., "useful_max_mm", "useful_max_rad",
+//!                 "kinds": [ { "name": "oracle_tool", "candidates": ..., "covered", "share_pct", ... } ] },
 //!   "programs": [ { "program": name, "language": ..., "methods": { "<method>": { ...Scores... } } } ] }
 //! ```
 //!
 //! Methods appear in the order they were run (engine first), in JSON objects and tables alike.
+//!
+//! `oracles` and the `oracle_*` entries are there only when the report was asked for them
+//! ([`Report::add_oracles`]; `nextpose replay` does): they are bounds, not methods — an oracle
+//! sees the true next waypoint and "offers" exactly where some candidate of its kind from the
+//! program's history is within the useful tolerance (see [`super::oracle`]). In `totals` and
+//! per program they follow every method, as a perfect selector: `offered = useful`, precision
+//! 100 %, `useful_pct` the share covered, `saved_pct` the most a method drawing only on those
+//! candidates could save. [`Report::totals_table`] lists them in a table of their own.
 
 use std::fmt::Write as _;
 
@@ -20,7 +30,10 @@ use crate::engine::EngineConfig;
 
 use super::corpus::Program;
 use super::method::Method;
-use super::metrics::{ProgramRecord, Scores, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+use super::metrics::{
+    ProgramRecord, Scores, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program, saved_pct,
+};
+use super::oracle::{ORACLES, is_oracle, oracle_records};
 use super::reach::{ReachRecord, ReachRecorder, reach_figures};
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
 
@@ -84,9 +97,46 @@ pub struct ProgramReport {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Report {
     pub config: RunConfig,
+    /// Methods in run order, then (after [`Report::add_oracles`]) the `oracle_*` bounds.
     pub totals: MethodMetrics,
+    /// What the `oracle_*` entries mean, and their pooled shares; absent (not `null`) when the
+    /// report has none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oracles: Option<OracleSection>,
     pub programs: Vec<ProgramReport>,
 }
+
+/// The report's `oracles` section (see the module doc and [`super::oracle`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OracleSection {
+    /// The `oracle_*` entries in words: what they are and how to read their figures.
+    pub meaning: &'static str,
+    pub useful_max_mm: f64,
+    pub useful_max_rad: f64,
+    pub kinds: Vec<OracleLine>,
+}
+
+/// One oracle, pooled over the programs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OracleLine {
+    pub name: String,
+    pub candidates: String,
+    /// Waypoints with ≥ 2 predecessors, and how many of them a candidate covers.
+    pub predictable: usize,
+    pub covered: usize,
+    pub share_pct: Option<f64>,
+    /// The same with ≥ 1 predecessor.
+    pub predictable_n1: usize,
+    pub covered_n1: usize,
+    pub share_pct_n1: Option<f64>,
+}
+
+/// [`OracleSection::meaning`].
+pub const ORACLE_MEANING: &str = "Bounds, not methods: the share of scored waypoints whose true \
+     next waypoint is within the useful tolerance of some candidate of that kind from the \
+     program's history (earlier routines and the current routine's taught waypoints). In totals \
+     and per program an oracle is a perfect selector: offered = useful = covered, precision 100, \
+     saved_pct = 0.9 x share, the most a method offering only such candidates could save.";
 
 /// Replays every program through every method and computes per-program and pooled figures.
 /// Each method sees each program from an empty model (`reset`). The arm of the reachability
@@ -168,11 +218,61 @@ pub fn replay_all(
     Ok(Report {
         config,
         totals,
+        oracles: None,
         programs,
     })
 }
 
 impl Report {
+    /// Adds the oracle bounds ([`super::oracle`]) of `programs`, which must be the programs the
+    /// report was made from, in the same order: `oracle_*` entries after the methods in
+    /// `totals` and in each program's `methods`, and the `oracles` section. Replaces oracles
+    /// added before.
+    pub fn add_oracles(&mut self, programs: &[Program]) {
+        assert_eq!(
+            programs.len(),
+            self.programs.len(),
+            "the oracles' programs are the report's"
+        );
+        self.totals.0.retain(|(name, _)| !is_oracle(name));
+        for p in &mut self.programs {
+            p.methods.0.retain(|(name, _)| !is_oracle(name));
+        }
+        // records[p][o]: oracle o on program p.
+        let records: Vec<Vec<ProgramRecord>> = programs.iter().map(oracle_records).collect();
+        let scores = |mut s: Scores| {
+            // Oracles take no time worth reporting and guess nothing an arm must reach.
+            s.us_per_waypoint = None;
+            s
+        };
+        let mut kinds = Vec::new();
+        for (o, oracle) in ORACLES.iter().enumerate() {
+            let total = scores(Scores::of_programs(records.iter().map(|r| &r[o])));
+            kinds.push(OracleLine {
+                name: oracle.name.to_string(),
+                candidates: oracle.candidates.to_string(),
+                predictable: total.predictable,
+                covered: total.useful,
+                share_pct: total.useful_pct,
+                predictable_n1: total.predictable_n1,
+                covered_n1: total.useful_n1,
+                share_pct_n1: total.useful_pct_n1,
+            });
+            self.totals.0.push((oracle.name.to_string(), total));
+            for (report, record) in self.programs.iter_mut().zip(&records) {
+                debug_assert_eq!(report.program, record[o].program);
+                let line = scores(Scores::of_program(&record[o]));
+                report.methods.0.push((oracle.name.to_string(), line));
+            }
+        }
+        self.oracles = Some(OracleSection {
+            meaning: ORACLE_MEANING,
+            useful_max_mm: self.config.useful_max_mm,
+            useful_max_rad: self.config.useful_max_rad,
+            kinds,
+        });
+    }
+
     /// Per-program table of one method (the engine in the CLI).
     pub fn program_table(&self, method: &str) -> String {
         let mut t = Table::new(&[
@@ -226,7 +326,7 @@ impl Report {
             "reach %",
             "taught reach %",
         ]);
-        for (name, m) in &self.totals.0 {
+        for (name, m) in self.totals.0.iter().filter(|(name, _)| !is_oracle(name)) {
             t.row(vec![
                 name.clone(),
                 m.predictable.to_string(),
@@ -244,14 +344,57 @@ impl Report {
             ]);
         }
         let programs = self.programs.len();
-        format!(
+        let mut text = format!(
             "Totals over {programs} program(s), waypoints with ≥ 2 predecessors \
              (useful: ≤ {} mm and ≤ {} rad; reach: the cell's arm reaches the guess, \
              see replay::reach):\n{}",
             self.config.useful_max_mm,
             self.config.useful_max_rad,
             t.render()
-        )
+        );
+        if let Some(table) = self.oracle_table() {
+            text.push('\n');
+            text.push_str(&table);
+        }
+        text
+    }
+
+    /// The oracle bounds, one row per oracle (`None` when the report has none).
+    pub fn oracle_table(&self) -> Option<String> {
+        let section = self.oracles.as_ref()?;
+        let mut t = Table::new(&[
+            "oracle",
+            "pred n≥2",
+            "covered",
+            "share %",
+            "saved ≤ %",
+            "share n≥1 %",
+        ]);
+        for k in &section.kinds {
+            t.row(vec![
+                k.name.clone(),
+                k.predictable.to_string(),
+                k.covered.to_string(),
+                fmt(k.share_pct, 1),
+                fmt(k.share_pct.map(|s| saved_pct(s, s)), 1),
+                fmt(k.share_pct_n1, 1),
+            ]);
+        }
+        let lines: Vec<String> = section
+            .kinds
+            .iter()
+            .map(|k| format!("  {}: {}", k.name, k.candidates))
+            .collect();
+        Some(format!(
+            "Oracle bounds, not methods (they see the answer): waypoints within ≤ {} mm and \
+             ≤ {} rad of a candidate from the program's history (earlier routines and the \
+             routine being taught); saved ≤ is 0.9 × share, the most a method offering only \
+             such candidates could save:\n{}{}\n",
+            section.useful_max_mm,
+            section.useful_max_rad,
+            t.render(),
+            lines.join("\n")
+        ))
     }
 }
 
