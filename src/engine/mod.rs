@@ -4,21 +4,27 @@
 //! [`pose`] turns waypoints into relative moves (SRHCT observations); [`metric`] holds the
 //! precision matrix that measures how alike two moves are; [`learner`] assimilates moves into an
 //! observation graph by similarity-based merging; [`hmm`] reads that graph as a continuous-density
-//! HMM; [`predict`] runs the forward recursion over the last few moves and proposes the next move,
-//! gated by confidence, match quality and end-of-routine probability; [`scale`] estimates how much
-//! larger or smaller the taught routine is than the learned pattern; [`teach`] ties these together
-//! for one work cell while an operator teaches routine after routine; [`config`] holds the
-//! settings and the named profiles (`seed`, `default`).
+//! HMM; [`predict`] runs the forward recursion (`forward`, over `transitions`) on the last few
+//! moves and proposes the next move (`mixture`), gated by confidence, match quality and
+//! end-of-routine probability (`gates`) or settled by where the context was seen last (`recall`);
+//! [`scale`] estimates how much larger or smaller the taught routine is than the learned pattern;
+//! [`teach`] ties these together for one work cell while an operator teaches routine after
+//! routine; [`config`] holds the settings and the named profiles (`seed`, `default`).
 
 pub mod config;
 pub mod error;
+mod forward;
+mod gates;
 pub mod hmm;
 pub mod learner;
 pub mod metric;
+mod mixture;
 pub mod pose;
 pub mod predict;
+mod recall;
 pub mod scale;
 pub mod teach;
+mod transitions;
 
 pub use config::{EngineConfig, Profile};
 pub use error::{ConfigError, PoseError};

@@ -1,36 +1,26 @@
-//! Prediction and confidence (ALGORITHM §3, seed §3.10–3.11, §4.5.1).
+//! Prediction and confidence (ALGORITHM §3, seed §3.10–3.11, §4.5.1): the orchestration that
+//! turns the moves of the routine being taught into a [`Prediction`].
 //!
-//! Given the moves of the routine being taught, the predictor conditions on the last `h` of
-//! them (the *window*), runs the HMM forward recursion in log space, turns the posterior over the
-//! current state into a pmf ν over the next state, and proposes the most likely next move: the
-//! mode of the mixture `Σ_j ν_j N(mean_j, C⁻¹)`, found by mean-shift.
-//!
-//! Whether the proposal is *offered* is decided by gates, each reported with its figure:
-//!
-//! - **end of routine**: the probability that the matched states are where routines end (or that
-//!   nothing is known about what follows them). Renormalising ν hides this mass; predictions made
-//!   through it were ~400 mm off on the corpus.
-//! - **match quality** (`misfit`): the window's mean squared Mahalanobis distance to the states the
-//!   forward pass put it in. The log-space recursion yields a sharp posterior even for a window
-//!   the model has never seen; the misfit says whether it was seen.
-//! - **confidence φ** = `1 − H(ν)/log₂|Q|`, the seed's gate: how unambiguous the next state is.
-//! - **spread**: the expected squared Mahalanobis distance between the proposal and the moves
-//!   that followed the matched states (the spread of ν around the mode plus each state's own
-//!   scatter). A proposal from a loosely merged state is not precise enough to offer.
-//!
-//! With `match_radius` set, states farther than that from a window move are treated as not
-//! explaining it at all, which bounds the forward pass to states that matter (a k-d tree finds
-//! them). The seed profile evaluates every state.
-
-use std::collections::HashMap;
+//! The predictor conditions on the last `h` of them (the *window*), runs the HMM forward
+//! recursion in log space (`forward`, over the `transitions` less the window's own edges, at the
+//! ψ that `scale` finds), turns the posterior over the current state into a pmf ν over the next
+//! state, and proposes the most likely next move: the mode of the mixture
+//! `Σ_j ν_j N(mean_j, C⁻¹)` (`mixture`). Whether the proposal is *offered* is decided by the
+//! `gates`, each reported with its figure; an ambiguous next state may be settled by `recall`.
+//! A window that matches nothing is shortened (backoff).
 
 use serde::Serialize;
 
 use super::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
+use super::forward::{Prior, next_state};
+use super::gates::{self, Figures};
 use super::hmm::Hmm;
-use super::learner::{ObservationGraph, TRACE_END};
+use super::learner::ObservationGraph;
+use super::mixture::mixture_mode;
 use super::pose::{Move, Observation, Pose, scale_translation};
-use super::scale;
+use super::recall::recall;
+use super::scale::forward_with_scale;
+use super::transitions::Transitions;
 
 /// Per-prediction settings (a cell's configuration, possibly overridden per request).
 #[derive(Debug, Clone, PartialEq)]
@@ -182,25 +172,6 @@ impl Prediction {
     }
 }
 
-/// Where the forward recursion starts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Prior {
-    Initial,
-    Occupancy,
-    Uniform,
-}
-
-/// Forward variables after the last window move, sparse and sorted by state.
-#[derive(Debug, Clone)]
-struct Forward {
-    /// (state, log α)
-    last: Vec<(usize, f64)>,
-    log_likelihood: f64,
-    misfit: f64,
-    /// Posterior-weighted mean of the state means at each window step (whitened).
-    expected: Vec<Observation>,
-}
-
 /// Predicts the next move of a routine whose moves so far are `moves` (possibly none).
 ///
 /// With `backoff`, a window of `h` moves that matches nothing learned (no match, or a misfit
@@ -305,57 +276,30 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         return p;
     }
     let nu: Vec<(usize, f64)> = nu.into_iter().map(|(j, p)| (j, p / total)).collect();
-    let entropy_bits: f64 = nu
-        .iter()
-        .filter(|(_, p)| *p > 0.0)
-        .map(|(_, p)| -p * p.log2())
-        .sum();
-    let phi = (1.0 - entropy_bits / (states as f64).log2()).clamp(0.0, 1.0);
+    let phi = gates::confidence(&nu, states);
 
     let mut mode = mixture_mode(hmm, &nu);
     let mut recalled = None;
-    let spread: f64 = nu
-        .iter()
-        .map(|&(j, p)| {
-            let n = hmm.node(j);
-            p * ((n.mean() - mode).norm_squared() + n.scatter() / f64::from(n.count()))
-        })
-        .sum();
+    let spread = gates::spread(hmm, &nu, &mode);
     let support = if moves.is_empty() {
-        nu.iter()
-            .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
-            .map(|(j, _)| f64::from(hmm.node(*j).initial()))
-            .sum()
+        gates::first_move_support(hmm, &nu, &mode)
     } else {
-        agreeing_continuations(&own, &matched, &mode)
+        gates::agreeing_continuations(&own, &matched, &mode)
     };
-    let mut withheld = if opts.max_end_prob.is_some_and(|m| end_probability > m) {
-        Some(Withheld::LikelyEnd { end_probability })
-    } else if let (Some(m), Some(v)) = (opts.max_misfit, misfit)
-        && v > m
-    {
-        Some(Withheld::PoorMatch { misfit: v })
-    } else if phi < opts.phi_min {
-        Some(Withheld::LowConfidence { phi })
-    } else if opts.max_spread.is_some_and(|m| spread > m) {
-        Some(Withheld::WideSpread { spread })
-    } else if window_moves < opts.horizon.min(moves.len()) && support < opts.backoff_min_support {
-        Some(Withheld::LittleEvidence { support })
-    } else {
-        None
+    let figures = Figures {
+        end_probability,
+        misfit,
+        phi,
+        spread,
+        support,
+        window: window_moves,
+        moves: moves.len(),
     };
+    let mut withheld = gates::first_failed(opts, &figures);
     // The HMM merges contexts into states, so an ambiguous next state may still be settled by
     // where this exact context was seen last (what the nearest-sequence baselines do).
-    let recallable = matches!(
-        withheld,
-        Some(
-            Withheld::LowConfidence { .. }
-                | Withheld::WideSpread { .. }
-                | Withheld::LittleEvidence { .. }
-        )
-    );
     if let Some(gate) = opts.recall
-        && recallable
+        && gates::recallable(withheld)
         && psi == 1.0
         && window_moves >= gate.min_window.max(1)
     {
@@ -394,512 +338,4 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         window: window_moves,
         withheld,
     }
-}
-
-/// Runs the forward pass on the window at ψ = 1 and, when scale estimation is on and ψ = 1 does
-/// not already fit, at the best ψ; returns the pass to predict from and its ψ.
-fn forward_with_scale(
-    hmm: &Transitions,
-    window: &[Observation],
-    prior: Prior,
-    opts: &PredictOptions,
-) -> Option<(Forward, f64)> {
-    let metric = hmm.hmm.graph().metric();
-    let whitened = |psi: f64| -> Vec<Observation> {
-        window
-            .iter()
-            .map(|x| metric.whiten(&scale_translation(x, psi)))
-            .collect()
-    };
-    let radius_sq = opts.match_radius.map(|r| r * r);
-    let unscaled = forward(hmm, &whitened(1.0), prior, radius_sq);
-    let sc = &opts.scale;
-    let has_translation = window.iter().any(|x| x.fixed_rows::<3>(0).norm() > 1e-9);
-    if !sc.enabled || !has_translation {
-        return unscaled.map(|f| (f, 1.0));
-    }
-    // A window that already fits the model at ψ = 1 is not searched (the common case, and it
-    // keeps prediction cheap); the seed profile has no fit limit and always searches.
-    if let (Some(limit), Some(f)) = (opts.max_misfit, &unscaled)
-        && f.misfit <= limit
-    {
-        return unscaled.map(|f| (f, 1.0));
-    }
-    let estimate = match radius_sq {
-        Some(r2) => sparse_scale_search(hmm, window, prior, sc, r2),
-        None => scale::maximise(sc.psi_min, sc.psi_max, |psi| {
-            forward(hmm, &whitened(psi), prior, radius_sq)
-                .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
-        }),
-    };
-    let base = unscaled
-        .as_ref()
-        .map_or(f64::NEG_INFINITY, |f| f.log_likelihood);
-    if let Some(est) = estimate
-        && est.objective - base >= sc.min_gain
-        && let Some(scaled) = forward(hmm, &whitened(est.psi), prior, radius_sq)
-        && scaled.misfit <= opts.max_misfit.unwrap_or(SCALED_FIT_LIMIT)
-    {
-        return Some((scaled, est.psi));
-    }
-    unscaled.map(|f| (f, 1.0))
-}
-
-/// Most ψ values a sparse scale search starts from (the best-fitting ones).
-const SCALE_STARTS: usize = 4;
-/// Most EM steps refining ψ from the best start.
-const SCALE_EM_STEPS: usize = 8;
-
-/// ψ search with a match radius: the window's likelihood is −∞ unless every move has a state
-/// within the radius, so only ψ values that put the window's largest move within reach of some
-/// state can win. Each such state proposes the ψ that fits it best (a closed form: the whitened
-/// scaled move is `u + ψ·v`, linear in ψ); the forward pass is run from those (at most
-/// [`SCALE_STARTS`]) instead of a 33-point grid, and the best is refined by EM — ψ maximising the
-/// expected fit to the states the forward pass put each move in, again a closed form — instead
-/// of 40 golden-section steps. A window no state can reach at any ψ costs one scan of the
-/// state means and no forward pass.
-fn sparse_scale_search(
-    trans: &Transitions,
-    window: &[Observation],
-    prior: Prior,
-    sc: &ScaleConfig,
-    radius_sq: f64,
-) -> Option<scale::ScaleEstimate> {
-    let graph = trans.hmm.graph();
-    let metric = graph.metric();
-    // Each move as u + ψ·v in whitened space (only the translation scales).
-    let parts: Vec<(Observation, Observation)> = window
-        .iter()
-        .map(|x| {
-            let mut v = Observation::zeros();
-            v.fixed_rows_mut::<3>(0).copy_from(&x.fixed_rows::<3>(0));
-            (metric.whiten(&(x - v)), metric.whiten(&v))
-        })
-        .collect();
-    let at = |psi: f64| -> Vec<Observation> { parts.iter().map(|(u, v)| u + v * psi).collect() };
-    let (u, v) = parts
-        .iter()
-        .max_by(|a, b| a.1.norm_squared().total_cmp(&b.1.norm_squared()))?;
-    let vv = v.norm_squared();
-    if vv <= 0.0 {
-        return None;
-    }
-    let mut starts: Vec<(f64, f64)> = graph
-        .means()
-        .iter()
-        .filter_map(|mean| {
-            let d = mean - u;
-            let vd = v.dot(&d);
-            // Distance from the whole line u + ψv first: most states are off it.
-            if d.norm_squared() - vd * vd / vv > radius_sq {
-                return None;
-            }
-            let psi = (vd / vv).clamp(sc.psi_min, sc.psi_max);
-            let fit = (v * psi - d).norm_squared();
-            (fit <= radius_sq).then_some((fit, psi))
-        })
-        .collect();
-    if starts.is_empty() {
-        return None;
-    }
-    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut tried: Vec<f64> = Vec::new();
-    let mut best: Option<(f64, f64, Forward)> = None;
-    for &(_, psi) in starts.iter() {
-        if tried.len() >= SCALE_STARTS {
-            break;
-        }
-        if tried.iter().any(|t| (t / psi).ln().abs() < 1e-3) {
-            continue;
-        }
-        tried.push(psi);
-        if let Some(f) = forward(trans, &at(psi), prior, Some(radius_sq))
-            && best.as_ref().is_none_or(|b| f.log_likelihood > b.1)
-        {
-            best = Some((psi, f.log_likelihood, f));
-        }
-    }
-    let (mut psi, mut objective, mut f) = best?;
-    let den: f64 = parts.iter().map(|(_, v)| v.norm_squared()).sum();
-    for _ in 0..SCALE_EM_STEPS {
-        let num: f64 = parts
-            .iter()
-            .zip(&f.expected)
-            .map(|((u, v), e)| v.dot(&(e - u)))
-            .sum();
-        let next = (num / den).clamp(sc.psi_min, sc.psi_max);
-        if (next / psi).ln().abs() < 1e-12 {
-            break;
-        }
-        match forward(trans, &at(next), prior, Some(radius_sq)) {
-            Some(g) if g.log_likelihood > objective => {
-                (psi, objective, f) = (next, g.log_likelihood, g);
-            }
-            _ => break,
-        }
-    }
-    Some(scale::ScaleEstimate { psi, objective })
-}
-
-/// Log-likelihood of a whole routine's moves from the routine start (used by Learn-Scaled-HMM);
-/// −∞ when the model cannot produce them.
-pub(crate) fn window_log_likelihood(
-    hmm: &Hmm,
-    moves: &[Observation],
-    opts: &PredictOptions,
-) -> f64 {
-    let metric = hmm.graph().metric();
-    let whitened: Vec<Observation> = moves.iter().map(|x| metric.whiten(x)).collect();
-    forward(
-        &Transitions::new(hmm, Vec::new()),
-        &whitened,
-        Prior::Initial,
-        opts.match_radius.map(|r| r * r),
-    )
-    .map_or(f64::NEG_INFINITY, |f| f.log_likelihood)
-}
-
-/// Mean misfit per move a scaled window must reach when no match gate is configured:
-/// the 99 % quantile of χ²(7). A likelihood gain alone accepts wrong ψ when the window holds a
-/// move that does not scale.
-const SCALED_FIT_LIMIT: f64 = 18.475_306_906_582_357;
-
-/// The log-space forward recursion `α_0(j) = b_j(x_0)·prior_j`,
-/// `α_k(j) = b_j(x_k) Σ_i a(j|i) α_{k−1}(i)`, sparse over states with non-zero α.
-fn forward(
-    trans: &Transitions,
-    window: &[Observation],
-    prior: Prior,
-    radius_sq: Option<f64>,
-) -> Option<Forward> {
-    let hmm = trans.hmm;
-    let graph = hmm.graph();
-    let metric = graph.metric();
-    let (first, rest) = window.split_first()?;
-    let uniform = 1.0 / hmm.states() as f64;
-    let prior_of = |i: usize| match prior {
-        Prior::Initial => hmm.initial(i),
-        Prior::Occupancy => hmm.occupancy(i),
-        Prior::Uniform => uniform,
-    };
-
-    // (state, log α, squared distance to the window move)
-    let mut current: Vec<(usize, f64, f64)> = Vec::new();
-    let mut candidates = Vec::new();
-    match radius_sq {
-        Some(r2) => graph.candidates(first, r2, &mut candidates),
-        None => candidates.extend(0..hmm.states()),
-    }
-    candidates.sort_unstable();
-    for j in candidates {
-        let d2 = (first - hmm.node(j).mean()).norm_squared();
-        let p = prior_of(j);
-        if p > 0.0 && radius_sq.is_none_or(|r2| d2 <= r2) && !trans.self_only(j) {
-            current.push((j, p.ln() + metric.log_density(d2), d2));
-        }
-    }
-    let mut expected = Vec::with_capacity(window.len());
-    let (m, e) = expected_misfit(hmm, &current)?;
-    let mut misfit_sum = m;
-    expected.push(e);
-
-    let mut acc: HashMap<usize, f64> = HashMap::new();
-    for z in rest {
-        let max = current
-            .iter()
-            .map(|e| e.1)
-            .fold(f64::NEG_INFINITY, f64::max);
-        acc.clear();
-        for &(i, log_alpha, _) in &current {
-            let w = (log_alpha - max).exp();
-            trans.for_each(i, |j, a| *acc.entry(j).or_insert(0.0) += a * w);
-        }
-        let mut next: Vec<(usize, f64, f64)> = acc
-            .iter()
-            .filter(|(j, s)| **s > 0.0 && !trans.self_only(**j))
-            .filter_map(|(&j, &s)| {
-                let d2 = (z - hmm.node(j).mean()).norm_squared();
-                radius_sq
-                    .is_none_or(|r2| d2 <= r2)
-                    .then(|| (j, max + s.ln() + metric.log_density(d2), d2))
-            })
-            .collect();
-        next.sort_unstable_by_key(|e| e.0);
-        let (m, e) = expected_misfit(hmm, &next)?;
-        misfit_sum += m;
-        expected.push(e);
-        current = next;
-    }
-    let log_likelihood = log_sum_exp(current.iter().map(|e| e.1));
-    Some(Forward {
-        last: current.iter().map(|&(j, a, _)| (j, a)).collect(),
-        log_likelihood,
-        misfit: misfit_sum / window.len() as f64,
-        expected,
-    })
-}
-
-/// Posterior-expected squared distance of one window move to its states and the posterior
-/// mean of their means; None when no state explains it (the window cannot be produced).
-fn expected_misfit(hmm: &Hmm, step: &[(usize, f64, f64)]) -> Option<(f64, Observation)> {
-    let max = step.iter().map(|e| e.1).fold(f64::NEG_INFINITY, f64::max);
-    if !max.is_finite() {
-        return None;
-    }
-    let (mut num, mut den, mut mean) = (0.0, 0.0, Observation::zeros());
-    for &(j, a, d2) in step {
-        let w = (a - max).exp();
-        num += w * d2;
-        den += w;
-        mean += hmm.node(j).mean() * w;
-    }
-    Some((num / den, mean / den))
-}
-
-/// ν(j) ∝ Σ_i γ(i) a(j|i) (unnormalised, sorted by state) and the continuation mass Σ_i γ(i) Σ_j a(j|i).
-fn next_state(trans: &Transitions, last: &[(usize, f64)]) -> (Vec<(usize, f64)>, f64) {
-    let log_total = log_sum_exp(last.iter().map(|e| e.1));
-    let mut nu: HashMap<usize, f64> = HashMap::new();
-    let mut cont = 0.0;
-    for &(i, a) in last {
-        let gamma = (a - log_total).exp();
-        trans.for_each(i, |j, p| {
-            cont += gamma * p;
-            *nu.entry(j).or_insert(0.0) += gamma * p;
-        });
-    }
-    let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
-    nu.sort_unstable_by_key(|e| e.0);
-    (nu, cont)
-}
-
-/// Σ_i γ(i) Σ_j f(i→j)·[‖mean_j − ẑ‖ ≤ 1]: how many earlier continuations of the matched
-/// states, weighted by the posterior, led to (within one σ of) the proposal.
-fn agreeing_continuations(trans: &Transitions, last: &[(usize, f64)], mode: &Observation) -> f64 {
-    let hmm = trans.hmm;
-    let log_total = log_sum_exp(last.iter().map(|e| e.1));
-    last.iter()
-        .map(|&(i, a)| {
-            let gamma = (a - log_total).exp();
-            let agreeing: f64 = hmm
-                .node(i)
-                .successors()
-                .filter(|(j, _)| (hmm.node(*j).mean() - mode).norm_squared() <= 1.0)
-                .map(|(j, f)| (f64::from(f) - trans.own_count(i, Some(j))).max(0.0))
-                .sum();
-            gamma * agreeing
-        })
-        .sum()
-}
-
-/// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
-const MODE_STARTS: usize = 16;
-/// Most components (the heaviest by ν) the mode is sought among. A flat ν over thousands of
-/// states (the first move of a routine, ν = π, in a large model) made each prediction cost
-/// milliseconds; such a ν is ambiguous and withheld anyway, and a mode is decided by its heavy
-/// components when ν is sharp.
-const MODE_COMPONENTS: usize = 64;
-
-/// `argmax_z Σ_j ν_j N(z; mean_j, I)` in whitened space by mean-shift fixed-point iterations
-/// started from each heavy component's mean.
-fn mixture_mode(hmm: &Hmm, nu: &[(usize, f64)]) -> Observation {
-    let mut comps: Vec<(f64, Observation)> = nu
-        .iter()
-        .filter(|(_, p)| *p > 0.0)
-        .map(|&(j, p)| (p, *hmm.node(j).mean()))
-        .collect();
-    comps.sort_by(|a, b| b.0.total_cmp(&a.0));
-    comps.truncate(MODE_COMPONENTS);
-    if comps.len() == 1 {
-        return comps[0].1;
-    }
-    let log_density = |z: &Observation| {
-        log_sum_exp(
-            comps
-                .iter()
-                .map(|(p, m)| p.ln() - 0.5 * (z - m).norm_squared()),
-        )
-    };
-    let mut best: Option<(f64, Observation)> = None;
-    for (_, start) in comps.iter().take(MODE_STARTS) {
-        let mut z = *start;
-        for _ in 0..100 {
-            let logs: Vec<f64> = comps
-                .iter()
-                .map(|(p, m)| p.ln() - 0.5 * (z - m).norm_squared())
-                .collect();
-            let max = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let (mut num, mut den) = (Observation::zeros(), 0.0);
-            for ((_, m), l) in comps.iter().zip(&logs) {
-                let w = (l - max).exp();
-                num += m * w;
-                den += w;
-            }
-            let next = num / den;
-            let step = (next - z).norm_squared();
-            z = next;
-            if step < 1e-20 {
-                break;
-            }
-        }
-        let d = log_density(&z);
-        if best.as_ref().is_none_or(|(b, _)| d > *b) {
-            best = Some((d, z));
-        }
-    }
-    best.map_or(comps[0].1, |(_, z)| z)
-}
-
-fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
-    let max = values.clone().fold(f64::NEG_INFINITY, f64::max);
-    if !max.is_finite() {
-        return max;
-    }
-    max + values.map(|v| (v - max).exp()).sum::<f64>().ln()
-}
-
-/// The HMM's transitions less the current routine's own edges inside the window.
-///
-/// With within-routine learning at a lag shorter than the window, the model already holds the
-/// window's own path, which is no evidence for the window (it would always match itself): its
-/// edges are discounted, and a state made only of window moves explains nothing.
-struct Transitions<'h, 'g> {
-    hmm: &'h Hmm<'g>,
-    /// The window's own edges (i, j), repeated as often as they occur.
-    own: Vec<(usize, usize)>,
-    /// The window's own moves' states, repeated as often as they occur.
-    own_states: Vec<usize>,
-}
-
-impl<'h, 'g> Transitions<'h, 'g> {
-    fn new(hmm: &'h Hmm<'g>, own: Vec<(usize, usize)>) -> Transitions<'h, 'g> {
-        Transitions {
-            hmm,
-            own,
-            own_states: Vec::new(),
-        }
-    }
-
-    /// For a window of the last `window` of `moves` moves, `path` being the states of the
-    /// routine's moves assimilated so far.
-    fn for_window(
-        hmm: &'h Hmm<'g>,
-        path: &[usize],
-        moves: usize,
-        window: usize,
-    ) -> Transitions<'h, 'g> {
-        let start = moves.saturating_sub(window).min(path.len());
-        let inside = &path[start..];
-        Transitions {
-            hmm,
-            own: inside.windows(2).map(|e| (e[0], e[1])).collect(),
-            own_states: inside.to_vec(),
-        }
-    }
-
-    /// Whether every member of state j is one of the window's own moves.
-    fn self_only(&self, j: usize) -> bool {
-        !self.own_states.is_empty()
-            && self.own_states.iter().filter(|&&s| s == j).count() as u32
-                >= self.hmm.node(j).count()
-    }
-
-    /// How many own edges leave `i` (towards `j`, or anywhere with None).
-    fn own_count(&self, i: usize, j: Option<usize>) -> f64 {
-        self.own
-            .iter()
-            .filter(|&&(a, b)| a == i && j.is_none_or(|j| j == b))
-            .count() as f64
-    }
-
-    /// Calls `f(j, a(j|i))` for each successor j of i.
-    fn for_each(&self, i: usize, mut f: impl FnMut(usize, f64)) {
-        let own_out = self.own_count(i, None);
-        if own_out == 0.0 {
-            for (j, a) in self.hmm.transitions(i) {
-                f(j, a);
-            }
-            return;
-        }
-        let node = self.hmm.node(i);
-        let total = node.outcome_weight() - own_out;
-        if total <= 1e-9 {
-            return;
-        }
-        for (j, w) in node.weighted_successors() {
-            let w = w - self.own_count(i, Some(j));
-            if w > 1e-9 {
-                f(j, w / total);
-            }
-        }
-    }
-}
-
-/// Most recent occurrences of a node looked at when searching for the window's context.
-const RECENT_OCCURRENCES: usize = 256;
-
-/// Where the window's context was seen before and what followed it.
-#[derive(Debug, Clone, Copy)]
-struct Recall {
-    /// The node that followed the most recent occurrence.
-    next: usize,
-    /// Mean squared distance of the window to that occurrence's states.
-    cost: f64,
-    /// Occurrences of the context (with a known continuation) found.
-    seen: usize,
-    /// Of those, how many were followed by (a node within one σ of) `next`.
-    agree: usize,
-}
-
-/// The continuation of the most recent place in the trace whose last `k` states fit the
-/// window `zs` (whitened, `k` moves) with mean squared distance at most `limit`.
-/// Contexts do not cross routine boundaries.
-fn recall(graph: &ObservationGraph, zs: &[Observation], limit: f64) -> Option<Recall> {
-    let trace = graph.trace();
-    let nodes = graph.nodes();
-    let k = zs.len();
-    let last = zs.last()?;
-    let budget = limit * k as f64;
-    let mut candidates = Vec::new();
-    graph.candidates(last, budget, &mut candidates);
-    // (position, next, cost) of every matching occurrence
-    let mut found: Vec<(usize, usize, f64)> = Vec::new();
-    for i in candidates {
-        if (last - nodes[i].mean()).norm_squared() > budget {
-            continue;
-        }
-        for &t in nodes[i].occurrences().iter().rev().take(RECENT_OCCURRENCES) {
-            let t = t as usize;
-            let Some(&next) = trace.get(t + 1) else {
-                continue;
-            };
-            if next == TRACE_END || t + 1 < k {
-                continue;
-            }
-            let context = &trace[t + 1 - k..=t];
-            let mut cost = 0.0;
-            for (z, &s) in zs.iter().zip(context) {
-                if s == TRACE_END {
-                    cost = f64::INFINITY;
-                    break;
-                }
-                cost += (z - nodes[s as usize].mean()).norm_squared();
-            }
-            if cost <= budget {
-                found.push((t, next as usize, cost / k as f64));
-            }
-        }
-    }
-    let &(_, next, cost) = found.iter().max_by_key(|e| e.0)?;
-    let target = nodes[next].mean();
-    let agree = found
-        .iter()
-        .filter(|e| (nodes[e.1].mean() - target).norm_squared() <= 1.0)
-        .count();
-    Some(Recall {
-        next,
-        cost,
-        seen: found.len(),
-        agree,
-    })
 }

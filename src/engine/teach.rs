@@ -226,7 +226,7 @@ impl Teacher {
                 .iter()
                 .map(|x| scale_translation(x, psi))
                 .collect();
-            super::predict::window_log_likelihood(&hmm, &scaled, &opts)
+            super::forward::window_log_likelihood(&hmm, &scaled, &opts)
         };
         let base = objective(1.0);
         match scale::maximise(sc.psi_min, sc.psi_max, objective) {

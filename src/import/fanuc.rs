@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use logos::Logos;
 use nalgebra::Vector3;
 
-use super::tokens::tokens;
+use super::tokens::{Cursor, Kind, tokens};
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
     Language, LineIndex, Location, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
@@ -55,6 +55,10 @@ enum K {
     #[token("/")]
     Slash,
     Other,
+}
+
+impl Kind for K {
+    const IDENT: K = K::Ident;
 }
 
 type Tok<'s> = super::tokens::Tok<'s, K>;
@@ -306,35 +310,30 @@ fn positions(
     err: &dyn Fn(usize, &str) -> ImportError,
 ) -> Result<HashMap<u64, Position>, ImportError> {
     let mut out = HashMap::new();
-    let mut i = 0;
-    while i < toks.len() {
+    let mut c = Cursor::new(toks);
+    while !c.at_end() {
         // P [ n ( : comment )? ] {
-        let is_start = toks.get(i).is_some_and(|t| t.k == K::Ident && t.s == "P")
-            && toks.get(i + 1).is_some_and(|t| t.k == K::LBrack);
+        let is_start =
+            c.peek(0).is_some_and(|t| t.k == K::Ident && t.s == "P") && c.is(1, K::LBrack);
         if !is_start {
-            i += 1;
+            c.skip(1);
             continue;
         }
-        let start_at = toks.get(i).map(|t| t.at).unwrap_or(0);
-        let Some(index) = toks
-            .get(i + 2)
-            .filter(|t| t.k == K::Num)
-            .and_then(|t| t.s.parse::<u64>().ok())
-        else {
+        let start_at = c.offset(0, 0);
+        let Some(index) = c.expect(2, K::Num).and_then(|t| t.s.parse::<u64>().ok()) else {
             return Err(err(start_at, "position data: expected P[number]"));
         };
-        let Some(open) = (i..toks.len()).find(|&j| toks.get(j).is_some_and(|t| t.k == K::LBrace))
-        else {
+        let Some(open) = c.find(K::LBrace) else {
             return Err(err(start_at, "position data: expected '{'"));
         };
-        let Some(close) =
-            (open..toks.len()).find(|&j| toks.get(j).is_some_and(|t| t.k == K::RBrace))
-        else {
+        c.seek(open);
+        let Some(close) = c.find(K::RBrace) else {
             return Err(err(start_at, "position data: P[n]{ without closing '}'"));
         };
-        let body = toks.get(open + 1..close).unwrap_or(&[]);
+        c.skip(1);
+        let body = c.take_to(close);
         out.insert(index, group1(body, start_at, err)?);
-        i = close + 1;
+        c.skip(1);
     }
     Ok(out)
 }
@@ -349,53 +348,42 @@ fn group1(
     let mut values: HashMap<String, f64> = HashMap::new();
     let mut config = None;
     let mut uframe = None;
-    let mut j = 0;
-    while j < body.len() {
-        let Some(t) = body.get(j) else { break };
-        if t.k == K::Ident
-            && t.s.starts_with("GP")
-            && body.get(j + 1).is_some_and(|c| c.k == K::Colon)
-        {
+    let mut c = Cursor::new(body);
+    while let Some(t) = c.peek(0) {
+        if t.k == K::Ident && t.s.starts_with("GP") && c.is(1, K::Colon) {
             group = t.s.get(2..).and_then(|g| g.parse().ok()).unwrap_or(0);
-            j += 2;
+            c.skip(2);
             continue;
         }
         if group != 1 || t.k != K::Ident {
-            j += 1;
+            c.skip(1);
             continue;
         }
         let key = t.s.to_ascii_uppercase();
-        match body.get(j + 1).map(|n| n.k) {
+        match c.peek(1).map(|n| n.k) {
             Some(K::Colon) if key == "CONFIG" => {
-                config = body
-                    .get(j + 2)
-                    .filter(|s| s.k == K::Str)
+                config = c
+                    .expect(2, K::Str)
                     .map(|s| s.s.trim_matches('\'').to_string());
-                j += 3;
+                c.skip(3);
             }
             Some(K::Colon) if key == "UF" => {
-                uframe = body.get(j + 2).map(|s| format!("UF{}", s.s));
-                j += 3;
+                uframe = c.peek(2).map(|s| format!("UF{}", s.s));
+                c.skip(3);
             }
             Some(K::Eq) => {
-                let (neg, k) = match body.get(j + 2) {
-                    Some(m) if m.k == K::Minus => (true, j + 3),
-                    _ => (false, j + 2),
-                };
-                let Some(v) = body
-                    .get(k)
-                    .filter(|n| n.k == K::Num)
-                    .and_then(|n| n.s.parse::<f64>().ok())
-                else {
+                let neg = c.is(2, K::Minus);
+                let k = if neg { 3 } else { 2 };
+                let Some(v) = c.expect(k, K::Num).and_then(|n| n.s.parse::<f64>().ok()) else {
                     return Err(err(
                         t.at,
                         &format!("position data: {key} = must be followed by a number"),
                     ));
                 };
                 values.insert(key, if neg { -v } else { v });
-                j = k + 1;
+                c.skip(k + 1);
             }
-            _ => j += 1,
+            _ => c.skip(1),
         }
     }
     if values.contains_key("J1") {

@@ -16,7 +16,7 @@ use std::collections::{HashMap, HashSet};
 use logos::Logos;
 use nalgebra::Vector3;
 
-use super::tokens::tokens;
+use super::tokens::{Cursor, Kind, tokens};
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
     Language, LineIndex, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
@@ -54,6 +54,10 @@ enum K {
     #[token("+")]
     Plus,
     Other,
+}
+
+impl Kind for K {
+    const IDENT: K = K::Ident;
 }
 
 type Tok<'s> = super::tokens::Tok<'s, K>;
@@ -104,11 +108,6 @@ fn lines_of<'s>(f: &SourceFile<'s>) -> Vec<Line<'s>> {
         }
     }
     out
-}
-
-fn word<'s>(t: Option<&Tok<'s>>) -> Option<String> {
-    t.filter(|t| t.k == K::Ident)
-        .map(|t| t.s.to_ascii_uppercase())
 }
 
 /// What pairs a `.src` with its `.dat`: the directory and the stem, case-insensitive.
@@ -172,14 +171,11 @@ fn declaration(
     toks: &[Tok<'_>],
     names: &mut HashMap<String, Value>,
 ) -> Result<bool, ImportError> {
-    let mut i = 0;
-    while matches!(
-        word(toks.get(i)).as_deref(),
-        Some("DECL" | "GLOBAL" | "CONST")
-    ) {
-        i += 1;
+    let mut c = Cursor::new(toks);
+    while matches!(c.word(0).as_deref(), Some("DECL" | "GLOBAL" | "CONST")) {
+        c.skip(1);
     }
-    let Some(ty) = word(toks.get(i)) else {
+    let Some(ty) = c.word(0) else {
         return Ok(false);
     };
     let joint = matches!(ty.as_str(), "E6AXIS" | "AXIS");
@@ -187,13 +183,13 @@ fn declaration(
         return Ok(false);
     }
     // Several names may share one declaration line without values (`DECL E6POS a, b`).
-    let Some(name) = toks.get(i + 1).filter(|t| t.k == K::Ident) else {
+    let Some(name) = c.expect(1, K::Ident) else {
         return Ok(false);
     };
     let key = name.s.to_ascii_uppercase();
-    match toks.get(i + 2).map(|t| t.k) {
+    match c.peek(2).map(|t| t.k) {
         Some(K::Eq) => {
-            let agg = toks.get(i + 3..).unwrap_or(&[]);
+            let agg = c.rest(3);
             let value = if joint {
                 Value::Joint
             } else {
@@ -225,7 +221,7 @@ fn aggregate(toks: &[Tok<'_>]) -> Option<Value> {
     let mut values = HashMap::new();
     if !inner.is_empty() {
         for part in inner.split(|t| t.k == K::Comma) {
-            let key = word(part.first())?;
+            let key = part.first().and_then(Tok::word)?;
             let (neg, rest) = match part.get(1) {
                 Some(t) if t.k == K::Minus => (true, part.get(2..)?),
                 Some(t) if t.k == K::Plus => (false, part.get(2..)?),
@@ -269,22 +265,17 @@ fn routines(
     let mut current: Option<(ImportedRoutine, HashMap<String, Value>)> = None;
     for line in lines_of(src) {
         let toks = &line.toks;
-        let mut i = 0;
-        if word(toks.first()).as_deref() == Some("GLOBAL") {
-            i = 1;
+        let mut c = Cursor::new(toks);
+        if c.is_kw(0, "GLOBAL") {
+            c.skip(1);
         }
-        match word(toks.get(i)).as_deref() {
+        match c.word(0).as_deref() {
             Some("DEF") | Some("DEFFCT") => {
-                let name_at = if word(toks.get(i)).as_deref() == Some("DEFFCT") {
-                    i + 2
-                } else {
-                    i + 1
-                };
-                let Some(name) = toks.get(name_at).filter(|t| t.k == K::Ident) else {
-                    let at = toks.get(i).map(|t| t.at).unwrap_or(0);
+                let name_at = if c.is_kw(0, "DEFFCT") { 2 } else { 1 };
+                let Some(name) = c.expect(name_at, K::Ident) else {
                     return Err(ImportError::syntax(
                         src.name,
-                        idx.locate(src.text, at),
+                        idx.locate(src.text, c.offset(0, 0)),
                         "DEF must be followed by the routine name",
                     ));
                 };
@@ -333,7 +324,9 @@ fn motion(
     skipped: &mut Vec<Skipped>,
 ) {
     let toks = &line.toks;
-    let Some(kw) = word(toks.first()) else { return };
+    let Some(kw) = toks.first().and_then(Tok::word) else {
+        return;
+    };
     let (motion, relative) = match kw.as_str() {
         "PTP" | "SPTP" => ("PTP", false),
         "LIN" | "SLIN" => ("LIN", false),
@@ -346,25 +339,16 @@ fn motion(
     let rest = toks.get(1..).unwrap_or(&[]);
     // Targets: a name or an aggregate, separated by a comma for CIRC.
     let mut targets: Vec<&[Tok<'_>]> = Vec::new();
-    let mut j = 0;
-    while j < rest.len() && targets.len() < if motion.starts_with("CIRC") { 2 } else { 1 } {
-        let Some(t) = rest.get(j) else { break };
+    let mut c = Cursor::new(rest);
+    while targets.len() < if motion.starts_with("CIRC") { 2 } else { 1 } {
+        let Some(t) = c.peek(0) else { break };
         match t.k {
             K::LBrace => {
-                let end = rest
-                    .iter()
-                    .skip(j)
-                    .position(|t| t.k == K::RBrace)
-                    .map(|e| j + e + 1)
-                    .unwrap_or(rest.len());
-                targets.push(rest.get(j..end).unwrap_or(&[]));
-                j = end;
+                let end = c.find(K::RBrace).map_or(rest.len(), |e| e + 1);
+                targets.push(c.take_to(end));
             }
-            K::Ident => {
-                targets.push(rest.get(j..j + 1).unwrap_or(&[]));
-                j += 1;
-            }
-            K::Comma => j += 1,
+            K::Ident => targets.push(c.take_to(c.pos() + 1)),
+            K::Comma => c.skip(1),
             _ => break,
         }
     }

@@ -7,7 +7,7 @@
 
 use logos::Logos;
 
-use crate::import::tokens::tokens;
+use crate::import::tokens::{Kind, tokens};
 
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq)]
 #[logos(skip r"[ \t\r\n\f]+")]
@@ -56,7 +56,12 @@ pub(super) enum K {
     Other,
 }
 
+impl Kind for K {
+    const IDENT: K = K::Ident;
+}
+
 pub(super) type Tok<'s> = crate::import::tokens::Tok<'s, K>;
+pub(super) type Cursor<'t, 's> = crate::import::tokens::Cursor<'t, 's, K>;
 
 pub(super) fn lex(text: &str) -> Vec<Tok<'_>> {
     // A `%%% VERSION:1 LANGUAGE:ENGLISH %%%` header (RobotWare 5 files) is not RAPID.
@@ -66,10 +71,6 @@ pub(super) fn lex(text: &str) -> Vec<Tok<'_>> {
         .and_then(|rest| rest.find("%%%").map(|i| text.len() - rest.len() + i + 3))
         .unwrap_or(0);
     tokens(text.get(start..).unwrap_or(""), start, K::Other)
-}
-
-pub(super) fn is_kw(t: Option<&Tok<'_>>, kw: &str) -> bool {
-    t.is_some_and(|t| t.k == K::Ident && t.s.eq_ignore_ascii_case(kw))
 }
 
 /// Index of the `;` ending the statement starting at `i` (or of the block keyword that cuts a

@@ -3,7 +3,7 @@
 //! bounded by [`MAX_BLOCK_NESTING`].
 
 use super::MAX_BLOCK_NESTING;
-use super::lexer::{K, Tok, closing, is_kw, lex, scan_statement, statement_end};
+use super::lexer::{Cursor, K, Tok, closing, lex, scan_statement, statement_end};
 use crate::import::{ImportError, LineIndex, SourceFile, stem_of};
 
 /// A statement: a token range, its routine part.
@@ -48,10 +48,10 @@ pub(super) fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportErr
     };
     let toks = &m.toks;
     let n = toks.len();
-    let err = |i: usize, msg: &str| {
-        let at = toks.get(i).map(|t| t.at).unwrap_or(file.text.len());
-        ImportError::syntax(file.name, m.lines.locate(file.text, at), msg)
-    };
+    // Errors name the token they are about, or the end of the file past the last one.
+    let eof = file.text.len();
+    let err =
+        |at: usize, msg: &str| ImportError::syntax(file.name, m.lines.locate(file.text, at), msg);
     let mut routine: Option<RoutineAst> = None;
     let mut in_error = false;
     let mut local = false;
@@ -71,58 +71,58 @@ pub(super) fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportErr
         }
         Ok(())
     };
-    let mut i = 0;
-    while i < n {
-        let t = toks[i];
+    let mut c = Cursor::new(toks);
+    while let Some(&t) = c.peek(0) {
         if t.k == K::Semi {
-            i += 1;
+            c.skip(1);
             continue;
         }
-        let word = if t.k == K::Ident {
-            t.s.to_ascii_uppercase()
-        } else {
-            String::new()
-        };
+        let word = t.word().unwrap_or_default();
         match word.as_str() {
             "MODULE" => {
                 blocks = 0;
-                match toks.get(i + 1) {
-                    Some(name) if name.k == K::Ident => m.name = name.s.to_string(),
-                    _ => return Err(err(i + 1, "MODULE must be followed by its name")),
+                match c.expect(1, K::Ident) {
+                    Some(name) => m.name = name.s.to_string(),
+                    None => {
+                        return Err(err(c.offset(1, eof), "MODULE must be followed by its name"));
+                    }
                 }
-                i += 2;
-                if toks.get(i).is_some_and(|t| t.k == K::LParen) {
-                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed module attributes"))?
-                        + 1;
+                c.skip(2);
+                if c.is(0, K::LParen) {
+                    let close = closing(toks, c.pos(), n)
+                        .ok_or_else(|| err(c.offset(0, eof), "unclosed module attributes"))?;
+                    c.seek(close + 1);
                 }
             }
             "LOCAL" | "TASK" | "SYSMODULE" | "NOSTEPIN" | "VIEWONLY" | "READONLY" | "NOVIEW" => {
                 local |= word == "LOCAL";
-                i += 1;
+                c.skip(1);
             }
             "PROC" | "TRAP" | "FUNC" => {
                 if let Some(r) = routine.take() {
                     m.routines.push(r);
                 }
-                let name_at = if word == "FUNC" { i + 2 } else { i + 1 };
-                let name = match toks.get(name_at) {
-                    Some(t) if t.k == K::Ident => t.s.to_string(),
-                    _ => {
+                let name_at = if word == "FUNC" { 2 } else { 1 };
+                let name = match c.expect(name_at, K::Ident) {
+                    Some(t) => t.s.to_string(),
+                    None => {
                         return Err(err(
-                            name_at,
+                            c.offset(name_at, eof),
                             &format!("{word} must be followed by its name"),
                         ));
                     }
                 };
-                i = name_at + 1;
+                c.skip(name_at + 1);
                 if word != "TRAP" {
-                    if !toks.get(i).is_some_and(|t| t.k == K::LParen) {
+                    if !c.is(0, K::LParen) {
                         return Err(err(
-                            i,
+                            c.offset(0, eof),
                             &format!("{word} {name}: expected '(' and parameters"),
                         ));
                     }
-                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed parameter list"))? + 1;
+                    let close = closing(toks, c.pos(), n)
+                        .ok_or_else(|| err(c.offset(0, eof), "unclosed parameter list"))?;
+                    c.seek(close + 1);
                 }
                 routine = Some(RoutineAst {
                     name,
@@ -140,71 +140,71 @@ pub(super) fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportErr
                 }
                 in_error = false;
                 blocks = 0;
-                i += 1;
+                c.skip(1);
             }
             "ENDMODULE" => {
                 blocks = 0;
-                i += 1;
+                c.skip(1);
             }
             "ENDIF" | "ENDWHILE" | "ENDFOR" | "ENDTEST" => {
                 blocks = blocks.saturating_sub(1);
-                i += 1;
+                c.skip(1);
             }
-            "ELSE" => i += 1,
+            "ELSE" => c.skip(1),
             "ERROR" | "BACKWARD" | "UNDO" if routine.is_some() => {
                 in_error = true;
-                i += 1;
-                if toks.get(i).is_some_and(|t| t.k == K::LParen) {
-                    i = closing(toks, i, n).ok_or_else(|| err(i, "unclosed error number list"))?
-                        + 1;
+                c.skip(1);
+                if c.is(0, K::LParen) {
+                    let close = closing(toks, c.pos(), n)
+                        .ok_or_else(|| err(c.offset(0, eof), "unclosed error number list"))?;
+                    c.seek(close + 1);
                 }
             }
             "RECORD" => {
-                while i < n && !is_kw(toks.get(i), "ENDRECORD") {
-                    i += 1;
+                while !c.at_end() && !c.is_kw(0, "ENDRECORD") {
+                    c.skip(1);
                 }
-                i += 1;
+                c.skip(1);
             }
             "IF" | "ELSEIF" | "WHILE" | "FOR" => {
                 if let (Some(r), true) = (routine.as_mut(), word == "FOR") {
                     r.stmts.push(Stmt {
-                        start: i,
-                        end: i,
+                        start: c.pos(),
+                        end: c.pos(),
                         in_error_handler: in_error,
                         local: false,
-                        loop_var: toks.get(i + 1).map(|t| t.s.to_ascii_lowercase()),
+                        loop_var: c.peek(1).map(|t| t.s.to_ascii_lowercase()),
                     });
                 }
                 // Skip the condition up to THEN/DO; a compact IF (no THEN) is one statement.
-                let head =
-                    scan_statement(toks, i, |t| is_kw(Some(t), "THEN") || is_kw(Some(t), "DO"));
+                let head = scan_statement(toks, c.pos(), |t| t.is_kw("THEN") || t.is_kw("DO"));
                 match head {
                     Ok(j) => {
                         if word != "ELSEIF" {
                             open_block(&mut blocks, t.at)?;
                         }
-                        i = j + 1;
+                        c.seek(j + 1);
                     }
-                    Err(end) => i = end + 1,
+                    Err(end) => c.seek(end + 1),
                 }
             }
             "TEST" => {
                 open_block(&mut blocks, t.at)?;
-                i += 1;
-                while i < n && !is_kw(toks.get(i), "CASE") && !is_kw(toks.get(i), "DEFAULT") {
-                    i += 1;
+                c.skip(1);
+                while !c.at_end() && !c.is_kw(0, "CASE") && !c.is_kw(0, "DEFAULT") {
+                    c.skip(1);
                 }
             }
-            "CASE" | "DEFAULT" => match scan_statement(toks, i, |t| t.k == K::Colon) {
-                Ok(j) | Err(j) => i = j + 1,
+            "CASE" | "DEFAULT" => match scan_statement(toks, c.pos(), |t| t.k == K::Colon) {
+                Ok(j) | Err(j) => c.seek(j + 1),
             },
-            _ if t.k == K::Ident && toks.get(i + 1).is_some_and(|t| t.k == K::Colon) => {
-                i += 2; // label
+            _ if t.k == K::Ident && c.is(1, K::Colon) => {
+                c.skip(2); // label
             }
             _ => {
-                let end = statement_end(toks, i);
+                let end = statement_end(toks, c.pos());
                 let st = Stmt {
-                    start: i,
+                    start: c.pos(),
                     end,
                     in_error_handler: in_error,
                     local,
@@ -215,7 +215,7 @@ pub(super) fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportErr
                     None => m.decls.push(st),
                 }
                 local = false;
-                i = end + 1;
+                c.seek(end + 1);
             }
         }
     }
