@@ -10,12 +10,12 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nextpose::engine::Pose;
 use nextpose::kinematics::{
-    Cell, DOF, Joints, ReachConfig, Robot, bundled_robots_dir, check_reach, load_robot,
+    DOF, Joints, Mounting, ReachConfig, Robot, bundled_robots_dir, check_reach, load_robot,
 };
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// `n` (previous joints, target TCP pose in the work frame) pairs of random in-limit joints.
-fn targets(robot: &Robot, cell: &Cell, n: usize) -> Vec<(Joints, Pose)> {
+fn targets(robot: &Robot, cell: &Mounting, n: usize) -> Vec<(Joints, Pose)> {
     let mut rng = StdRng::seed_from_u64(17);
     (0..n)
         .map(|_| {
@@ -40,7 +40,7 @@ fn targets(robot: &Robot, cell: &Cell, n: usize) -> Vec<(Joints, Pose)> {
 fn bench(c: &mut Criterion) {
     let base = Pose::new([800.0, 200.0, 0.0], [0.9238795, 0.0, 0.0, 0.3826834]).unwrap();
     let tool = Pose::new([0.0, 0.0, 150.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-    let cell = Cell::new(base, tool);
+    let cell = Mounting::new(base, tool);
     let config = ReachConfig::default();
     for name in ["abb_irb140", "kuka_kr16_2", "ur5e"] {
         let robot = load_robot(&bundled_robots_dir(), name).unwrap();

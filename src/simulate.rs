@@ -104,7 +104,7 @@ impl CellSetup {
         plan: &Plan,
         session: &Session,
         robot: &str,
-        frames: &crate::kinematics::Cell,
+        frames: &crate::kinematics::Mounting,
     ) -> CellSetup {
         let c = &session.condition;
         let (sigma_t_mm, sigma_q) = plan.sigmas(c.profile);

@@ -5,7 +5,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use nextpose::engine::Pose;
 use nextpose::kinematics::{
-    Cell, DOF, Joints, KinematicsError, Offer, ReachConfig, ReachPolicy, Robot, SolverKind,
+    DOF, Joints, KinematicsError, Mounting, Offer, ReachConfig, ReachPolicy, Robot, SolverKind,
     Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
     pose_to_metres,
 };
@@ -251,7 +251,13 @@ fn poses_outside_the_reach_sphere_have_no_solution() {
             let far =
                 Pose::from_isometry(Isometry3::from_parts(Translation3::from(dir * 3500.0), rot));
             assert!(r.ik(&far).is_empty());
-            let reach = check_reach(&r, &Cell::default(), &far, None, &ReachConfig::default());
+            let reach = check_reach(
+                &r,
+                &Mounting::default(),
+                &far,
+                None,
+                &ReachConfig::default(),
+            );
             assert_eq!(reach.unreachable, Some(Unreachable::OutsideReach));
             assert!(reach.solutions.is_empty());
             assert_eq!(
@@ -294,7 +300,7 @@ fn wrist_singularity_is_handled_without_nan() {
             assert!(assert_no_nan(&r, &target) > 0, "{name}: {q:?}");
             let reach = check_reach(
                 &r,
-                &Cell::default(),
+                &Mounting::default(),
                 &r.fk(&q),
                 Some(&q),
                 &ReachConfig::default(),
@@ -335,7 +341,7 @@ fn shoulder_singularity_is_handled_without_nan() {
             assert_no_nan(&r, &target);
             let reach = check_reach(
                 &r,
-                &Cell::default(),
+                &Mounting::default(),
                 &nextpose::kinematics::metres_to_pose(&target),
                 None,
                 &ReachConfig::default(),
@@ -352,7 +358,7 @@ fn reach_picks_the_solution_nearest_the_previous_joints_in_a_cell() {
     let r = robot("abb_irb140");
     let base = Pose::new([1200.0, -300.0, 150.0], [0.9238795, 0.0, 0.0, 0.3826834]).unwrap();
     let tool = Pose::new([0.0, 0.0, 180.0], [0.9659258, 0.0, 0.2588190, 0.0]).unwrap();
-    let cell = Cell::new(base, tool);
+    let cell = Mounting::new(base, tool);
     let mut rng = StdRng::seed_from_u64(21);
     for _ in 0..300 {
         let mut q = random_joints(&r, &mut rng);
@@ -401,7 +407,7 @@ fn joint_limit_is_reported_with_the_blocking_joint() {
         q[4] = if rng.random_bool(0.5) { 2.6 } else { -2.6 };
         let reach = check_reach(
             &r,
-            &Cell::default(),
+            &Mounting::default(),
             &r.fk(&q),
             None,
             &ReachConfig::default(),
@@ -566,7 +572,7 @@ fn replay_report_gains_reachability_figures() {
 fn robots_can_be_shared_between_threads() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<Robot>();
-    assert_send_sync::<Cell>();
+    assert_send_sync::<Mounting>();
     assert_send_sync::<nextpose::kinematics::Reachability>();
 }
 
@@ -574,7 +580,13 @@ fn robots_can_be_shared_between_threads() {
 fn reachability_serialises_with_its_reason() {
     let r = robot("abb_irb140");
     let far = Pose::new([5000.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-    let reach = check_reach(&r, &Cell::default(), &far, None, &ReachConfig::default());
+    let reach = check_reach(
+        &r,
+        &Mounting::default(),
+        &far,
+        None,
+        &ReachConfig::default(),
+    );
     let json = serde_json::to_value(&reach).unwrap();
     assert_eq!(json["unreachable"]["reason"], "outside_reach");
     assert_eq!(

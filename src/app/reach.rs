@@ -11,7 +11,7 @@ use super::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use super::settings::CellSettings;
 use crate::engine::Pose;
 use crate::kinematics::{
-    self, Cell as Frames, Joints, KinematicsError, ReachConfig, ReachPolicy, Reachability, Robot,
+    self, Joints, KinematicsError, Mounting, ReachConfig, ReachPolicy, Reachability, Robot,
     RobotModel, Unreachable, check_reach,
 };
 
@@ -81,7 +81,7 @@ pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
 #[derive(Debug, Clone)]
 pub(crate) struct CellArm {
     robot: Arc<Robot>,
-    frames: Frames,
+    frames: Mounting,
     config: ReachConfig,
     /// Per taught waypoint of the open routine: its joints (taught, or the chosen solution).
     trail: Vec<Option<Joints>>,
@@ -91,7 +91,7 @@ impl CellArm {
     pub fn new(robot: Arc<Robot>, settings: &CellSettings) -> Result<CellArm, AppError> {
         Ok(CellArm {
             robot,
-            frames: Frames::new(settings.base.to_pose()?, settings.tool.to_pose()?),
+            frames: Mounting::new(settings.base.to_pose()?, settings.tool.to_pose()?),
             config: ReachConfig {
                 policy: settings.reach_policy,
                 ..ReachConfig::default()

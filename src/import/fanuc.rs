@@ -19,7 +19,7 @@ use nalgebra::Vector3;
 use super::tokens::{Cursor, Kind, tokens};
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
-    Language, LineIndex, Location, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
+    ImportedWaypoint, Language, LineIndex, Location, SkipReason, Skipped, SourceFile, directory_of,
     drop_short_routines, pose_of, rotation_zyx_deg,
 };
 
@@ -253,7 +253,7 @@ fn parse_file(
                 config,
                 uframe,
             }) => match pose_of(frame) {
-                Some(pose) => waypoints.push(Waypoint {
+                Some(pose) => waypoints.push(ImportedWaypoint {
                     name: format!("P[{i}]"),
                     pose,
                     motion: m.motion.to_string(),

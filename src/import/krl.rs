@@ -19,7 +19,7 @@ use nalgebra::Vector3;
 use super::tokens::{Cursor, Kind, tokens};
 use super::{
     CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
-    Language, LineIndex, SkipReason, Skipped, SourceFile, Waypoint, directory_of,
+    ImportedWaypoint, Language, LineIndex, SkipReason, Skipped, SourceFile, directory_of,
     drop_short_routines, excerpt, pose_of, rotation_zyx_deg, stem_of,
 };
 
@@ -421,7 +421,7 @@ fn motion(
                 .map(|p| (p, s, tu))
                 .ok_or(SkipReason::InvalidTarget)
         }) {
-            Ok((pose, status, turn)) => routine.waypoints.push(Waypoint {
+            Ok((pose, status, turn)) => routine.waypoints.push(ImportedWaypoint {
                 name: text,
                 pose,
                 motion: motion.to_string(),
@@ -438,7 +438,11 @@ fn motion(
 type Resolved = (Frame, Option<i64>, Option<i64>);
 
 /// A `_REL` displacement applied to the previous waypoint (in the base or the tool frame).
-fn relative_to(previous: Option<&Waypoint>, d: &Frame, tool: bool) -> Result<Resolved, SkipReason> {
+fn relative_to(
+    previous: Option<&ImportedWaypoint>,
+    d: &Frame,
+    tool: bool,
+) -> Result<Resolved, SkipReason> {
     let Some(prev) = previous else {
         return Err(SkipReason::ComputedAtRunTime);
     };

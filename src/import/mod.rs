@@ -117,7 +117,7 @@ pub enum CircleRole {
 
 /// One Cartesian waypoint as a motion instruction visits it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Waypoint {
+pub struct ImportedWaypoint {
     /// The target as written (`p10`, `Offs(p10,0,0,50)`, `P[3]`) or `literal@L<line>`.
     pub name: String,
     #[serde(serialize_with = "serialize_pose")]
@@ -141,7 +141,7 @@ pub struct ImportedRoutine {
     pub file: String,
     /// 1-based line of its header.
     pub line: usize,
-    pub waypoints: Vec<Waypoint>,
+    pub waypoints: Vec<ImportedWaypoint>,
 }
 
 /// One program: a RAPID module, a KRL `.src` (with its `.dat`), or a FANUC folder.

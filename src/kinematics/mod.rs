@@ -19,7 +19,7 @@
 //! ```text
 //! list_robots(&bundled_robots_dir())?            -> Vec<RobotModel>   GET /v1/robots
 //! load_robot(&dir, "abb_irb140")?                 -> Robot             once per cell, then shared
-//! Cell::new(base, tool)                           base: robot base in the work frame; tool: TCP on tool0
+//! Mounting::new(base, tool)                           base: robot base in the work frame; tool: TCP on tool0
 //! check_reach(&robot, &cell, &target, prev, &cfg) -> Reachability      per predicted pose (mm)
 //! reachability.offer(cfg.policy)                  -> Offer::{Offer, Flag, Withhold}
 //! robot.ik(&flange) / robot.fk(&q)                 all solutions / tool0 pose, base frame, mm
@@ -44,7 +44,7 @@ use crate::engine::Pose;
 pub use error::KinematicsError;
 pub use opw::OpwSolver;
 pub use reach::{
-    Cell, JointMargin, Offer, ReachConfig, ReachPolicy, Reachability, Unreachable, check_reach,
+    JointMargin, Mounting, Offer, ReachConfig, ReachPolicy, Reachability, Unreachable, check_reach,
 };
 pub use units::{MM_PER_M, metres_to_pose, pose_to_metres};
 pub use ur::UrSolver;

@@ -10,7 +10,7 @@ use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Serialize;
 
 use super::{
-    Cell, KinematicsError, ReachConfig, Robot, bundled_robots_dir, check_reach, load_robot,
+    KinematicsError, Mounting, ReachConfig, Robot, bundled_robots_dir, check_reach, load_robot,
 };
 use crate::engine::Pose;
 
@@ -63,7 +63,7 @@ impl ReachCheck {
         &self,
         language: &str,
         poses: impl IntoIterator<Item = &'a Pose>,
-    ) -> Option<Cell> {
+    ) -> Option<Mounting> {
         if !self.setup.languages.iter().any(|l| l == language) {
             return None;
         }
@@ -84,7 +84,7 @@ impl ReachCheck {
         let centroid = Vector3::new(median(0), median(1), median(2));
         let [x, y, z] = self.setup.centroid_in_base_mm;
         let base = centroid - Vector3::new(x, y, z);
-        Some(Cell::new(
+        Some(Mounting::new(
             Pose::from_isometry(Isometry3::from_parts(
                 Translation3::from(base),
                 nalgebra::UnitQuaternion::identity(),
@@ -93,7 +93,7 @@ impl ReachCheck {
         ))
     }
 
-    pub fn reachable(&self, cell: &Cell, target: &Pose) -> bool {
+    pub fn reachable(&self, cell: &Mounting, target: &Pose) -> bool {
         check_reach(&self.robot, cell, target, None, &self.config).is_reachable()
     }
 }

@@ -15,27 +15,28 @@ use crate::engine::{Pose, PoseValues};
 use super::urdf::{DOF, Joints};
 use super::{Robot, pose_to_metres};
 
-/// Where the robot stands and what it holds. Both poses in mm.
+/// How an arm is mounted in its cell: where the robot stands and what it holds. Both poses
+/// in mm.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Cell {
+pub struct Mounting {
     /// Robot base frame in the work (world) frame.
     pub base: Pose,
     /// TCP in the flange (`tool0`) frame.
     pub tool: Pose,
 }
 
-impl Default for Cell {
-    fn default() -> Cell {
-        Cell {
+impl Default for Mounting {
+    fn default() -> Mounting {
+        Mounting {
             base: Pose::identity(),
             tool: Pose::identity(),
         }
     }
 }
 
-impl Cell {
-    pub fn new(base: Pose, tool: Pose) -> Cell {
-        Cell { base, tool }
+impl Mounting {
+    pub fn new(base: Pose, tool: Pose) -> Mounting {
+        Mounting { base, tool }
     }
 
     /// The flange pose in the robot base frame that puts the TCP at `target` (work frame):
@@ -158,7 +159,7 @@ fn distance_sq(a: &Joints, b: &Joints) -> f64 {
 /// `previous`: the joints of the previous waypoint, when known.
 pub fn check_reach(
     robot: &Robot,
-    cell: &Cell,
+    cell: &Mounting,
     target: &Pose,
     previous: Option<&Joints>,
     config: &ReachConfig,

@@ -7,7 +7,7 @@
 //! figure.
 
 use crate::engine::Pose;
-use crate::kinematics::Cell;
+use crate::kinematics::Mounting;
 use crate::kinematics::placement::ReachCheck;
 
 use super::method::{Guess, Method, ModelSummary};
@@ -46,7 +46,7 @@ impl<'a> ReachRecorder<'a> {
     }
 
     /// Reachability of everything seen, for the arm in `cell`.
-    pub fn check(&self, check: &ReachCheck, cell: &Cell) -> Vec<ReachRecord> {
+    pub fn check(&self, check: &ReachCheck, cell: &Mounting) -> Vec<ReachRecord> {
         self.seen
             .iter()
             .map(|s| ReachRecord {

@@ -1,7 +1,7 @@
 //! A simulated six-joint arm in a work cell: where it is (joints and TCP), and how long a jog
 //! takes.
 //!
-//! The arm is a [`Robot`] (URDF chain, all IK solutions) placed in a [`Cell`]. It moves in two
+//! The arm is a [`Robot`] (URDF chain, all IK solutions) placed in a [`Mounting`]. It moves in two
 //! ways, as a pendant moves a real arm:
 //!
 //! - [`Arm::joint_move`]: an automatic move to a pose (the pendant's "go to" while a button is
@@ -22,7 +22,7 @@ use nalgebra::{Isometry3, Translation3};
 
 use crate::engine::Pose;
 use crate::kinematics::urdf::{DOF, Joints};
-use crate::kinematics::{Cell, Robot, pose_to_metres};
+use crate::kinematics::{Mounting, Robot, pose_to_metres};
 
 /// Speed limits of jogging. See the README's "Simulation" section for the sources.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -68,7 +68,7 @@ pub struct Jog {
 #[derive(Debug, Clone)]
 pub struct Arm {
     robot: Robot,
-    cell: Cell,
+    cell: Mounting,
     limits: JogLimits,
     /// Per-joint speed while jogging, rad/s.
     joint_speed: [f64; DOF],
@@ -80,7 +80,7 @@ pub struct Arm {
 
 impl Arm {
     /// An arm of `robot` placed by `cell`, standing at `start` (work frame).
-    pub fn new(robot: Robot, cell: Cell, limits: JogLimits, start: &Pose) -> Arm {
+    pub fn new(robot: Robot, cell: Mounting, limits: JogLimits, start: &Pose) -> Arm {
         let mut joint_speed = [f64::INFINITY; DOF];
         for (s, j) in joint_speed.iter_mut().zip(robot.joints()) {
             if j.velocity.is_finite() && j.velocity > 0.0 {
@@ -103,7 +103,7 @@ impl Arm {
         &self.robot
     }
 
-    pub fn cell(&self) -> &Cell {
+    pub fn cell(&self) -> &Mounting {
         &self.cell
     }
 
@@ -246,7 +246,7 @@ mod tests {
     fn a_reachable_jog_is_limited_by_the_tcp_speed_far_from_singularities() {
         let mut arm = Arm::new(
             irb140(),
-            Cell::default(),
+            Mounting::default(),
             JogLimits::default(),
             &pose(450.0, 0.0, 400.0),
         );
@@ -267,7 +267,12 @@ mod tests {
     #[test]
     fn a_joint_move_takes_the_slowest_joint_time() {
         let limits = JogLimits::default();
-        let mut arm = Arm::new(irb140(), Cell::default(), limits, &pose(450.0, 0.0, 400.0));
+        let mut arm = Arm::new(
+            irb140(),
+            Mounting::default(),
+            limits,
+            &pose(450.0, 0.0, 400.0),
+        );
         let q0 = arm.joints().copied().unwrap();
         // The same pose mirrored across the base: joint 1 turns by about π/2.
         let jog = arm.joint_move(&pose(0.0, 450.0, 400.0));
@@ -282,7 +287,7 @@ mod tests {
     fn an_unreachable_target_is_timed_by_the_tcp_limits_and_reported() {
         let mut arm = Arm::new(
             irb140(),
-            Cell::default(),
+            Mounting::default(),
             JogLimits::default(),
             &pose(450.0, 0.0, 400.0),
         );

@@ -383,7 +383,7 @@ impl Operator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::{Cell, bundled_robots_dir, load_robot};
+    use crate::kinematics::{Mounting, bundled_robots_dir, load_robot};
     use crate::sim::arm::JogLimits;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
@@ -398,7 +398,7 @@ mod tests {
             model,
             Arm::new(
                 robot,
-                Cell::default(),
+                Mounting::default(),
                 JogLimits::default(),
                 &pose(450.0, 0.0, 400.0),
             ),

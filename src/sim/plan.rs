@@ -10,7 +10,7 @@ use super::SimError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Profile;
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
-use crate::kinematics::{Cell, ReachPolicy};
+use crate::kinematics::{Mounting, ReachPolicy};
 use crate::program::Program;
 
 /// One row of the seed's Table 4.1.
@@ -156,7 +156,7 @@ impl Plan {
 /// Where the arm stands for a program: a bundled robot for the program's language, placed
 /// like the replay's reachability check (the program's median waypoint at a comfortable
 /// point in front of the base; `kinematics::placement`).
-pub fn placement(program: &Program) -> Result<(String, Cell), SimError> {
+pub fn placement(program: &Program) -> Result<(String, Mounting), SimError> {
     let (robot, centroid) = match program.language.as_str() {
         // The replay's IRB 140 setup for ABB programs.
         "rapid" => ("abb_irb140", [450.0, 0.0, 350.0]),

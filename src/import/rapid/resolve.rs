@@ -6,7 +6,9 @@ use std::collections::HashMap;
 use super::eval::{Binding, Evaluator, Val, as_target, target_from_agg};
 use super::lexer::{K, Tok, arguments};
 use super::structure::{ModuleAst, RoutineAst, Stmt, text_of};
-use crate::import::{CircleRole, ImportError, SkipReason, Skipped, Waypoint, excerpt, pose_of};
+use crate::import::{
+    CircleRole, ImportError, ImportedWaypoint, SkipReason, Skipped, excerpt, pose_of,
+};
 
 /// What a motion instruction does with its positional arguments.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -161,7 +163,7 @@ pub(super) fn routine_stmt(
     st: &Stmt,
     locals: &mut HashMap<String, Binding>,
     envs: &[&HashMap<String, Binding>],
-    waypoints: &mut Vec<Waypoint>,
+    waypoints: &mut Vec<ImportedWaypoint>,
     skipped: &mut Vec<Skipped>,
 ) -> Result<(), ImportError> {
     let toks = &m.toks;
@@ -277,7 +279,7 @@ pub(super) fn routine_stmt(
                 } else {
                     text.to_string()
                 };
-                waypoints.push(Waypoint {
+                waypoints.push(ImportedWaypoint {
                     name,
                     pose,
                     motion: motion.to_string(),
