@@ -5,6 +5,15 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use nextpose::engine::config::MergeRule;
 use nextpose::engine::{EngineConfig, Pose, PoseError, Profile, Teacher, Withheld};
 
+/// The default profile's model (the CDHMM) alone, without the experts' offer rule: these tests
+/// are about the model's own behaviour (its gates, recall, scale, within-routine learning).
+fn model_only() -> EngineConfig {
+    EngineConfig {
+        offer: None,
+        ..EngineConfig::profile(Profile::Default)
+    }
+}
+
 fn pose(p: [f64; 3], rpy: [f64; 3]) -> Pose {
     let q = UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]);
     Pose::new(p, [q.w, q.i, q.j, q.k]).unwrap()
@@ -97,7 +106,7 @@ fn second_copy_at_another_place_and_orientation_is_predicted_exactly() {
 #[test]
 fn scaled_copies_are_recognised_with_the_right_scale() {
     for factor in [2.0, 0.5] {
-        let mut cfg = EngineConfig::profile(Profile::Default);
+        let mut cfg = model_only();
         cfg.horizon = 3;
         let mut t = Teacher::new(cfg).unwrap();
         teach_routine(&mut t, &u_seam());
@@ -173,7 +182,7 @@ fn repeats_inside_one_routine_are_predicted_when_learning_within_the_routine() {
         routine.push(pose([x + 40.0, 0.0, 50.0], [0.0, 0.0, 0.0]));
     }
     let offered_exact = |within: bool| {
-        let mut cfg = EngineConfig::profile(Profile::Default);
+        let mut cfg = model_only();
         cfg.learn_within_routine = within;
         let mut t = Teacher::new(cfg).unwrap();
         predictions_on(&mut t, &routine)
@@ -222,7 +231,7 @@ fn recall_settles_a_next_state_the_first_order_model_finds_ambiguous() {
     let second = walk(&[x, b, c, e]);
     let probe = walk(&[a, b, c, d]);
     let predict = |recall: bool| {
-        let mut cfg = EngineConfig::profile(Profile::Default);
+        let mut cfg = model_only();
         if !recall {
             cfg.recall = None;
         }
@@ -312,7 +321,7 @@ fn forward_recursion_is_stable_over_long_windows() {
 
 #[test]
 fn withheld_reasons_are_reported() {
-    let mut t = Teacher::new(EngineConfig::profile(Profile::Default)).unwrap();
+    let mut t = Teacher::new(model_only()).unwrap();
     assert_eq!(t.predict().withheld, Some(Withheld::NothingTaught));
     t.teach(pose([0.0; 3], [0.0; 3]));
     assert_eq!(t.predict().withheld, Some(Withheld::EmptyModel));

@@ -115,6 +115,9 @@ pub(super) fn describe(w: &Withheld, opts: &PredictOptions) -> String {
         Withheld::LittleEvidence { support } => {
             format!("the pattern was followed by this move only {support:.1} time(s) before")
         }
+        Withheld::Unlikely { p_useful } => format!(
+            "the best suggestion is right with probability {p_useful:.2} only, below the cell's threshold"
+        ),
     }
 }
 
@@ -193,5 +196,7 @@ pub(super) fn dto(
         states: p.states,
         after_waypoints: after,
         model_version: version,
+        p_useful: p.p_useful,
+        expert: p.expert.map(|e| e.name().to_string()),
     }
 }

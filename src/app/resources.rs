@@ -192,7 +192,8 @@ pub struct Waypoint {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct WithheldDto {
     /// One of `nothing_taught`, `empty_model`, `too_few_states`, `no_match`, `likely_end`,
-    /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence`, `unreachable` (the
+    /// `poor_match`, `low_confidence`, `wide_spread`, `little_evidence`, `unlikely` (the experts' best
+    /// candidate is below the cell's p_useful threshold), `unreachable` (the
     /// cell's arm cannot reach the proposal; see `reachability`).
     pub reason: String,
     pub message: String,
@@ -236,6 +237,14 @@ pub struct PredictionDto {
     /// Waypoints of the routine when the prediction was made.
     pub after_waypoints: i64,
     pub model_version: i64,
+    /// The estimated probability that the proposal is within the cell's tolerance of the next
+    /// waypoint: the experts' offer rule offers the likeliest candidate when this reaches the
+    /// threshold (null for the seed profile, which uses the model's own gates).
+    pub p_useful: Option<f64>,
+    /// Who proposed it: `model` (the CDHMM), `tool`, `work` or `absolute` (the sequence
+    /// experts over tool-frame moves, work-frame moves and absolute poses); null for the seed
+    /// profile.
+    pub expert: Option<String>,
 }
 
 /// A taught waypoint and the prediction for the next one.

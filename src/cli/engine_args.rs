@@ -43,6 +43,10 @@ pub struct EngineArgs {
     /// distance allowed), or "none".
     #[arg(long, value_name = "K[:COST]|none", value_parser = parse_gate)]
     pub recall: Option<GateArg>,
+    /// The experts' offer rule: the p_useful a candidate needs to be offered (0–1), or "none"
+    /// for the model alone with its own gates (the seed).
+    #[arg(long, value_name = "P|none", value_parser = parse_limit)]
+    pub offer_threshold: Option<Limit>,
 }
 
 /// A recall gate given on the command line, `None` meaning "off".
@@ -145,6 +149,12 @@ impl EngineArgs {
         }
         if let Some(GateArg(v)) = self.recall {
             c.recall = v;
+        }
+        if let Some(Limit(v)) = self.offer_threshold {
+            c.offer = v.map(|threshold| crate::engine::config::OfferRule {
+                threshold,
+                ..c.offer.unwrap_or_default()
+            });
         }
         c.validate().context("invalid engine settings")?;
         Ok(c)

@@ -10,6 +10,7 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::error::ConfigError;
+use super::frames::Tolerance;
 
 /// How the learner decides that a move joins an existing node (ALGORITHM §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -98,6 +99,33 @@ pub struct EngineConfig {
     /// None: off (the seed).
     pub recall: Option<RecallGate>,
     pub scale: ScaleConfig,
+    /// The experts' offer rule: every expert (the model above, and the tool-frame, work-frame
+    /// and absolute-pose sequence experts) proposes a candidate, each gets `p_useful` from the
+    /// cell's calibration, and the likeliest is offered when it reaches the threshold. None:
+    /// the model alone with its own gates (the seed).
+    #[serde(default)]
+    pub offer: Option<OfferRule>,
+}
+
+/// When the experts' best candidate is offered (see [`EngineConfig::offer`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OfferRule {
+    /// Offer when `p_useful` is at least this (0–1).
+    pub threshold: f64,
+    /// What counts as right: within this of the waypoint then taught (the calibration learns
+    /// from it, and the sequence experts match contexts with it).
+    pub tolerance: Tolerance,
+}
+
+impl Default for OfferRule {
+    /// Threshold 0.9 (≥ 90 % precision on the half of the corpus it was chosen on), the seed's
+    /// 1 mm / 0.1 rad.
+    fn default() -> OfferRule {
+        OfferRule {
+            threshold: 0.9,
+            tolerance: Tolerance::SEED,
+        }
+    }
 }
 
 /// When a recalled continuation is offered (see [`EngineConfig::recall`]).
@@ -166,6 +194,7 @@ impl EngineConfig {
             backoff_min_support: 2.0,
             recency: 1.0,
             recall: None,
+            offer: None,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -189,6 +218,7 @@ impl EngineConfig {
                     max_cost: 0.1,
                     min_window: 2,
                 }),
+                offer: Some(OfferRule::default()),
                 ..seed
             },
         }
@@ -215,6 +245,19 @@ impl EngineConfig {
         }
         if self.horizon == 0 {
             return Err(ConfigError::Horizon(self.horizon));
+        }
+        if let Some(o) = &self.offer {
+            for (name, value) in [
+                ("offer.threshold", o.threshold),
+                ("offer.tolerance.mm", o.tolerance.mm),
+                ("offer.tolerance.rad", o.tolerance.rad),
+            ] {
+                if !(value.is_finite() && value >= 0.0)
+                    || (name == "offer.threshold" && value > 1.0)
+                {
+                    return Err(ConfigError::Threshold { name, value });
+                }
+            }
         }
         for s in [self.sigma_t, self.sigma_q] {
             if !(s.is_finite() && s > 0.0) {

@@ -11,9 +11,12 @@
 //! [`teach`] ties these together for one work cell while an operator teaches routine after
 //! routine; [`config`] holds the settings and the named profiles (`seed`, `default`).
 
+pub mod calibration;
 pub mod config;
 pub mod error;
+pub mod experts;
 mod forward;
+pub mod frames;
 mod gates;
 pub mod hmm;
 pub mod learner;

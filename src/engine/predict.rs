@@ -12,6 +12,7 @@
 use serde::Serialize;
 
 use super::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
+use super::experts::Expert;
 use super::forward::{Prior, next_state};
 use super::gates::{self, Figures};
 use super::hmm::Hmm;
@@ -79,6 +80,9 @@ pub enum Withheld {
     WideSpread { spread: f64 },
     /// A shortened (backed-off) window was followed by the proposed move too few times.
     LittleEvidence { support: f64 },
+    /// The best candidate of the experts is not likely enough to be right (`p_useful` below the
+    /// cell's threshold).
+    Unlikely { p_useful: f64 },
 }
 
 impl Withheld {
@@ -94,6 +98,7 @@ impl Withheld {
             Withheld::LowConfidence { .. } => "low_confidence",
             Withheld::WideSpread { .. } => "wide_spread",
             Withheld::LittleEvidence { .. } => "little_evidence",
+            Withheld::Unlikely { .. } => "unlikely",
         }
     }
 }
@@ -128,6 +133,11 @@ pub struct Prediction {
     pub window: usize,
     /// Why the prediction is not offered; None when it is.
     pub withheld: Option<Withheld>,
+    /// With the experts' offer rule (`EngineConfig::offer`): the estimated probability that the
+    /// proposal is within the cell's tolerance of the next waypoint ([`super::calibration`]).
+    pub p_useful: Option<f64>,
+    /// With the experts' offer rule: who proposed it.
+    pub expert: Option<Expert>,
 }
 
 impl Prediction {
@@ -154,6 +164,8 @@ impl Prediction {
             states,
             window: 0,
             withheld: Some(reason),
+            p_useful: None,
+            expert: None,
         }
     }
 
@@ -337,5 +349,7 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         states,
         window: window_moves,
         withheld,
+        p_useful: None,
+        expert: None,
     }
 }

@@ -18,8 +18,10 @@
 //! again, so the model after an undo is exactly the model a rebuild from the stored waypoints
 //! gives.
 
-use super::config::EngineConfig;
+use super::calibration::Calibration;
+use super::config::{EngineConfig, OfferRule};
 use super::error::ConfigError;
+use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
 use super::hmm::Hmm;
 use super::learner::{ModelStats, ObservationGraph};
 use super::metric::Metric;
@@ -39,6 +41,12 @@ pub struct Teacher {
     /// The model before the current routine's first move was assimilated (within-routine
     /// learning only), for undo.
     before_routine: Option<Box<ObservationGraph>>,
+    /// The sequence experts (tool-frame, work-frame, absolute) over the finished routines.
+    experts: [SequenceExpert; 3],
+    /// What the cell learned of its candidates' outcomes (with an offer rule).
+    calibration: Calibration,
+    /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
+    outcomes: Vec<Vec<(Expert, Evidence, bool)>>,
 }
 
 impl Teacher {
@@ -54,6 +62,9 @@ impl Teacher {
             moves: Vec::new(),
             assimilated: 0,
             before_routine: None,
+            experts: SequenceExpert::all(),
+            calibration: Calibration::new(),
+            outcomes: Vec::new(),
         })
     }
 
@@ -74,8 +85,33 @@ impl Teacher {
         self.graph.stats()
     }
 
-    /// Appends a taught waypoint to the current routine.
+    /// The cell's calibration of its experts' candidates.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
+    }
+
+    /// Appends a taught waypoint to the current routine. With an offer rule, the waypoint first
+    /// tells every candidate proposed for it whether it was right ([`Calibration::record`]).
     pub fn teach(&mut self, pose: Pose) {
+        let counted = match self.config.offer {
+            Some(rule) if !self.routine.is_empty() => {
+                let opts = PredictOptions::from_config(&self.config);
+                let model = self.model_prediction(&self.routine, &self.moves, &opts);
+                self.candidates(&self.routine, &model, &rule)
+                    .into_iter()
+                    .map(|c| {
+                        let right = c.pose.distance_to(&pose) <= rule.tolerance.mm
+                            && c.pose.angle_to(&pose) <= rule.tolerance.rad;
+                        (c.expert, c.evidence, right)
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
+        for (expert, evidence, right) in &counted {
+            self.calibration.record(*expert, evidence, *right);
+        }
+        self.outcomes.push(counted);
         if let Some(last) = self.routine.last() {
             self.moves.push(Move::between(last, &pose).observation());
         }
@@ -102,6 +138,7 @@ impl Teacher {
     /// is empty). The model goes back to what it was before that waypoint was taught.
     pub fn undo(&mut self) -> Option<Pose> {
         let pose = self.routine.pop()?;
+        self.forget_last_outcomes();
         self.moves.truncate(self.routine.len().saturating_sub(1));
         let settled = self.moves.len().saturating_sub(self.config.within_lag());
         if self.config.learn_within_routine && settled < self.assimilated {
@@ -113,9 +150,87 @@ impl Teacher {
 
     /// Drops the current routine without learning it; the model is as it was before.
     pub fn abandon_routine(&mut self) {
+        while !self.outcomes.is_empty() {
+            self.forget_last_outcomes();
+        }
         self.routine.clear();
         self.moves.clear();
         self.restore_routine_start();
+    }
+
+    fn forget_last_outcomes(&mut self) {
+        for (expert, evidence, right) in self.outcomes.pop().unwrap_or_default() {
+            self.calibration.forget(expert, &evidence, right);
+        }
+    }
+
+    /// The model's (the CDHMM's) own prediction after `routine` (not empty).
+    fn model_prediction(
+        &self,
+        routine: &[Pose],
+        moves: &[Observation],
+        opts: &PredictOptions,
+    ) -> Prediction {
+        match routine.last() {
+            Some(last) => predict_move(&self.graph, moves, opts).place(last),
+            None => Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len()),
+        }
+    }
+
+    /// Every expert's candidate after `routine`: the model's proposal (whatever its gates
+    /// said), then each sequence expert's.
+    fn candidates(&self, routine: &[Pose], model: &Prediction, rule: &OfferRule) -> Vec<Candidate> {
+        let mut out = Vec::with_capacity(4);
+        if let Some(pose) = model.pose {
+            out.push(Candidate {
+                expert: Expert::Model,
+                pose,
+                evidence: Evidence {
+                    context: model.window,
+                    places: 0,
+                    agreeing: 0,
+                    in_routine: false,
+                    gated_in: model.offered(),
+                },
+            });
+        }
+        out.extend(
+            self.experts
+                .iter()
+                .flat_map(|e| e.proposals(routine, &rule.tolerance)),
+        );
+        out
+    }
+
+    /// The prediction after `routine`: the model's alone without an offer rule (the seed);
+    /// with one, the likeliest candidate, offered when its `p_useful` reaches the threshold.
+    fn choose(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Prediction {
+        let model = self.model_prediction(routine, moves, opts);
+        let (Some(rule), Some(last)) = (self.config.offer, routine.last()) else {
+            return model;
+        };
+        let mut best: Option<(f64, Candidate)> = None;
+        for c in self.candidates(routine, &model, &rule) {
+            let p = self.calibration.p_useful(c.expert, &c.evidence);
+            if best.as_ref().is_none_or(|(b, _)| p > *b) {
+                best = Some((p, c));
+            }
+        }
+        let Some((p, c)) = best else {
+            return model;
+        };
+        let mut out = model;
+        if c.expert != Expert::Model {
+            out.pose = Some(c.pose);
+            out.relative = Some(Move::between(last, &c.pose).observation());
+        }
+        out.p_useful = Some(p);
+        out.expert = Some(c.expert);
+        // The model's own proposal keeps the reason its gate gave, if one did.
+        let own_reason = out.withheld.filter(|_| c.expert == Expert::Model);
+        out.withheld =
+            (p < rule.threshold).then(|| own_reason.unwrap_or(Withheld::Unlikely { p_useful: p }));
+        out
     }
 
     fn restore_routine_start(&mut self) {
@@ -132,10 +247,7 @@ impl Teacher {
 
     /// Predicts with per-request settings.
     pub fn predict_with(&self, opts: &PredictOptions) -> Prediction {
-        let Some(last) = self.routine.last() else {
-            return Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
-        };
-        predict_move(&self.graph, &self.moves, opts).place(last)
+        self.choose(&self.routine, &self.moves, opts)
     }
 
     /// Open-loop completion: predicts the next waypoint, assumes it is taught as predicted,
@@ -157,17 +269,18 @@ impl Teacher {
         mut gate: impl FnMut(Prediction) -> (T, bool),
     ) -> Vec<T> {
         let mut out = Vec::with_capacity(k.min(64));
-        let Some(mut last) = self.routine.last().copied() else {
+        if self.routine.is_empty() {
             if k > 0 {
                 let nothing =
                     Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
                 out.push(gate(nothing).0);
             }
             return out;
-        };
+        }
+        let mut routine = self.routine.clone();
         let mut moves = self.moves.clone();
         for _ in 0..k {
-            let p = predict_move(&self.graph, &moves, opts).place(&last);
+            let p = self.choose(&routine, &moves, opts);
             let next = match (&p.pose, &p.relative) {
                 (Some(pose), Some(x)) if p.offered() => Some((*pose, *x)),
                 _ => None,
@@ -178,7 +291,7 @@ impl Teacher {
                 break;
             };
             moves.push(x);
-            last = pose;
+            routine.push(pose);
         }
         out
     }
@@ -186,6 +299,10 @@ impl Teacher {
     /// Finishes the current routine and learns it. A routine of fewer than two waypoints has no
     /// move and teaches nothing.
     pub fn finish_routine(&mut self) {
+        for e in &mut self.experts {
+            e.learn(&self.routine);
+        }
+        self.outcomes.clear();
         if self.config.learn_within_routine {
             for x in &self.moves[self.assimilated..] {
                 self.graph.push(x);
@@ -297,6 +414,46 @@ mod tests {
             b.finish_routine();
             same_model(&a, &b);
         }
+    }
+
+    /// Every routine works somewhere new, then retracts to one point and goes home: with the
+    /// experts' offer rule home is offered after the retract point, with its p_useful and the
+    /// expert that proposed it; the undo of that routine's waypoints restores the calibration.
+    #[test]
+    fn the_offer_rule_returns_home_and_reports_p_useful() {
+        let config = EngineConfig::profile(Profile::Default);
+        let home = pose([0.0, 0.0, 800.0], 0.0);
+        let retract = pose([700.0, 50.0, 600.0], 0.1);
+        let routine = |i: f64| {
+            vec![
+                home,
+                pose([300.0 + 37.0 * i, 20.0 * i, 400.0], 0.3 * i),
+                pose([350.0 + 41.0 * i, -15.0 * i, 380.0], 0.2 * i),
+                retract,
+                home,
+            ]
+        };
+        let mut t = Teacher::new(config).unwrap();
+        for i in 0..6 {
+            routine(f64::from(i)).iter().for_each(|w| t.teach(*w));
+            t.finish_routine();
+        }
+        let before = t.calibration().clone();
+        let next = routine(9.0);
+        next[..4].iter().for_each(|w| t.teach(*w));
+        let p = t.predict();
+        assert!(p.offered(), "{:?}", p.withheld);
+        let got = p.pose.unwrap();
+        assert!(got.distance_to(&home) < 1e-6 && got.angle_to(&home) < 1e-6);
+        assert!(p.p_useful.unwrap() >= 0.9, "{:?}", p.p_useful);
+        assert!(p.expert.is_some());
+        assert_ne!(
+            t.calibration(),
+            &before,
+            "the taught waypoints counted outcomes"
+        );
+        while t.undo().is_some() {}
+        assert_eq!(t.calibration(), &before);
     }
 
     #[test]

@@ -341,6 +341,8 @@ impl From<PredictionDto> for pb::Prediction {
             states: p.states as u64,
             after_waypoints: p.after_waypoints,
             model_version: p.model_version,
+            p_useful: p.p_useful,
+            expert: p.expert.unwrap_or_default(),
         }
     }
 }
@@ -738,6 +740,8 @@ impl TryFrom<pb::Prediction> for PredictionDto {
             states: usize_from(p.states, "states")?,
             after_waypoints: p.after_waypoints,
             model_version: p.model_version,
+            p_useful: p.p_useful,
+            expert: (!p.expert.is_empty()).then_some(p.expert),
         })
     }
 }

@@ -37,10 +37,11 @@ impl Method for EngineMethod {
         if !p.offered() {
             return None;
         }
-        // The gate that decides most often in the default profile is the match misfit; report
-        // it (negated: higher = more sure) as the confidence, φ beside it.
-        let confidence = match (self.config.max_misfit, p.misfit) {
-            (Some(_), Some(m)) => -m,
+        // With the experts' offer rule the confidence is p_useful; otherwise the gate that
+        // decides most often: the match misfit (negated: higher = more sure), else φ.
+        let confidence = match (p.p_useful, self.config.max_misfit, p.misfit) {
+            (Some(u), _, _) => u,
+            (None, Some(_), Some(m)) => -m,
             _ => p.phi,
         };
         p.pose.map(|pose| Guess {

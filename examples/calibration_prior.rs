@@ -1,0 +1,42 @@
+//! The counts behind `engine::calibration::PRIOR`: the programs given are taught through the
+//! engine (default profile), each in a fresh cell, and the outcomes of every candidate are
+//! summed per coarse class of evidence. Printed as the Rust table the engine holds.
+//!
+//! `cargo run --release --example calibration_prior -- FILES…` (the README says which half of
+//! the shared corpus the engine's table was measured on).
+
+use std::collections::BTreeMap;
+
+use nextpose::engine::calibration::Count;
+use nextpose::engine::{EngineConfig, Teacher};
+use nextpose::replay::load_paths;
+
+fn main() -> anyhow::Result<()> {
+    let paths: Vec<std::path::PathBuf> = std::env::args().skip(1).map(Into::into).collect();
+    let programs = load_paths(&paths)?;
+    let mut total: BTreeMap<_, Count> = BTreeMap::new();
+    for p in &programs {
+        let mut t = Teacher::new(EngineConfig::default())?;
+        for r in &p.routines {
+            for w in &r.waypoints {
+                t.teach(*w);
+            }
+            t.finish_routine();
+        }
+        for (k, c) in t.calibration().coarse_counts() {
+            let e = total.entry(k).or_default();
+            e.n += c.n;
+            e.useful += c.useful;
+        }
+    }
+    println!("// {} programs", programs.len());
+    println!("pub const PRIOR: &[(Coarse, u32, u32)] = &[");
+    for (k, c) in total {
+        println!(
+            "    (Coarse {{ model: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
+            k.model, k.agree, k.in_routine, k.long_context, k.several_places, c.n, c.useful
+        );
+    }
+    println!("];");
+    Ok(())
+}

@@ -1,0 +1,283 @@
+//! Experts over one history: each reads the cell's taught routines in its own frame
+//! ([`Frame`]) and proposes the next waypoint where that frame repeats itself.
+//!
+//! A [`SequenceExpert`] keeps the elements of every finished routine (tool-frame moves,
+//! work-frame moves or absolute poses). Asked about the routine being taught, it finds the
+//! longest context (up to [`MAX_CONTEXT`] elements) that ends the routine and occurred before,
+//! element by element within the cell's tolerance, in an earlier routine or earlier in this
+//! one, and proposes what followed its most recent occurrence, with the evidence: how long the
+//! context is, at how many places it occurred, how many of those agree on what followed, and
+//! whether the most recent one is in the routine being taught. The CDHMM ([`super::predict`])
+//! is the fourth expert ([`Expert::Model`]); [`super::calibration`] turns every candidate's
+//! evidence into the probability that it is right.
+
+use serde::{Deserialize, Serialize};
+
+use super::frames::{Frame, Tolerance};
+use super::pose::{Observation, Pose};
+
+/// Longest context a sequence expert matches.
+pub const MAX_CONTEXT: usize = 4;
+
+/// Who proposed a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Expert {
+    /// The CDHMM over tool-frame moves (the seed's engine).
+    Model,
+    /// An earlier tool-frame move after the same context.
+    Tool,
+    /// An earlier work-frame move after the same context.
+    Work,
+    /// A return to an earlier absolute pose after the same context.
+    Absolute,
+}
+
+impl Expert {
+    pub const ALL: [Expert; 4] = [Expert::Model, Expert::Tool, Expert::Work, Expert::Absolute];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Expert::Model => "model",
+            Expert::Tool => "tool",
+            Expert::Work => "work",
+            Expert::Absolute => "absolute",
+        }
+    }
+
+    fn of(frame: Frame) -> Expert {
+        match frame {
+            Frame::Tool => Expert::Tool,
+            Frame::Work => Expert::Work,
+            Frame::Absolute => Expert::Absolute,
+        }
+    }
+}
+
+/// What a candidate rests on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Evidence {
+    /// Elements of context matched (the model: moves in its window).
+    pub context: usize,
+    /// Places the context occurred at.
+    pub places: usize,
+    /// Of those, the places whose follower agrees with the proposal.
+    pub agreeing: usize,
+    /// The most recent place is in the routine being taught.
+    pub in_routine: bool,
+    /// The model only: its own gates would offer it.
+    pub gated_in: bool,
+}
+
+/// A proposal for the next waypoint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    pub expert: Expert,
+    pub pose: Pose,
+    pub evidence: Evidence,
+}
+
+/// One frame's memory of the cell's finished routines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequenceExpert {
+    frame: Frame,
+    history: Vec<Vec<Observation>>,
+    len: usize,
+}
+
+impl SequenceExpert {
+    pub fn new(frame: Frame) -> SequenceExpert {
+        SequenceExpert {
+            frame,
+            history: Vec::new(),
+            len: 0,
+        }
+    }
+
+    /// The three sequence experts, one per frame.
+    pub fn all() -> [SequenceExpert; 3] {
+        [Frame::Tool, Frame::Work, Frame::Absolute].map(SequenceExpert::new)
+    }
+
+    pub fn expert(&self) -> Expert {
+        Expert::of(self.frame)
+    }
+
+    /// Elements remembered.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Remembers a finished routine.
+    pub fn learn(&mut self, routine: &[Pose]) {
+        let elements = self.frame.elements(routine);
+        if !elements.is_empty() {
+            self.len += elements.len();
+            self.history.push(elements);
+        }
+    }
+
+    /// The candidate for the waypoint after `routine` on its longest context (see the module
+    /// doc), or `None` when no context of it occurred before.
+    pub fn propose(&self, routine: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
+        self.proposals(routine, tolerance).into_iter().next()
+    }
+
+    /// One candidate per context length that occurred before, longest first: for each length,
+    /// what followed the most recent place it occurred at, with that length's evidence.
+    pub fn proposals(&self, routine: &[Pose], tolerance: &Tolerance) -> Vec<Candidate> {
+        let Some(last) = routine.last() else {
+            return Vec::new();
+        };
+        let current = self.frame.elements(routine);
+        if current.is_empty() {
+            return Vec::new();
+        }
+        let reach = MAX_CONTEXT.min(current.len());
+        // (matched context length, in the routine, follower), oldest first.
+        let mut places: Vec<(usize, bool, Observation)> = Vec::new();
+        let sequences = self
+            .history
+            .iter()
+            .map(|s| (false, s.as_slice()))
+            .chain(std::iter::once((true, current.as_slice())));
+        for (in_routine, seq) in sequences {
+            for next in 1..seq.len() {
+                let mut k = 0;
+                while k < reach.min(next)
+                    && tolerance.holds(&current[current.len() - 1 - k], &seq[next - 1 - k])
+                {
+                    k += 1;
+                }
+                if k > 0 {
+                    places.push((k, in_routine, seq[next]));
+                }
+            }
+        }
+        let longest = places.iter().map(|p| p.0).max().unwrap_or(0);
+        let mut out = Vec::new();
+        for context in (1..=longest).rev() {
+            let here: Vec<&(usize, bool, Observation)> =
+                places.iter().filter(|p| p.0 >= context).collect();
+            let Some(&&(_, in_routine, latest)) = here.last() else {
+                continue;
+            };
+            let agreeing = here
+                .iter()
+                .filter(|(_, _, f)| tolerance.holds(f, &latest))
+                .count();
+            if let Some(pose) = self.frame.apply(last, &latest) {
+                out.push(Candidate {
+                    expert: self.expert(),
+                    pose,
+                    evidence: Evidence {
+                        context,
+                        places: here.len(),
+                        agreeing,
+                        in_routine,
+                        gated_in: false,
+                    },
+                });
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    fn pose(p: [f64; 3], yaw: f64) -> Pose {
+        let q = UnitQuaternion::from_euler_angles(0.0, 0.0, yaw);
+        Pose::new(p, [q.w, q.i, q.j, q.k]).unwrap()
+    }
+
+    fn near(a: &Pose, b: &Pose) -> bool {
+        a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
+    }
+
+    /// Every routine works somewhere else, then retracts to one point and returns home: the
+    /// absolute expert proposes home after the retract point, the tool-frame expert has no
+    /// context for it (the move into the retract point is new every time).
+    #[test]
+    fn the_absolute_expert_returns_home() {
+        let home = pose([0.0, 0.0, 800.0], 0.0);
+        let above = pose([500.0, 0.0, 400.0], 0.5);
+        let retract = pose([700.0, 50.0, 600.0], 0.1);
+        let routine = |x: f64| {
+            vec![
+                home,
+                above,
+                pose([500.0 + x, 100.0, 300.0], 0.2),
+                retract,
+                home,
+            ]
+        };
+        let mut abs = SequenceExpert::new(Frame::Absolute);
+        let mut tool = SequenceExpert::new(Frame::Tool);
+        for e in [&mut abs, &mut tool] {
+            e.learn(&routine(0.0));
+        }
+        let taught = &routine(70.0)[..4];
+        let c = abs.propose(taught, &Tolerance::SEED).expect("a candidate");
+        assert!(near(&c.pose, &home), "{:?}", c.pose);
+        assert_eq!(c.expert, Expert::Absolute);
+        assert_eq!(
+            c.evidence.context, 1,
+            "the pose before the retract point differs"
+        );
+        let t = tool.propose(taught, &Tolerance::SEED);
+        assert!(t.is_none_or(|t| !near(&t.pose, &home)));
+    }
+
+    /// A seam approached from 100 mm above, under a torch that turns from seam to seam: the
+    /// work-frame expert continues it, the tool-frame one cannot.
+    #[test]
+    fn the_work_frame_expert_repeats_offsets_under_a_turning_tool() {
+        let seam = |x: f64, yaw: f64| {
+            vec![
+                pose([x, 0.0, 500.0], yaw),
+                pose([x, 0.0, 400.0], yaw),
+                pose([x + 50.0, 0.0, 400.0], yaw),
+                pose([x + 50.0, 0.0, 500.0], yaw),
+            ]
+        };
+        let mut work = SequenceExpert::new(Frame::Work);
+        let mut tool = SequenceExpert::new(Frame::Tool);
+        for e in [&mut work, &mut tool] {
+            e.learn(&seam(0.0, 0.0));
+        }
+        let next = seam(300.0, 1.2);
+        let c = work
+            .propose(&next[..2], &Tolerance::SEED)
+            .expect("a candidate");
+        assert!(near(&c.pose, &next[2]), "{:?}", c.pose);
+        assert_eq!((c.evidence.places, c.evidence.agreeing), (1, 1));
+        assert!(!c.evidence.in_routine);
+        let t = tool.propose(&next[..2], &Tolerance::SEED);
+        assert!(t.is_none_or(|t| !near(&t.pose, &next[2])));
+    }
+
+    /// A grid row: the same step again and again inside one routine is found in the routine
+    /// itself, and every earlier place agrees.
+    #[test]
+    fn a_grid_is_continued_from_the_routine_itself() {
+        let row: Vec<Pose> = (0..6)
+            .map(|i| pose([40.0 * i as f64, 0.0, 0.0], 0.0))
+            .collect();
+        let e = SequenceExpert::new(Frame::Work);
+        let c = e.propose(&row[..5], &Tolerance::SEED).expect("a candidate");
+        assert!(near(&c.pose, &row[5]));
+        assert!(c.evidence.in_routine);
+        assert_eq!(c.evidence.context, 3, "the longest context with a follower");
+        assert_eq!(c.evidence.places, c.evidence.agreeing);
+        // Nothing taught before and one move: no context occurred before.
+        assert!(e.propose(&row[..2], &Tolerance::SEED).is_none());
+    }
+}
