@@ -15,6 +15,9 @@ pub struct Program {
     pub source: PathBuf,
     /// Source language as recorded in the corpus: `rapid`, `krl` or `fanuc`.
     pub language: String,
+    /// The repository the program comes from, when its file says so (corpus JSON
+    /// `source.repo`, e.g. `owner/name`); `None` for other readers.
+    pub repo: Option<String>,
     pub routines: Vec<Routine>,
 }
 

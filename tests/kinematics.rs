@@ -542,6 +542,7 @@ fn replay_report_gains_reachability_figures() {
         name: format!("square_{language}"),
         source: "square.json".into(),
         language: language.into(),
+        repo: None,
         routines: vec![Routine {
             name: "main".into(),
             waypoints: waypoints.clone(),

@@ -27,6 +27,7 @@ fn program(routines: Vec<Vec<Pose>>) -> Program {
         name: "synthetic".into(),
         source: PathBuf::from("synthetic.json"),
         language: "rapid".into(),
+        repo: None,
         routines: routines
             .into_iter()
             .enumerate()

@@ -64,6 +64,7 @@ impl App {
                         name: p.name,
                         source: std::path::PathBuf::from(format!("cell {cell}")),
                         language: "stored".into(),
+                        repo: None,
                         routines,
                     });
                 }

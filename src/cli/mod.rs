@@ -6,6 +6,7 @@
 //! - `serve` ([`serve`]): the service until SIGINT/SIGTERM.
 //! - `import` ([`import`]): offline program files into a cell of a running server.
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
+//! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
 //! - `openapi`: the REST API's description.
 //!
 //! Engine settings ([`engine_args`]) start from a named profile; each flag overrides one
@@ -14,6 +15,7 @@
 
 mod engine_args;
 mod import;
+mod lab;
 mod replay;
 mod serve;
 mod simulate;
@@ -28,6 +30,7 @@ use serde::Serialize;
 
 pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
 pub use import::ImportArgs;
+pub use lab::LabArgs;
 pub use replay::{ReplayArgs, SweepArgs};
 pub use serve::ServeArgs;
 pub use simulate::{HistoryArg, OperatorArg, ReachPolicyArg, SimulateArgs, TransportArg};
@@ -58,6 +61,9 @@ pub enum Command {
     /// Simulated operators teach corpus programs against the service; print the
     /// programming-time table (the shape of the seed's Table 4.1).
     Simulate(SimulateArgs),
+    /// Write the seed's online lab (4 tasks, 3 users, 44 programs, joystick error) as corpus
+    /// JSON files, for `simulate --history repository`.
+    Lab(LabArgs),
 }
 
 /// Parses the process arguments and runs the command.
@@ -73,6 +79,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Serve(args) => serve::run_serve(args),
         Command::Import(args) => import::run_import(args),
         Command::Simulate(args) => simulate::run_simulate(&args),
+        Command::Lab(args) => lab::run_lab(&args),
         Command::Openapi => {
             let yaml = crate::http::openapi()
                 .to_yaml()

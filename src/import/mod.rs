@@ -266,6 +266,7 @@ impl ImportedProgram {
             name: self.name.clone(),
             source: PathBuf::from(&self.source),
             language: self.language.as_str().to_string(),
+            repo: None,
             routines: self
                 .routines
                 .iter()

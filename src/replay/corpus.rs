@@ -71,8 +71,17 @@ pub enum CorpusError {
 /// The corpus file format, as far as replay needs it (unknown fields are ignored).
 #[derive(Deserialize)]
 struct RawProgram {
+    /// Where the program came from; only `repo` is read (the simulation groups programs by it).
+    #[serde(default)]
+    source: Option<RawSource>,
     language: String,
     routines: Vec<RawRoutine>,
+}
+
+#[derive(Deserialize)]
+struct RawSource {
+    #[serde(default)]
+    repo: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -257,6 +266,7 @@ pub fn parse_program(path: &Path, text: &str) -> Result<Program, CorpusError> {
             .unwrap_or_default(),
         source: path.to_path_buf(),
         language: raw.language,
+        repo: raw.source.and_then(|s| s.repo),
         routines,
     })
 }
@@ -280,10 +290,25 @@ mod tests {
         let p = parse_program(Path::new("dir/prog.mod.json"), ONE).unwrap();
         assert_eq!(p.name, "prog.mod");
         assert_eq!(p.language, "rapid");
+        assert_eq!(p.repo.as_deref(), Some("r"));
         assert_eq!(p.routines.len(), 1);
         assert_eq!(p.routines[0].name, "main");
         assert_eq!(p.waypoint_count(), 2);
         assert!((p.routines[0].waypoints[1].position().x - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn source_and_its_repo_are_optional() {
+        let without = ONE.replace(r#""source": {"repo": "r"}, "#, "");
+        assert_eq!(
+            parse_program(Path::new("p.json"), &without).unwrap().repo,
+            None
+        );
+        let no_repo = ONE.replace(r#"{"repo": "r"}"#, r#"{"path": "a/b.mod"}"#);
+        assert_eq!(
+            parse_program(Path::new("p.json"), &no_repo).unwrap().repo,
+            None
+        );
     }
 
     #[test]

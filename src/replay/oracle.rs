@@ -166,6 +166,7 @@ mod tests {
             name: "t".into(),
             source: "t.json".into(),
             language: "rapid".into(),
+            repo: None,
             routines: routines
                 .into_iter()
                 .enumerate()

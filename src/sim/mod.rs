@@ -11,12 +11,15 @@
 //! - [`operator`]: the operator's time model (arm travel + Fitts aiming + recording), placement
 //!   error, and decisions on suggestions (accept, fine-tune, reject), each mapped to the
 //!   feedback the service expects.
+//! - [`lab`]: the seed's online lab (§4.5) as programs: four tasks, three users, work pieces
+//!   placed anew and waypoints taught with a joystick operator's error.
 //! - [`plan`]: the conditions (the seed's φ_min/h rows and our default profile), the arm's
 //!   placement per program, the random stream per waypoint, the per-routine result.
 //! - [`stats`]: mean, standard deviation, Wilcoxon rank-sum test.
 //! - [`table`]: the summary per condition, as Markdown, an SVG bar chart, and JSON (serde).
 
 pub mod arm;
+pub mod lab;
 pub mod operator;
 pub mod plan;
 pub mod stats;

@@ -175,8 +175,13 @@ pub fn placement(program: &Program) -> Result<(String, Mounting), SimError> {
     Ok((robot.to_string(), cell))
 }
 
-/// The repository a corpus program comes from (`owner__repo`, the start of its file name).
+/// The repository a corpus program comes from: its file's `source.repo` when it names one,
+/// else `owner__repo`, the start of its file name. `source.repo` is written with `/` as `__`,
+/// as the corpus's file names write it, so a corpus program has the same repository either way.
 pub fn repository(program: &Program) -> String {
+    if let Some(repo) = program.repo.as_deref().filter(|r| !r.is_empty()) {
+        return repo.replace('/', "__");
+    }
     program
         .name
         .splitn(3, "__")
@@ -262,8 +267,14 @@ mod tests {
             name: "zwj12__AddInPackages__ZhongXun__Source__X.mod".into(),
             source: "x".into(),
             language: "rapid".into(),
+            repo: None,
             routines: vec![],
         };
         assert_eq!(repository(&p), "zwj12__AddInPackages");
+        let named = Program {
+            repo: Some("seed/prp-lab".into()),
+            ..p
+        };
+        assert_eq!(repository(&named), "seed__prp-lab");
     }
 }

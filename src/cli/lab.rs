@@ -1,0 +1,124 @@
+//! `nextpose lab OUT_DIR`: the seed's online lab ([`crate::sim::lab`]) written as corpus JSON,
+//! one file per program, in the shared corpus's format (`source.repo`, `language`,
+//! `routines[].waypoints[]` with `x y z qw qx qy qz`), so `load_paths` and `simulate` read it
+//! like any corpus directory. File names sort in program order. A `lab` object per file records
+//! how the program was made (user, task, placement, error); readers ignore it.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use serde_json::{Value, json};
+
+use super::write_json;
+use crate::sim::lab::{self, LAB_REPO, LabConfig, LabProgram};
+
+#[derive(Debug, Args)]
+pub struct LabArgs {
+    /// Directory to write the programs to (created if missing; must hold no *.json files).
+    pub out_dir: PathBuf,
+    /// Seed of the placements and the users' errors.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of programs (the seed's lab: 44).
+    #[arg(long, default_value_t = 44)]
+    pub programs: usize,
+}
+
+pub(super) fn run_lab(args: &LabArgs) -> Result<()> {
+    if args.programs == 0 {
+        bail!("--programs must be at least 1");
+    }
+    let dir = &args.out_dir;
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    if let Some(existing) = first_json(dir)? {
+        bail!(
+            "{}: already holds corpus files ({}); give an empty or new directory, so the lab \
+             is not mixed with other programs",
+            dir.display(),
+            existing.display()
+        );
+    }
+    let config = LabConfig {
+        programs: args.programs,
+        ..LabConfig::default()
+    };
+    let programs = lab::generate(&config, args.seed);
+    for p in &programs {
+        let path = dir.join(&p.program.source);
+        write_json(&path, &corpus_json(p, &config, args.seed))?;
+    }
+    let waypoints: usize = programs.iter().map(|p| p.program.waypoint_count()).sum();
+    eprintln!(
+        "wrote {} programs ({waypoints} waypoints, {} users, repository {LAB_REPO}) to {}",
+        programs.len(),
+        config.users,
+        dir.display()
+    );
+    Ok(())
+}
+
+fn first_json(dir: &Path) -> Result<Option<PathBuf>> {
+    for entry in
+        std::fs::read_dir(dir).with_context(|| format!("{}: cannot read", dir.display()))?
+    {
+        let path = entry
+            .with_context(|| format!("{}: cannot read", dir.display()))?
+            .path();
+        if path.is_file()
+            && path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
+            return Ok(Some(path));
+        }
+    }
+    Ok(None)
+}
+
+/// One program in the corpus's JSON format.
+fn corpus_json(p: &LabProgram, config: &LabConfig, seed: u64) -> Value {
+    let routines: Vec<Value> = p
+        .program
+        .routines
+        .iter()
+        .map(|r| {
+            let waypoints: Vec<Value> = r
+                .waypoints
+                .iter()
+                .enumerate()
+                .map(|(i, w)| {
+                    let v = w.values();
+                    json!({
+                        "name": format!("p{}", 10 * (i + 1)),
+                        "x": v.x, "y": v.y, "z": v.z,
+                        "qw": v.qw, "qx": v.qx, "qy": v.qy, "qz": v.qz,
+                        "motion": if i == 0 { "MoveJ" } else { "MoveL" },
+                    })
+                })
+                .collect();
+            json!({ "name": r.name, "kind": "PROC", "waypoints": waypoints })
+        })
+        .collect();
+    let origin = lab::placement_origin(&p.placement);
+    let yaw = p.placement.rotation.euler_angles().2;
+    json!({
+        "source": {
+            "repo": LAB_REPO,
+            "path": format!("user{}/{}", p.user + 1, p.program.source.display()),
+            "generator": format!("nextpose lab --seed {seed} --programs {}", config.programs),
+        },
+        "language": p.program.language,
+        "units": { "position": "mm", "orientation": "quaternion wxyz" },
+        "routines": routines,
+        "stats": { "waypoints": p.program.waypoint_count(), "routines_total": p.program.routines.len() },
+        "license": "generated",
+        "lab": {
+            "user": p.user + 1,
+            "task": p.task.name(),
+            "placement": { "x": origin.x, "y": origin.y, "z": origin.z, "yaw_deg": yaw.to_degrees() },
+            "position_rms_mm": config.position_rms_mm,
+            "rotation_rms_rad": config.rotation_rms_rad,
+        },
+    })
+}
