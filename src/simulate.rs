@@ -143,16 +143,6 @@ impl CellSetup {
     }
 }
 
-/// A waypoint taught by its pose alone.
-fn at(pose: &Pose) -> NewWaypointDto {
-    NewWaypointDto {
-        pose: pose.into(),
-        joints: None,
-        motion: None,
-        name: None,
-    }
-}
-
 fn program_named(name: &str) -> CreateProgram {
     CreateProgram {
         name: name.to_string(),
@@ -191,7 +181,7 @@ async fn teach_exactly(client: &Client, cell: i64, program: &Program, name: &str
         let rid = client.create_routine(pid, &named(&r.name)).await?;
         teaching.start(rid).await?;
         for w in &r.waypoints {
-            teaching.waypoint(&at(w)).await?;
+            teaching.waypoint(&NewWaypointDto::at(w)).await?;
         }
         teaching.finish().await?;
     }
@@ -296,7 +286,7 @@ pub async fn run_session(
                 None
             };
             let step = operator.teach(target, shown.map(|(_, s)| s), &mut rng);
-            let taught = teaching.waypoint(&at(&step.pose)).await?;
+            let taught = teaching.waypoint(&NewWaypointDto::at(&step.pose)).await?;
             if let (Some((id, _)), Some(fb)) = (shown, step.feedback.as_ref()) {
                 client.feedback(*id, &feedback_of(fb)).await?;
                 match fb {

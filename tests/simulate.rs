@@ -9,7 +9,6 @@ use nextpose::app::resources::{
     CreateProgram, CreateRoutine, NewWaypointDto, PredictQuery, PredictionDto,
 };
 use nextpose::client::{Client, RestClient, Transport};
-use nextpose::engine::Pose;
 use nextpose::kinematics::ReachPolicy;
 use nextpose::replay::{Program, load_paths};
 use nextpose::sim::{
@@ -81,15 +80,6 @@ fn time(o: &SessionOutcome) -> f64 {
 }
 
 /// A prediction without the id the server gave its record (a new record gets a new id).
-fn at(pose: &Pose) -> NewWaypointDto {
-    NewWaypointDto {
-        pose: pose.into(),
-        joints: None,
-        motion: None,
-        name: None,
-    }
-}
-
 fn without_ids(mut ps: Vec<PredictionDto>) -> Vec<PredictionDto> {
     for p in &mut ps {
         p.id = None;
@@ -165,7 +155,10 @@ async fn three_corpus_programs_end_to_end() {
             .id;
         let first = &p.routines[0].waypoints;
         for w in first.iter().take(3.min(first.len())) {
-            client.append(rid, &at(w)).await.expect("append");
+            client
+                .append(rid, &NewWaypointDto::at(w))
+                .await
+                .expect("append");
         }
         let before_model = client.stats(o.stats.cell_id).await.expect("stats").model;
         let k3 = PredictQuery {

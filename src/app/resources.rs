@@ -170,6 +170,18 @@ pub struct NewWaypointDto {
     pub name: Option<String>,
 }
 
+impl NewWaypointDto {
+    /// A waypoint taught by its pose alone.
+    pub fn at(pose: &crate::engine::Pose) -> NewWaypointDto {
+        NewWaypointDto {
+            pose: pose.into(),
+            joints: None,
+            motion: None,
+            name: None,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct Waypoint {
     pub id: i64,
