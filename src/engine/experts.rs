@@ -11,6 +11,8 @@
 //! is the fourth expert ([`Expert::Model`]); [`super::calibration`] turns every candidate's
 //! evidence into the probability that it is right.
 
+use std::collections::HashMap;
+
 use serde::{Deserialize, Serialize};
 
 use super::frames::{Frame, Tolerance};
@@ -77,12 +79,24 @@ pub struct Candidate {
     pub evidence: Evidence,
 }
 
-/// One frame's memory of the cell's finished routines.
+/// One frame's memory of the cell's finished routines, with a grid over the elements'
+/// translation parts so a context's places are found without scanning the history.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SequenceExpert {
     frame: Frame,
     history: Vec<Vec<Observation>>,
     len: usize,
+    /// Grid cell (of side `cell_mm`) → (routine, index) of the elements in it.
+    grid: HashMap<[i64; 3], Vec<(u32, u32)>>,
+    cell_mm: f64,
+}
+
+/// Side of the grid's cells when the tolerance gives none (mm).
+const DEFAULT_CELL_MM: f64 = 1.0;
+
+fn cell_of(e: &Observation, side: f64) -> [i64; 3] {
+    // Saturating float-to-int casts: a far-away element lands in an edge cell, still correct.
+    [0, 1, 2].map(|i| (e[i] / side).floor() as i64)
 }
 
 impl SequenceExpert {
@@ -91,6 +105,8 @@ impl SequenceExpert {
             frame,
             history: Vec::new(),
             len: 0,
+            grid: HashMap::new(),
+            cell_mm: DEFAULT_CELL_MM,
         }
     }
 
@@ -115,10 +131,19 @@ impl SequenceExpert {
     /// Remembers a finished routine.
     pub fn learn(&mut self, routine: &[Pose]) {
         let elements = self.frame.elements(routine);
-        if !elements.is_empty() {
-            self.len += elements.len();
-            self.history.push(elements);
+        if elements.is_empty() {
+            return;
         }
+        let r = u32::try_from(self.history.len()).unwrap_or(u32::MAX);
+        for (i, e) in elements.iter().enumerate() {
+            let i = u32::try_from(i).unwrap_or(u32::MAX);
+            self.grid
+                .entry(cell_of(e, self.cell_mm))
+                .or_default()
+                .push((r, i));
+        }
+        self.len += elements.len();
+        self.history.push(elements);
     }
 
     /// The candidate for the waypoint after `routine` on its longest context (see the module
@@ -138,24 +163,50 @@ impl SequenceExpert {
             return Vec::new();
         }
         let reach = MAX_CONTEXT.min(current.len());
+        let matched = |seq: &[Observation], next: usize| {
+            let mut k = 0;
+            while k < reach.min(next)
+                && tolerance.holds(&current[current.len() - 1 - k], &seq[next - 1 - k])
+            {
+                k += 1;
+            }
+            k
+        };
+        // Earlier routines: the elements near the last one (the grid's cells around it; a
+        // tolerance wider than a cell falls back to every element), oldest first.
+        let last_element = &current[current.len() - 1];
+        let mut near: Vec<(u32, u32)> = if tolerance.mm <= self.cell_mm {
+            let c = cell_of(last_element, self.cell_mm);
+            let mut v = Vec::new();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                        v.extend(self.grid.get(&key).into_iter().flatten().copied());
+                    }
+                }
+            }
+            v
+        } else {
+            self.grid.values().flatten().copied().collect()
+        };
+        near.sort_unstable();
         // (matched context length, in the routine, follower), oldest first.
         let mut places: Vec<(usize, bool, Observation)> = Vec::new();
-        let sequences = self
-            .history
-            .iter()
-            .map(|s| (false, s.as_slice()))
-            .chain(std::iter::once((true, current.as_slice())));
-        for (in_routine, seq) in sequences {
-            for next in 1..seq.len() {
-                let mut k = 0;
-                while k < reach.min(next)
-                    && tolerance.holds(&current[current.len() - 1 - k], &seq[next - 1 - k])
-                {
-                    k += 1;
-                }
+        for (r, i) in near {
+            let seq = &self.history[r as usize];
+            let next = i as usize + 1;
+            if next < seq.len() {
+                let k = matched(seq, next);
                 if k > 0 {
-                    places.push((k, in_routine, seq[next]));
+                    places.push((k, false, seq[next]));
                 }
+            }
+        }
+        for next in 1..current.len() {
+            let k = matched(&current, next);
+            if k > 0 {
+                places.push((k, true, current[next]));
             }
         }
         let longest = places.iter().map(|p| p.0).max().unwrap_or(0);
