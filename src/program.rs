@@ -29,6 +29,25 @@ pub struct Routine {
 }
 
 impl Program {
+    /// A constructed program (tests, examples): routines named `r0`, `r1`, … read from
+    /// `<name>.json`, in the RAPID dialect, from no repository.
+    pub fn of_routines(name: &str, routines: Vec<Vec<Pose>>) -> Program {
+        Program {
+            name: name.to_string(),
+            source: PathBuf::from(format!("{name}.json")),
+            language: "rapid".into(),
+            repo: None,
+            routines: routines
+                .into_iter()
+                .enumerate()
+                .map(|(i, waypoints)| Routine {
+                    name: format!("r{i}"),
+                    waypoints,
+                })
+                .collect(),
+        }
+    }
+
     /// Every waypoint, routine after routine.
     pub fn poses(&self) -> impl Iterator<Item = &Pose> {
         self.routines.iter().flat_map(|r| &r.waypoints)

@@ -11,7 +11,7 @@ use nextpose::replay::metrics::{Scores, spearman};
 use nextpose::replay::oracle::oracle_records;
 use nextpose::replay::report::RunConfig;
 use nextpose::replay::{
-    CorpusError, Method, ModelSummary, Program, ProgramRecord, Routine, WaypointRecord, load_paths,
+    CorpusError, Method, ModelSummary, Program, ProgramRecord, WaypointRecord, load_paths,
     replay_all, replay_program,
 };
 
@@ -23,20 +23,7 @@ fn pose(p: [f64; 3], axis: [f64; 3], angle: f64) -> Pose {
 }
 
 fn program(routines: Vec<Vec<Pose>>) -> Program {
-    Program {
-        name: "synthetic".into(),
-        source: PathBuf::from("synthetic.json"),
-        language: "rapid".into(),
-        repo: None,
-        routines: routines
-            .into_iter()
-            .enumerate()
-            .map(|(i, waypoints)| Routine {
-                name: format!("r{i}"),
-                waypoints,
-            })
-            .collect(),
-    }
+    Program::of_routines("synthetic", routines)
 }
 
 /// An irregular routine (no move repeats), so a window matches only its own position.

@@ -85,7 +85,6 @@ pub struct Candidate {
 pub struct SequenceExpert {
     frame: Frame,
     history: Vec<Vec<Observation>>,
-    len: usize,
     /// Grid cell (of side `cell_mm`) → (routine, index) of the elements in it.
     grid: HashMap<[i64; 3], Vec<(u32, u32)>>,
     cell_mm: f64,
@@ -104,7 +103,6 @@ impl SequenceExpert {
         SequenceExpert {
             frame,
             history: Vec::new(),
-            len: 0,
             grid: HashMap::new(),
             cell_mm: DEFAULT_CELL_MM,
         }
@@ -117,15 +115,6 @@ impl SequenceExpert {
 
     pub fn expert(&self) -> Expert {
         Expert::of(self.frame)
-    }
-
-    /// Elements remembered.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
     }
 
     /// Remembers a finished routine.
@@ -142,7 +131,6 @@ impl SequenceExpert {
                 .or_default()
                 .push((r, i));
         }
-        self.len += elements.len();
         self.history.push(elements);
     }
 

@@ -155,27 +155,13 @@ pub fn oracle_records(program: &Program) -> Vec<ProgramRecord> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::replay::corpus::Routine;
 
     fn p(x: f64, y: f64) -> Pose {
         Pose::new([x, y, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap()
     }
 
     fn program(routines: Vec<Vec<Pose>>) -> Program {
-        Program {
-            name: "t".into(),
-            source: "t.json".into(),
-            language: "rapid".into(),
-            repo: None,
-            routines: routines
-                .into_iter()
-                .enumerate()
-                .map(|(i, waypoints)| Routine {
-                    name: format!("r{i}"),
-                    waypoints,
-                })
-                .collect(),
-        }
+        Program::of_routines("t", routines)
     }
 
     fn covered(records: &[ProgramRecord], name: &str) -> Vec<bool> {
