@@ -33,8 +33,15 @@ fn main() -> anyhow::Result<()> {
     println!("pub const PRIOR: &[(Coarse, u32, u32)] = &[");
     for (k, c) in total {
         println!(
-            "    (Coarse {{ model: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
-            k.model, k.agree, k.in_routine, k.long_context, k.several_places, c.n, c.useful
+            "    (Coarse {{ model: {}, template: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
+            k.model,
+            k.template,
+            k.agree,
+            k.in_routine,
+            k.long_context,
+            k.several_places,
+            c.n,
+            c.useful
         );
     }
     println!("];");

@@ -23,6 +23,8 @@ use crate::app::resources::{
 };
 use crate::app::settings::CellSettingsInput;
 use crate::client::Client;
+use crate::engine::frames::Tolerance;
+use crate::engine::noise::Noise;
 use crate::engine::{Pose, Profile};
 use crate::kinematics::{ReachPolicy, bundled_robots_dir, load_robot};
 use crate::replay::Program;
@@ -93,6 +95,9 @@ pub struct CellSetup {
     pub horizon: Option<usize>,
     pub sigma_t_mm: f64,
     pub sigma_q: f64,
+    pub noise: Noise,
+    pub tolerance: Tolerance,
+    pub offer_threshold: Option<f64>,
     pub robot: String,
     pub base: Pose,
     pub tool: Pose,
@@ -108,6 +113,7 @@ impl CellSetup {
     ) -> CellSetup {
         let c = &session.condition;
         let (sigma_t_mm, sigma_q) = plan.sigmas(c.profile);
+        let (noise, tolerance) = plan.noise();
         CellSetup {
             profile: c.profile,
             delta: c.delta,
@@ -115,6 +121,9 @@ impl CellSetup {
             horizon: c.horizon,
             sigma_t_mm,
             sigma_q,
+            noise,
+            tolerance,
+            offer_threshold: c.offer_threshold,
             robot: robot.to_string(),
             base: frames.base,
             tool: frames.tool,
@@ -138,6 +147,9 @@ impl CellSetup {
                 base: Some(PoseValues::from(&self.base)),
                 tool: Some(PoseValues::from(&self.tool)),
                 reach_policy: Some(self.reach_policy),
+                noise: Some(self.noise),
+                tolerance: Some(self.tolerance),
+                offer_threshold: self.offer_threshold,
             },
         }
     }
@@ -365,12 +377,16 @@ pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
             for (i, p) in programs.iter().enumerate() {
                 let warmup = match plan.history {
                     History::None => Warmup::None,
-                    History::Repository => {
+                    History::Repository | History::RepositoryOnline => {
                         let repo = repository(p);
                         let earlier: Vec<Program> = programs[..i]
                             .iter()
-                            .filter(|q| repository(q) == repo)
-                            .cloned()
+                            .enumerate()
+                            .filter(|(_, q)| repository(q) == repo)
+                            .map(|(j, q)| match plan.history {
+                                History::RepositoryOnline => plan.as_taught_online(q, j, seed),
+                                _ => q.clone(),
+                            })
                             .collect();
                         if earlier.is_empty() {
                             Warmup::None

@@ -1,6 +1,6 @@
 //! The simulated seed lab (`nextpose lab`, `sim::lab`): a small lab has the seed's shape
 //! (§4.5: tasks of 13, 6, 10, 10 waypoints, 186 mm mean spacing), each program is placed anew
-//! and carries the asked-for joystick error, the files round-trip through `load_paths` with
+//! (the programs as meant, or as taught with the asked-for joystick error), the files round-trip through `load_paths` with
 //! their `source.repo`, the simulation's history groups them by it, and a short simulation
 //! teaches every program. Everything is written to a temporary directory; nothing sleeps.
 
@@ -107,10 +107,16 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
         .max(lab[0].nominal[0].angle_to(&lab[4].nominal[0]));
     assert!(same_task > 1.0, "{same_task}");
 
-    // Noise: the RMS distance of the taught waypoints to the placed task's is the asked 20 mm
-    // (±15 % for 78 waypoints: about 3 standard errors), the rotation error the asked 0.035 rad.
+    // Noise: as taught online, the RMS distance of the taught waypoints to the placed task's is
+    // the asked 20 mm (±15 % for 78 waypoints: about 3 standard errors), the rotation error the
+    // asked 0.035 rad; the placements are the same as the intended lab's.
+    let config = LabConfig {
+        programs: 8,
+        ..LabConfig::as_taught_online()
+    };
+    let taught = lab::generate(&config, SEED);
     let (mut d2, mut a2, mut m) = (0.0, 0.0, 0.0);
-    for p in &lab {
+    for p in &taught {
         for (t, q) in p.program.routines[0].waypoints.iter().zip(&p.nominal) {
             d2 += t.distance_to(q).powi(2);
             a2 += t.angle_to(q).powi(2);
@@ -128,16 +134,8 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     );
     assert!((config.position_rms_mm - 20.0).abs() < 1e-9);
 
-    // An exact lab is the placed tasks themselves.
-    let exact = lab::generate(
-        &LabConfig {
-            position_rms_mm: 0.0,
-            rotation_rms_rad: 0.0,
-            ..small()
-        },
-        SEED,
-    );
-    for (e, p) in exact.iter().zip(&lab) {
+    // The lab as written (the default) is the placed tasks themselves.
+    for (e, p) in lab.iter().zip(&taught) {
         assert_eq!(e.placement, p.placement);
         for (t, q) in e.program.routines[0].waypoints.iter().zip(&p.nominal) {
             assert!(t.distance_to(q) < 1e-9);
@@ -197,6 +195,40 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
         assert_eq!(warm, k % loaded.len(), "session {k}");
     }
 
+    // `--history repository-online`: the same programs, each waypoint with the operator's error
+    // (about 20 mm RMS), drawn once per seed: every condition gets the same history.
+    let online = Plan {
+        history: History::RepositoryOnline,
+        ..plan(2)
+    };
+    let all = sessions(&online, &loaded, "t");
+    let history = |s: &nextpose::simulate::Session| match &s.warmup {
+        Warmup::Programs(p) => p.clone(),
+        _ => Vec::new(),
+    };
+    let (mut d2, mut m) = (0.0, 0.0);
+    for s in &all {
+        for (h, original) in history(s).iter().zip(&loaded) {
+            assert_eq!(h.name, original.name);
+            for (a, b) in h.poses().zip(original.poses()) {
+                d2 += a.distance_to(b).powi(2);
+                m += 1.0;
+            }
+        }
+        let twin = all
+            .iter()
+            .find(|t| {
+                t.seed == s.seed
+                    && t.program_index == s.program_index
+                    && t.condition.key != s.condition.key
+            })
+            .expect("another condition");
+        let (a, b) = (history(s), history(twin));
+        assert!(a.iter().zip(&b).all(|(x, y)| x.routines == y.routines));
+    }
+    let rms = (d2 / m).sqrt();
+    assert!((rms - 20.0).abs() < 3.0, "{rms} mm");
+
     // The directory now holds a lab: writing another into it is refused, not mixed.
     let again = Cli::try_parse_from(["nextpose", "lab", dir.path().to_str().unwrap()]).unwrap();
     let err = run_cli(again).expect_err("a second lab in the same directory");
@@ -210,7 +242,7 @@ fn plan(seeds: u64) -> Plan {
         seeds: (1..=seeds).collect(),
         operator: OperatorModel::online(limits.tcp_mm_s),
         limits,
-        history: History::Repository,
+        history: History::RepositoryOnline,
         reach_policy: ReachPolicy::Withhold,
         calibrate_sigma: true,
     }

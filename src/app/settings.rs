@@ -6,6 +6,8 @@ use utoipa::ToSchema;
 
 use super::error::AppError;
 use crate::engine::PoseValues;
+use crate::engine::frames::Tolerance;
+use crate::engine::noise::Noise;
 use crate::engine::{EngineConfig, Pose, Profile};
 use crate::kinematics::ReachPolicy;
 
@@ -46,6 +48,22 @@ pub struct CellSettings {
     pub tool: PoseValues,
     /// Predictions the arm cannot reach: withheld (default) or offered flagged.
     pub reach_policy: ReachPolicy,
+    /// Teaching noise, one sigma per axis of a taught waypoint (0 for exact, offline programs;
+    /// a joystick operator's scatter, e.g. from `POST /v1/cells/{id}/noise`). The experts match
+    /// within the tolerance widened by it.
+    #[serde(default)]
+    pub noise: Noise,
+    /// Acceptance tolerance: a suggestion this close to what is then taught counts as right
+    /// (the seed's 1 mm / 0.1 rad by default; a joystick cell's is the operator's "close
+    /// enough"). The offer rule's calibration learns from it.
+    #[serde(default)]
+    pub tolerance: Tolerance,
+    /// The offer rule's threshold: a suggestion is offered when its `p_useful` reaches it
+    /// (0–1; the default profile's 0.9 gives ≥ 90 % precision on exact programs; a joystick
+    /// cell may take less, since a near miss still saves most of a jog). None for a profile
+    /// without an offer rule (seed).
+    #[serde(default)]
+    pub offer_threshold: Option<f64>,
 }
 
 /// Settings given when a cell is created; anything left out takes the profile's value.
@@ -63,6 +81,9 @@ pub struct CellSettingsInput {
     pub base: Option<PoseValues>,
     pub tool: Option<PoseValues>,
     pub reach_policy: Option<ReachPolicy>,
+    pub noise: Option<Noise>,
+    pub tolerance: Option<Tolerance>,
+    pub offer_threshold: Option<f64>,
 }
 
 /// Largest horizon a cell or a request may ask for.
@@ -72,6 +93,11 @@ pub const MAX_HORIZON: usize = 50;
 pub const SIGMA_T_MM: std::ops::RangeInclusive<f64> = 1e-3..=1e3;
 /// Quaternion-component repeatability σ_q a cell may have (a component lies in [-1, 1]).
 pub const SIGMA_Q: std::ops::RangeInclusive<f64> = 1e-6..=1.0;
+
+/// Most teaching noise a cell may have: 100 mm and 0.5 rad per axis (beyond that nothing taught
+/// is a repeat of anything).
+pub const NOISE_MM_MAX: f64 = 100.0;
+pub const NOISE_RAD_MAX: f64 = 0.5;
 
 fn identity() -> PoseValues {
     (&Pose::identity()).into()
@@ -98,6 +124,21 @@ impl CellSettingsInput {
             base: self.base.unwrap_or_else(identity),
             tool: self.tool.unwrap_or_else(identity),
             reach_policy: self.reach_policy.unwrap_or_default(),
+            noise: self.noise.unwrap_or(base.noise),
+            tolerance: self
+                .tolerance
+                .or(base.offer.map(|o| o.tolerance))
+                .unwrap_or_default(),
+            offer_threshold: match (self.offer_threshold, base.offer) {
+                (Some(t), Some(_)) => Some(t),
+                (Some(_), None) => {
+                    return Err(AppError::Invalid(format!(
+                        "offer_threshold: the {} profile has no offer rule",
+                        profile.name()
+                    )));
+                }
+                (None, rule) => rule.map(|r| r.threshold),
+            },
         };
         settings.validate()?;
         Ok(settings)
@@ -116,6 +157,13 @@ impl CellSettings {
         c.scale.enabled = self.scale.enabled;
         c.scale.psi_min = self.scale.psi_min;
         c.scale.psi_max = self.scale.psi_max;
+        c.noise = self.noise;
+        if let Some(o) = c.offer.as_mut() {
+            o.tolerance = self.tolerance;
+            if let Some(t) = self.offer_threshold {
+                o.threshold = t;
+            }
+        }
         c
     }
 
@@ -144,6 +192,31 @@ impl CellSettings {
         }
         self.base.to_pose()?;
         self.tool.to_pose()?;
+        for (name, value) in [
+            ("noise.mm", self.noise.mm),
+            ("noise.rad", self.noise.rad),
+            ("tolerance.mm", self.tolerance.mm),
+            ("tolerance.rad", self.tolerance.rad),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(AppError::Invalid(format!(
+                    "{name} = {value} must be finite and not negative"
+                )));
+            }
+        }
+        if let Some(t) = self.offer_threshold
+            && !(0.0..=1.0).contains(&t)
+        {
+            return Err(AppError::Invalid(format!(
+                "offer_threshold = {t} is outside 0 to 1"
+            )));
+        }
+        if self.noise.mm > NOISE_MM_MAX || self.noise.rad > NOISE_RAD_MAX {
+            return Err(AppError::Invalid(format!(
+                "noise {} mm / {} rad is above the most a cell may have ({NOISE_MM_MAX} mm, {NOISE_RAD_MAX} rad)",
+                self.noise.mm, self.noise.rad
+            )));
+        }
         // Whatever passes must give a working model (as creating a routine will build it).
         crate::engine::Teacher::new(self.engine_config())?;
         Ok(())

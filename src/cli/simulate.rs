@@ -23,8 +23,10 @@ pub struct SimulateArgs {
     /// The operator's precision: online (20 mm RMS, the seed's lab) or precise (0.05 mm).
     #[arg(long, value_enum, default_value_t = OperatorArg::Online)]
     pub operator: OperatorArg,
-    /// What the cell knows before teaching: nothing, or the earlier programs (in the order
-    /// given) of the same repository, taught exactly.
+    /// What the cell knows before teaching: nothing; the earlier programs (in the order given)
+    /// of the same repository, taught exactly (offline programs); or those programs as online
+    /// operators taught them, each waypoint with the operator's placement error (the seed's
+    /// lab: `nextpose lab` writes the intended programs).
     #[arg(long, value_enum, default_value_t = HistoryArg::None)]
     pub history: HistoryArg,
     /// Suggestions the arm cannot reach: withheld (the service's default) or offered flagged
@@ -81,6 +83,7 @@ pub enum ReachPolicyArg {
 pub enum HistoryArg {
     None,
     Repository,
+    RepositoryOnline,
 }
 
 pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
@@ -111,6 +114,7 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
         history: match args.history {
             HistoryArg::None => History::None,
             HistoryArg::Repository => History::Repository,
+            HistoryArg::RepositoryOnline => History::RepositoryOnline,
         },
         reach_policy: match args.reach_policy {
             ReachPolicyArg::Withhold => crate::kinematics::ReachPolicy::Withhold,

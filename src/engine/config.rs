@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ConfigError;
 use super::frames::Tolerance;
+use super::noise::Noise;
 
 /// How the learner decides that a move joins an existing node (ALGORITHM §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -105,6 +106,11 @@ pub struct EngineConfig {
     /// the model alone with its own gates (the seed).
     #[serde(default)]
     pub offer: Option<OfferRule>,
+    /// The cell's teaching noise (one sigma per axis of a taught waypoint; exact by default).
+    /// The experts match contexts within the offer rule's tolerance widened by it
+    /// ([`super::noise`]).
+    #[serde(default)]
+    pub noise: Noise,
 }
 
 /// When the experts' best candidate is offered (see [`EngineConfig::offer`]).
@@ -195,6 +201,7 @@ impl EngineConfig {
             recency: 1.0,
             recall: None,
             offer: None,
+            noise: Noise::EXACT,
             scale: ScaleConfig {
                 enabled: true,
                 psi_min: 0.2,
@@ -258,6 +265,14 @@ impl EngineConfig {
                     return Err(ConfigError::Threshold { name, value });
                 }
             }
+        }
+        if !self.noise.is_valid() {
+            let (name, value) = if self.noise.mm.is_finite() && self.noise.mm >= 0.0 {
+                ("noise.rad", self.noise.rad)
+            } else {
+                ("noise.mm", self.noise.mm)
+            };
+            return Err(ConfigError::Threshold { name, value });
         }
         for s in [self.sigma_t, self.sigma_q] {
             if !(s.is_finite() && s > 0.0) {

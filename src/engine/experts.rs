@@ -33,10 +33,19 @@ pub enum Expert {
     Work,
     /// A return to an earlier absolute pose after the same context.
     Absolute,
+    /// An earlier stretch of waypoints placed anew by one rigid transform
+    /// ([`super::template`]).
+    Template,
 }
 
 impl Expert {
-    pub const ALL: [Expert; 4] = [Expert::Model, Expert::Tool, Expert::Work, Expert::Absolute];
+    pub const ALL: [Expert; 5] = [
+        Expert::Model,
+        Expert::Tool,
+        Expert::Work,
+        Expert::Absolute,
+        Expert::Template,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -44,6 +53,7 @@ impl Expert {
             Expert::Tool => "tool",
             Expert::Work => "work",
             Expert::Absolute => "absolute",
+            Expert::Template => "template",
         }
     }
 
@@ -115,6 +125,11 @@ impl SequenceExpert {
 
     pub fn expert(&self) -> Expert {
         Expert::of(self.frame)
+    }
+
+    /// The frame it reads routines in.
+    pub fn frame(&self) -> Frame {
+        self.frame
     }
 
     /// Remembers a finished routine.

@@ -22,11 +22,13 @@ pub mod hmm;
 pub mod learner;
 pub mod metric;
 mod mixture;
+pub mod noise;
 pub mod pose;
 pub mod predict;
 mod recall;
 pub mod scale;
 pub mod teach;
+pub mod template;
 mod transitions;
 
 pub use config::{EngineConfig, Profile};

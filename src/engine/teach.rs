@@ -25,9 +25,11 @@ use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
 use super::hmm::Hmm;
 use super::learner::{ModelStats, ObservationGraph};
 use super::metric::Metric;
+use super::noise::NoiseEstimate;
 use super::pose::{Move, Observation, Pose, scale_translation};
 use super::predict::{PredictOptions, Prediction, Withheld, predict_move};
 use super::scale;
+use super::template::{self, TemplateExpert};
 
 /// The engine for one work cell.
 #[derive(Debug, Clone)]
@@ -43,10 +45,14 @@ pub struct Teacher {
     before_routine: Option<Box<ObservationGraph>>,
     /// The sequence experts (tool-frame, work-frame, absolute) over the finished routines.
     experts: [SequenceExpert; 3],
+    /// The template expert over the finished routines.
+    template: TemplateExpert,
+    /// The noise the template expert's alignments show (taught waypoints with an offer rule).
+    noise_estimate: NoiseEstimate,
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
     /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
-    outcomes: Vec<Vec<(Expert, Evidence, bool)>>,
+    outcomes: Vec<Vec<(Expert, Evidence, f64)>>,
 }
 
 impl Teacher {
@@ -63,6 +69,8 @@ impl Teacher {
             assimilated: 0,
             before_routine: None,
             experts: SequenceExpert::all(),
+            template: TemplateExpert::new(),
+            noise_estimate: NoiseEstimate::default(),
             calibration: Calibration::new(),
             outcomes: Vec::new(),
         })
@@ -90,6 +98,12 @@ impl Teacher {
         &self.calibration
     }
 
+    /// The noise the cell's taught waypoints show so far (aligned repetitions; with an offer
+    /// rule).
+    pub fn noise_estimate(&self) -> &NoiseEstimate {
+        &self.noise_estimate
+    }
+
     /// Appends a taught waypoint to the current routine. With an offer rule, the waypoint first
     /// tells every candidate proposed for it whether it was right ([`Calibration::record`]).
     pub fn teach(&mut self, pose: Pose) {
@@ -100,8 +114,7 @@ impl Teacher {
                 self.candidates(&self.routine, &model, &rule)
                     .into_iter()
                     .map(|c| {
-                        let right = c.pose.distance_to(&pose) <= rule.tolerance.mm
-                            && c.pose.angle_to(&pose) <= rule.tolerance.rad;
+                        let right = self.config.noise.p_within(&rule.tolerance, &c.pose, &pose);
                         (c.expert, c.evidence, right)
                     })
                     .collect()
@@ -194,10 +207,16 @@ impl Teacher {
                 },
             });
         }
+        let noise = &self.config.noise;
         out.extend(
             self.experts
                 .iter()
-                .flat_map(|e| e.proposals(routine, &rule.tolerance)),
+                .flat_map(|e| e.proposals(routine, &noise.widen(rule.tolerance, e.frame()))),
+        );
+        out.extend(
+            self.template
+                .propose(routine, noise, &rule.tolerance)
+                .map(|p| p.candidate),
         );
         out
     }
@@ -231,6 +250,10 @@ impl Teacher {
         out.withheld =
             (p < rule.threshold).then(|| own_reason.unwrap_or(Withheld::Unlikely { p_useful: p }));
         out
+    }
+
+    fn offer_tolerance(&self) -> super::frames::Tolerance {
+        self.config.offer.map(|r| r.tolerance).unwrap_or_default()
     }
 
     fn restore_routine_start(&mut self) {
@@ -302,6 +325,18 @@ impl Teacher {
         for e in &mut self.experts {
             e.learn(&self.routine);
         }
+        if self.config.offer.is_some() {
+            for m in template::MIN_POSES..=self.routine.len() {
+                if let Some(p) = self.template.propose(
+                    &self.routine[..m],
+                    &self.config.noise,
+                    &self.offer_tolerance(),
+                ) {
+                    template::observe(&mut self.noise_estimate, &p);
+                }
+            }
+        }
+        self.template.learn(&self.routine);
         self.outcomes.clear();
         if self.config.learn_within_routine {
             for x in &self.moves[self.assimilated..] {

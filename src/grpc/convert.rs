@@ -9,6 +9,8 @@ use crate::app::resources::*;
 use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
 use crate::engine::Profile;
+use crate::engine::frames::Tolerance;
+use crate::engine::noise::Noise;
 use crate::kinematics::{ReachPolicy, RobotModel, SolverKind};
 use crate::replay::metrics::Scores;
 use crate::replay::report::{MethodMetrics, Report};
@@ -121,8 +123,21 @@ pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
             base: s.base.map(PoseValues::from),
             tool: s.tool.map(PoseValues::from),
             reach_policy: reach_policy_in(s.reach_policy)?,
+            noise: s.noise.map(|n| Noise {
+                mm: n.mm,
+                rad: n.rad,
+            }),
+            tolerance: s.tolerance.map(|t| Tolerance {
+                mm: t.mm,
+                rad: t.rad,
+            }),
+            offer_threshold: s.offer_threshold,
         },
     })
+}
+
+fn tolerance_out(mm: f64, rad: f64) -> pb::Tolerance {
+    pb::Tolerance { mm, rad }
 }
 
 fn settings_out(s: CellSettings) -> pb::CellSettings {
@@ -138,6 +153,9 @@ fn settings_out(s: CellSettings) -> pb::CellSettings {
         base: Some(s.base.into()),
         tool: Some(s.tool.into()),
         reach_policy: reach_policy_out(s.reach_policy).into(),
+        noise: Some(tolerance_out(s.noise.mm, s.noise.rad)),
+        tolerance: Some(tolerance_out(s.tolerance.mm, s.tolerance.rad)),
+        offer_threshold: s.offer_threshold,
     }
 }
 
@@ -618,6 +636,9 @@ fn settings_input_out(s: CellSettingsInput) -> pb::CellSettingsInput {
             .reach_policy
             .map_or(pb::ReachPolicy::Unspecified, reach_policy_out)
             .into(),
+        noise: s.noise.map(|n| tolerance_out(n.mm, n.rad)),
+        tolerance: s.tolerance.map(|t| tolerance_out(t.mm, t.rad)),
+        offer_threshold: s.offer_threshold,
     }
 }
 

@@ -1,9 +1,9 @@
 //! The seed's online lab (§4.5) as programs: a repertoire of four tasks taught again and again
-//! by three users, each time with the work piece placed a little differently and each waypoint
-//! carrying its user's joystick error. `nextpose lab` writes them as corpus JSON, and
-//! `nextpose simulate … --history repository --operator online` then teaches each one with the
-//! earlier ones in the cell: the analogue of the seed's Table 4.1 (§4.5.3), whose model was
-//! built from other users' online programs.
+//! by three users, each time with the work piece placed a little differently. `nextpose lab`
+//! writes them as corpus JSON, and `nextpose simulate … --history repository-online --operator
+//! online` then teaches each one with the earlier ones in the cell, as their users taught them
+//! (each waypoint with the online operator's error): the analogue of the seed's Table 4.1
+//! (§4.5.3), whose model was built from other users' online programs.
 //!
 //! **The repertoire** (§4.5, Figure 4.17: "two planar geometric movements" of 13 and 6
 //! waypoints and "two standard arc-welding tasks" of 10 waypoints each; "the mean distance
@@ -35,11 +35,14 @@
 //! routine), so every (user, task) pair recurs, and the previous program of the same task is
 //! always another user's. The work piece is placed by a rigid move drawn per program: an offset
 //! on the table uniform within ±50 mm in x and y and a turn about the vertical uniform within
-//! ±15° (our assumption of "a little differently": the seed does not say). Every waypoint is
-//! the placed task's pose plus the user's placement error, drawn as the simulated online
-//! operator draws it ([`super::operator::OperatorModel::place`]'s model: Gaussian, 20 mm 3-D RMS
-//! and 0.035 rad RMS by default, the figures of [`OperatorModel::online`]), since the seed's
-//! users taught with a joystick and chose their own "sufficiently close" (§4.5.1).
+//! ±15° (our assumption of "a little differently": the seed does not say). A program's waypoints
+//! are what its user meant: the placed task's poses. That is the simulated operator's target
+//! when the program is taught, and the operator's error is added where it is made: when the
+//! operator places a waypoint by hand, and when an earlier program becomes a cell's history
+//! (`History::RepositoryOnline`), since the seed's users taught with a joystick and chose their
+//! own "sufficiently close" (§4.5.1). [`LabConfig::as_taught_online`] writes the programs with
+//! that error instead ([`super::operator::OperatorModel::place`]'s model: Gaussian, 20 mm 3-D RMS
+//! and 0.035 rad RMS, the figures of [`OperatorModel::online`]).
 //!
 //! Deterministic given the seed: program `i` draws from its own ChaCha8 stream, so a lab of
 //! fewer programs is a prefix of the full one.
@@ -262,16 +265,29 @@ pub struct LabConfig {
 }
 
 impl Default for LabConfig {
-    /// The seed's lab (§4.5): 44 programs, 3 users; the simulated online operator's error.
+    /// The seed's lab (§4.5): 44 programs, 3 users, written as the users meant them (no error:
+    /// `simulate --history repository-online` adds the operator's error to the history).
     fn default() -> LabConfig {
-        let online = OperatorModel::online(JogLimits::default().tcp_mm_s);
         LabConfig {
             programs: 44,
             users: 3,
-            position_rms_mm: online.repeatability_mm,
-            rotation_rms_rad: online.repeatability_rad,
+            position_rms_mm: 0.0,
+            rotation_rms_rad: 0.0,
             offset_mm: PLACEMENT_OFFSET_MM,
             yaw_rad: PLACEMENT_YAW_RAD,
+        }
+    }
+}
+
+impl LabConfig {
+    /// The lab as its users taught it: every waypoint with the simulated online operator's
+    /// error.
+    pub fn as_taught_online() -> LabConfig {
+        let online = OperatorModel::online(JogLimits::default().tcp_mm_s);
+        LabConfig {
+            position_rms_mm: online.repeatability_mm,
+            rotation_rms_rad: online.repeatability_rad,
+            ..LabConfig::default()
         }
     }
 }

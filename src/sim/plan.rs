@@ -9,6 +9,8 @@ use serde::Serialize;
 use super::SimError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Profile;
+use crate::engine::frames::Tolerance;
+use crate::engine::noise::Noise;
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
 use crate::kinematics::{Mounting, ReachPolicy};
 use crate::program::Program;
@@ -39,6 +41,8 @@ pub struct Condition {
     pub delta: Option<f64>,
     pub phi_min: Option<f64>,
     pub horizon: Option<usize>,
+    /// Override of the default profile's offer threshold on `p_useful`.
+    pub offer_threshold: Option<f64>,
     /// The seed's figure for this row, for reference.
     pub seed: Option<SeedFigure>,
 }
@@ -56,6 +60,7 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
         delta: Some(SEED_LAB_DELTA),
         phi_min: Some(phi),
         horizon: Some(h),
+        offer_threshold: None,
         seed: Some(fig),
     };
     vec![
@@ -67,6 +72,7 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
             delta: None,
             phi_min: None,
             horizon: None,
+            offer_threshold: None,
             seed: Some(SeedFigure {
                 mean_s: 292.2,
                 std_s: 78.61,
@@ -106,10 +112,27 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
             delta: None,
             phi_min: None,
             horizon: None,
+            offer_threshold: None,
+            seed: None,
+        },
+        Condition {
+            key: "default_p05".into(),
+            label: "default profile, p ≥ 0.5".into(),
+            predictions: true,
+            profile: Profile::Default,
+            delta: None,
+            phi_min: None,
+            horizon: None,
+            offer_threshold: Some(JOYSTICK_OFFER_THRESHOLD),
             seed: None,
         },
     ]
 }
+
+/// The offer threshold of the default profile's second row: a suggestion more likely right than
+/// not (as the seed's second row lowers φ to 0.5). For a joystick operator a near miss is still
+/// a head start: fine-tuning from it is quicker than jogging the whole way.
+pub const JOYSTICK_OFFER_THRESHOLD: f64 = 0.5;
 
 /// What the cell already knows when the operator starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -121,6 +144,10 @@ pub enum History {
     /// taught exactly, as offline programs, in the same cell: like the seed's lab study, whose
     /// model was built from earlier programs of the same tasks.
     Repository,
+    /// As [`History::Repository`], but the earlier programs were taught online: each of their
+    /// waypoints carries the plan's operator's placement error ([`Plan::as_taught_online`]), as
+    /// the seed's lab model was built from other users' joystick-taught programs (§4.5.3).
+    RepositoryOnline,
 }
 
 /// Everything that defines a run, besides the programs.
@@ -139,6 +166,40 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// The cell's teaching noise and acceptance tolerance under this plan: with calibrated σs,
+    /// the operator's per-axis scatter and "close enough"; otherwise an exact cell with the
+    /// seed's tolerance.
+    pub fn noise(&self) -> (Noise, Tolerance) {
+        if !self.calibrate_sigma {
+            return (Noise::EXACT, Tolerance::SEED);
+        }
+        let o = &self.operator;
+        (
+            Noise {
+                mm: o.sigma_axis_mm(),
+                rad: o.sigma_axis_rad(),
+            },
+            Tolerance {
+                mm: o.accept_mm,
+                rad: o.accept_rad,
+            },
+        )
+    }
+
+    /// An earlier program as the plan's operator would have taught it online: every waypoint
+    /// placed with the operator's error, drawn from its own stream (the same for every
+    /// condition of one seed, so conditions are compared on one history).
+    pub fn as_taught_online(&self, program: &Program, index: usize, seed: u64) -> Program {
+        let mut p = program.clone();
+        for (r, routine) in p.routines.iter_mut().enumerate() {
+            for (w, pose) in routine.waypoints.iter_mut().enumerate() {
+                let mut rng = waypoint_rng(seed ^ HISTORY_STREAM, index, r, w);
+                *pose = self.operator.place(pose, &mut rng);
+            }
+        }
+        p
+    }
+
     /// The cell's σ_t (mm) and σ_q for `profile` under this plan.
     pub fn sigmas(&self, profile: Profile) -> (f64, f64) {
         let base = crate::engine::EngineConfig::profile(profile);
@@ -189,6 +250,9 @@ pub fn repository(program: &Program) -> String {
         .collect::<Vec<_>>()
         .join("__")
 }
+
+/// Salt of the streams of an online-taught history ([`Plan::as_taught_online`]).
+const HISTORY_STREAM: u64 = 0x6869_7374_6f72_7921;
 
 fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -254,8 +318,10 @@ mod tests {
     #[test]
     fn the_table_has_the_seed_rows() {
         let c = table_4_1_conditions();
-        assert_eq!(c.len(), 4);
+        assert_eq!(c.len(), 5);
         assert!(!c[0].predictions);
+        assert_eq!(c[4].offer_threshold, Some(JOYSTICK_OFFER_THRESHOLD));
+        assert_eq!(c[3].offer_threshold, None);
         assert_eq!(c[1].phi_min, Some(0.8));
         assert_eq!(c[2].horizon, Some(2));
         assert_eq!(c[1].seed.and_then(|s| s.change_pct), Some(-33.88));

@@ -309,6 +309,7 @@ mod tests {
             results.push(result("seed_phi08_h3", 50.0 + i as f64));
             results.push(result("seed_phi05_h2", 100.0 + i as f64));
             results.push(result("default", 60.0 + i as f64));
+            results.push(result("default_p05", 55.0 + i as f64));
         }
         let rows = summarise(&conditions, &results).unwrap();
         assert_eq!(rows[0].change_pct, None);

@@ -1,0 +1,359 @@
+//! The template expert: the routine being taught is an earlier routine's stretch placed anew.
+//!
+//! A work piece put down a little elsewhere, or a fixture turned, moves every waypoint of a
+//! task by one rigid transform `G`. The sequence experts read such a repeat one element at a
+//! time relative to the *last* waypoint, so a noisy last waypoint carries its whole error into
+//! the guess. This expert instead fits `G` to the last few waypoints at once: it aligns them
+//! (least squares, Kabsch) with every earlier stretch of as many consecutive waypoints whose
+//! shape matches, and proposes `G` applied to the waypoint that followed there. With noisy
+//! waypoints the fit averages the errors of all the aligned waypoints, and the proposals of
+//! several earlier repetitions are averaged too; with exact ones it finds what a long
+//! tool-frame context finds.
+//!
+//! **Alignment.** A pose is four points: its position and the tips of its three axes at a lever
+//! `L` (mm per rad: the cell's noise ratio `σ_mm/σ_rad`, so a rotation error weighs what it
+//! moves a point by; 100 mm for an exact cell). `G` minimises the squared distances of the
+//! points (Kabsch with the reflection fixed). A stretch matches when every aligned pose lies
+//! within the cell's tolerance of its counterpart, widened by the noise
+//! ([`super::noise::Noise::widen`] for two poses).
+//!
+//! **Finding stretches.** The length of the move into a waypoint does not change under `G`, so
+//! the earlier waypoints are kept sorted by it and only those whose incoming move is about as
+//! long as the last taught one are aligned.
+
+use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+
+use super::experts::{Candidate, Evidence, Expert};
+use super::frames::{Frame, Tolerance};
+use super::noise::{Noise, NoiseEstimate};
+use super::pose::Pose;
+
+/// Most waypoints aligned at once.
+pub const MAX_POSES: usize = 8;
+/// Fewest: two poses fix `G` (one would only repeat the last move, the tool-frame expert's).
+pub const MIN_POSES: usize = 2;
+/// Lever of an exact cell, mm per rad.
+const EXACT_LEVER_MM: f64 = 100.0;
+
+/// The finished routines, and their waypoints by the length of the move into them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TemplateExpert {
+    routines: Vec<Vec<Pose>>,
+    /// (length of the move into waypoint `j`, routine, `j`) for every `j` with a predecessor
+    /// and a follower, sorted by length.
+    by_length: Vec<(f64, u32, u32)>,
+}
+
+/// One earlier stretch aligned with the taught one.
+#[derive(Debug, Clone, Copy)]
+struct Place {
+    poses: usize,
+    guess: Pose,
+    ss_mm: f64,
+    ss_rad: f64,
+}
+
+/// A proposal, and what its alignments say about the cell's noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TemplateProposal {
+    pub candidate: Candidate,
+    /// The residuals of the best-fitting place (for [`NoiseEstimate::add`]).
+    pub residual: (f64, f64, f64),
+}
+
+impl TemplateExpert {
+    pub fn new() -> TemplateExpert {
+        TemplateExpert::default()
+    }
+
+    /// Remembers a finished routine.
+    pub fn learn(&mut self, routine: &[Pose]) {
+        let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
+        for j in 1..routine.len().saturating_sub(1) {
+            let len = routine[j].distance_to(&routine[j - 1]);
+            self.by_length
+                .push((len, r, u32::try_from(j).unwrap_or(u32::MAX)));
+        }
+        self.by_length.sort_by(|a, b| a.0.total_cmp(&b.0));
+        self.routines.push(routine.to_vec());
+    }
+
+    /// The candidate after `routine` (see the module doc): places aligned on the most poses,
+    /// their guesses averaged over those that agree with the best-fitting one.
+    pub fn propose(
+        &self,
+        routine: &[Pose],
+        noise: &Noise,
+        tolerance: &Tolerance,
+    ) -> Option<TemplateProposal> {
+        let m = routine.len();
+        if m < MIN_POSES {
+            return None;
+        }
+        let gate = noise.widen(*tolerance, Frame::Absolute);
+        let lever = if noise.mm > 0.0 && noise.rad > 0.0 {
+            (noise.mm / noise.rad).clamp(10.0, 1000.0)
+        } else {
+            EXACT_LEVER_MM
+        };
+        let last_len = routine[m - 1].distance_to(&routine[m - 2]);
+        // The incoming lengths differ by at most the two endpoints' misfits.
+        let lo = self
+            .by_length
+            .partition_point(|e| e.0 < last_len - 2.0 * gate.mm);
+        let mut places: Vec<Place> = Vec::new();
+        for &(len, r, j) in &self.by_length[lo..] {
+            if len > last_len + 2.0 * gate.mm {
+                break;
+            }
+            let earlier = &self.routines[r as usize];
+            let j = j as usize;
+            let most = MAX_POSES.min(m).min(j + 1);
+            if let Some(p) = (MIN_POSES..=most).rev().find_map(|k| {
+                align(&earlier[j + 1 - k..=j], &routine[m - k..], lever, &gate).map(
+                    |(g, ss_mm, ss_rad)| Place {
+                        poses: k,
+                        guess: Pose::from_isometry(g * earlier[j + 1].isometry()),
+                        ss_mm,
+                        ss_rad,
+                    },
+                )
+            }) {
+                places.push(p);
+            }
+        }
+        let poses = places.iter().map(|p| p.poses).max()?;
+        places.retain(|p| p.poses == poses);
+        let best = *places.iter().min_by(|a, b| a.ss_mm.total_cmp(&b.ss_mm))?;
+        // Guesses of two places differ by two placements' errors: the pose gate applies.
+        let agree: Vec<&Place> = places
+            .iter()
+            .filter(|p| {
+                p.guess.distance_to(&best.guess) <= gate.mm
+                    && p.guess.angle_to(&best.guess) <= gate.rad
+            })
+            .collect();
+        let guess = mean_pose(agree.iter().map(|p| &p.guess), &best.guess);
+        Some(TemplateProposal {
+            candidate: Candidate {
+                expert: Expert::Template,
+                pose: guess,
+                evidence: Evidence {
+                    context: poses - 1,
+                    places: places.len(),
+                    agreeing: agree.len(),
+                    in_routine: false,
+                    gated_in: false,
+                },
+            },
+            // A rigid fit of k poses takes 6 of their 3k position degrees of freedom.
+            residual: (
+                best.ss_mm,
+                best.ss_rad,
+                (3 * poses).saturating_sub(6) as f64,
+            ),
+        })
+    }
+}
+
+/// The four points of a pose (see the module doc).
+fn points(p: &Pose, lever: f64) -> [Point3<f64>; 4] {
+    let o = Point3::from(p.position());
+    let r = p.rotation();
+    [
+        o,
+        o + r * Vector3::x() * lever,
+        o + r * Vector3::y() * lever,
+        o + r * Vector3::z() * lever,
+    ]
+}
+
+/// The rigid transform taking `from` onto `to` (as many poses each), when every aligned pose is
+/// within `gate` of its counterpart; with the sums of squared position (mm²) and angle (rad²)
+/// residuals.
+fn align(
+    from: &[Pose],
+    to: &[Pose],
+    lever: f64,
+    gate: &Tolerance,
+) -> Option<(Isometry3<f64>, f64, f64)> {
+    let a: Vec<Point3<f64>> = from.iter().flat_map(|p| points(p, lever)).collect();
+    let b: Vec<Point3<f64>> = to.iter().flat_map(|p| points(p, lever)).collect();
+    let n = a.len() as f64;
+    let ca = a.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
+    let cb = b.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
+    let mut h = Matrix3::zeros();
+    for (p, q) in a.iter().zip(&b) {
+        h += (p.coords - ca) * (q.coords - cb).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let v = v_t.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let rotation = UnitQuaternion::from_matrix(&r);
+    let t = cb - rotation * ca;
+    let g = Isometry3::from_parts(Translation3::from(t), rotation);
+    let (mut ss_mm, mut ss_rad) = (0.0, 0.0);
+    for (p, q) in from.iter().zip(to) {
+        let moved = Pose::from_isometry(g * p.isometry());
+        let (dm, da) = (moved.distance_to(q), moved.angle_to(q));
+        if dm > gate.mm || da > gate.rad {
+            return None;
+        }
+        ss_mm += dm * dm;
+        ss_rad += da * da;
+    }
+    Some((g, ss_mm, ss_rad))
+}
+
+/// The mean of poses: positions averaged, rotations by their chordal mean on `near`'s
+/// hemisphere.
+fn mean_pose<'a>(poses: impl Iterator<Item = &'a Pose>, near: &Pose) -> Pose {
+    let reference = near.rotation().into_inner();
+    let (mut p, mut q, mut n) = (Vector3::zeros(), Quaternion::new(0.0, 0.0, 0.0, 0.0), 0.0);
+    for pose in poses {
+        p += pose.position();
+        let r = pose.rotation().into_inner();
+        q += if r.dot(&reference) < 0.0 { -r } else { r };
+        n += 1.0;
+    }
+    if n == 0.0 || q.norm() < 1e-9 {
+        return *near;
+    }
+    Pose::from_isometry(Isometry3::from_parts(
+        Translation3::from(p / n),
+        UnitQuaternion::new_normalize(q),
+    ))
+}
+
+/// Adds a proposal's residuals to a running noise estimate.
+pub fn observe(estimate: &mut NoiseEstimate, proposal: &TemplateProposal) {
+    let (ss_mm, ss_rad, dof) = proposal.residual;
+    estimate.add(ss_mm, ss_rad, dof);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+        let u: f64 = rng.random_range(1e-12..1.0);
+        let v: f64 = rng.random_range(0.0..1.0);
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+
+    /// A pentagram-like task of 6 waypoints, tool down, placed by `(dx, dy, turn)`.
+    fn task(dx: f64, dy: f64, turn: f64) -> Vec<Pose> {
+        let g = Isometry3::from_parts(
+            Translation3::new(500.0 + dx, dy, 200.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, turn),
+        );
+        let down = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.3);
+        (0..6)
+            .map(|i| {
+                let a = f64::from(i) * 4.0 * std::f64::consts::PI / 5.0;
+                let local = Isometry3::from_parts(
+                    Translation3::new(98.0 * a.cos(), 98.0 * a.sin(), 0.0),
+                    down,
+                );
+                Pose::from_isometry(g * local)
+            })
+            .collect()
+    }
+
+    fn noisy(poses: &[Pose], noise: &Noise, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+        poses
+            .iter()
+            .map(|p| {
+                let dp = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.mm;
+                let dr = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.rad;
+                Pose::from_isometry(Isometry3::from_parts(
+                    Translation3::from(p.position() + dp),
+                    UnitQuaternion::from_scaled_axis(dr) * p.rotation(),
+                ))
+            })
+            .collect()
+    }
+
+    /// Exact: the task placed anew is continued exactly from two waypoints on.
+    #[test]
+    fn an_exact_task_placed_anew_is_continued() {
+        let mut e = TemplateExpert::new();
+        e.learn(&task(0.0, 0.0, 0.0));
+        let placed = task(40.0, -30.0, 0.25);
+        for m in 2..placed.len() {
+            let p = e
+                .propose(&placed[..m], &Noise::EXACT, &Tolerance::SEED)
+                .expect("a candidate");
+            let c = p.candidate;
+            assert!(c.pose.distance_to(&placed[m]) < 1e-6, "at {m}");
+            assert!(c.pose.angle_to(&placed[m]) < 1e-6, "at {m}");
+            assert_eq!(c.evidence.context, m.min(MAX_POSES) - 1);
+            assert_eq!((c.evidence.places, c.evidence.agreeing), (1, 1));
+        }
+        // Another shape does not match.
+        let other: Vec<Pose> = task(0.0, 0.0, 0.0)
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                Pose::from_isometry(Translation3::new(0.0, 7.0 * i as f64, 0.0) * p.isometry())
+            })
+            .collect();
+        assert!(
+            e.propose(&other[..3], &Noise::EXACT, &Tolerance::SEED)
+                .is_none()
+        );
+    }
+
+    /// Noisy (7 mm, 0.02 rad per axis): repetitions taught before by other hands, the task
+    /// placed anew and taught with the same noise. Aligning several waypoints and averaging
+    /// several repetitions puts the guess closer to the waypoint meant than the last taught
+    /// waypoint's own error would allow a move-by-move guess to be, and the residuals estimate
+    /// the noise.
+    #[test]
+    fn a_noisy_task_is_predicted_within_the_operators_tolerance() {
+        let noise = Noise { mm: 7.0, rad: 0.02 };
+        let tolerance = Tolerance { mm: 25.0, rad: 0.1 };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut e = TemplateExpert::new();
+        for i in 0..8 {
+            let t = task(
+                10.0 * f64::from(i),
+                -5.0 * f64::from(i),
+                0.03 * f64::from(i),
+            );
+            e.learn(&noisy(&t, &noise, &mut rng));
+        }
+        let (mut within, mut errors, mut total) = (0usize, 0.0, 0usize);
+        let mut estimate = NoiseEstimate::default();
+        for trial in 0..40 {
+            let meant = task(
+                -30.0 + f64::from(trial),
+                25.0,
+                -0.2 + 0.01 * f64::from(trial),
+            );
+            let taught = noisy(&meant, &noise, &mut rng);
+            for m in 3..meant.len() {
+                let p = e
+                    .propose(&taught[..m], &noise, &tolerance)
+                    .expect("a candidate");
+                observe(&mut estimate, &p);
+                let d = p.candidate.pose.distance_to(&meant[m]);
+                errors += d * d;
+                total += 1;
+                within += usize::from(
+                    d <= tolerance.mm && p.candidate.pose.angle_to(&meant[m]) <= tolerance.rad,
+                );
+            }
+        }
+        let rms = (errors / total as f64).sqrt();
+        // A move-by-move guess is at least the last waypoint's error away: 7·√3 ≈ 12 mm RMS.
+        assert!(rms < 10.0, "RMS error {rms} mm");
+        assert!(within as f64 >= 0.95 * total as f64, "{within} of {total}");
+        let est = estimate.noise().unwrap();
+        assert!(est.mm > 4.0 && est.mm < 10.0, "{est:?}");
+    }
+}
