@@ -12,14 +12,18 @@ use nextpose::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use nextpose::replay::engine_method::EngineMethod;
 use nextpose::replay::metrics::Scores;
 use nextpose::replay::report::{Report, RunConfig};
-use nextpose::replay::{Method, load_paths, replay_all};
+use nextpose::replay::{Method, Program, load_paths, replay_all, replay_program};
 
-fn scoreboard(profile: Profile) -> Report {
+fn corpus() -> Vec<Program> {
     let corpus = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../shared/corpus/json"
     ));
-    let programs = load_paths(&[corpus]).expect("shared corpus loads");
+    load_paths(&[corpus]).expect("shared corpus loads")
+}
+
+fn scoreboard(profile: Profile) -> Report {
+    let programs = corpus();
     let config = EngineConfig::profile(profile);
     let mut methods: Vec<Box<dyn Method>> =
         vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
@@ -100,4 +104,132 @@ fn default_profile_is_precise_and_beats_every_baseline() {
         "{:?}",
         e.spearman_conf_err
     );
+}
+
+/// The reliability table and the risk–coverage curve of the default profile's p_useful over the
+/// corpus, from the scoreboard `nextpose replay` and the service produce: present, and
+/// consistent with each other and with the engine's scoreboard line. (What they measure is in
+/// the README; nothing here pins a measured figure.)
+#[test]
+fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
+    let programs = corpus();
+    let config = EngineConfig::profile(Profile::Default);
+    let threshold = config
+        .offer
+        .expect("the default profile has an offer rule")
+        .threshold;
+    let r = nextpose::replay::report::scoreboard(
+        &programs,
+        "default",
+        &config,
+        DEFAULT_NEAREST_SEQ_GATE,
+    )
+    .expect("scoreboard");
+    let e = totals(&r, "engine");
+    let c = r.calibration.get("engine").expect("engine calibration");
+    assert_eq!(r.calibration.0.len(), 1, "only the engine has p_useful");
+
+    // Reliability: ten deciles whose counts sum to the candidates.
+    assert_eq!(c.predictable, e.predictable);
+    assert!(c.candidates > 0 && c.candidates <= c.predictable);
+    assert_eq!(c.bins.len(), 10);
+    assert_eq!(
+        c.bins.iter().map(|b| b.candidates).sum::<usize>(),
+        c.candidates
+    );
+    assert_eq!(c.bins.iter().map(|b| b.useful).sum::<usize>(), c.useful);
+    for (i, b) in c.bins.iter().enumerate() {
+        assert!((b.from - i as f64 / 10.0).abs() < 1e-12);
+        match (b.mean_p_useful, b.observed, b.gap) {
+            (Some(m), Some(o), Some(g)) => {
+                assert!(b.candidates > 0);
+                assert!(m >= b.from - 1e-12 && m <= b.to + 1e-12, "{b:?}");
+                assert!((o - b.useful as f64 / b.candidates as f64).abs() < 1e-12);
+                assert!((g - (o - m)).abs() < 1e-12);
+                assert_eq!(b.within_target, Some(g.abs() <= c.target_gap + 1e-12));
+            }
+            (None, None, None) => assert_eq!(b.candidates, 0),
+            _ => panic!("{b:?}"),
+        }
+    }
+    let ece = c.ece.expect("ece");
+    assert!((0.0..=1.0).contains(&ece));
+    assert!(ece <= c.max_abs_gap.expect("max gap") + 1e-12);
+    assert_eq!(
+        c.meets_target,
+        c.bins.iter().all(|b| b.within_target != Some(false))
+    );
+
+    // Risk–coverage: 0, 0.01, …, 1; offering everything at 0, never more as t grows.
+    let curve = &c.risk_coverage;
+    assert_eq!(curve.len(), 101);
+    assert_eq!(curve[0].offered, c.candidates);
+    assert_eq!(curve[0].useful, c.useful);
+    for w in curve.windows(2) {
+        assert!(w[1].threshold > w[0].threshold);
+        assert!(w[1].offered <= w[0].offered, "{w:?}");
+        assert!(w[1].useful <= w[0].useful, "{w:?}");
+    }
+    // The engine offers exactly its candidates with p_useful ≥ the threshold, so the curve at
+    // the profile's threshold is the scoreboard's line.
+    assert_eq!(
+        (c.as_offered.offered, c.as_offered.useful),
+        (e.offered, e.useful)
+    );
+    assert_eq!(c.offered, e.offered);
+    let at = curve
+        .iter()
+        .find(|p| p.threshold.is_some_and(|t| (t - threshold).abs() < 1e-12))
+        .expect("the profile's threshold is on the grid");
+    assert_eq!((at.offered, at.useful), (e.offered, e.useful));
+    assert_eq!(at.precision_pct, e.precision_pct);
+    if let Some(p) = &c.threshold_for_target_precision.point {
+        assert!(p.precision_pct.unwrap() >= 90.0);
+        assert!(p.offered <= c.candidates);
+    }
+
+    // The JSON keeps its keys and gains `calibration`.
+    let json = serde_json::to_value(&r).unwrap();
+    for key in ["config", "totals", "oracles", "programs", "calibration"] {
+        assert!(json.get(key).is_some(), "{key}");
+    }
+    assert!(json["calibration"]["engine"]["risk_coverage"].is_array());
+    let text = r.totals_table();
+    assert!(text.contains("Calibration of engine's p_useful"), "{text}");
+    assert!(text.contains("Risk–coverage"), "{text}");
+
+    // The seed profile has no p_useful, and no calibration section.
+    let seed = scoreboard(Profile::Seed);
+    assert!(seed.calibration.is_empty());
+    assert!(
+        serde_json::to_value(&seed)
+            .unwrap()
+            .get("calibration")
+            .is_none()
+    );
+}
+
+/// The scoreboard's confidence figure for the engine is p_useful: every offered guess's
+/// confidence is its candidate's p_useful, so Spearman's ρ of confidence with error is
+/// p_useful's.
+#[test]
+fn the_engines_confidence_is_p_useful() {
+    let programs = corpus();
+    let config = EngineConfig::profile(Profile::Default);
+    let mut engine = EngineMethod::new(config).unwrap();
+    let mut offered = 0;
+    for p in programs.iter().take(12) {
+        for w in replay_program(p, &mut engine).waypoints {
+            if w.offered {
+                offered += 1;
+                let c = w.candidate.expect("an offered guess is a candidate");
+                assert_eq!(w.confidence, Some(c.p_useful));
+                assert_eq!(
+                    (w.cart_mm, w.angle_rad),
+                    (Some(c.cart_mm), Some(c.angle_rad))
+                );
+            }
+        }
+    }
+    assert!(offered > 0);
 }

@@ -163,6 +163,7 @@ fn rec(n: usize, offered: Option<(f64, f64)>, travel_mm: f64, conf: Option<f64>)
         psi: None,
         assimilated: None,
         micros: 2.0,
+        candidate: None,
     }
 }
 

@@ -89,6 +89,41 @@ fn library_writes_every_figure_as_png_and_svg() {
     // The captions say what is plotted.
     let svg = render_svg(Figure::PhiMin, &data).unwrap();
     assert!(svg.contains("φ_min"), "{svg}");
+    // The reliability of p_useful and the risk–coverage curve, and their numbers.
+    let calibration = &numbers["calibration"];
+    let bins = calibration["bins"].as_array().expect("reliability bins");
+    assert_eq!(bins.len(), 10);
+    let counted: u64 = bins.iter().map(|b| b["candidates"].as_u64().unwrap()).sum();
+    assert_eq!(Some(counted), calibration["candidates"].as_u64());
+    assert!(counted > 0, "the engine had candidates with p_useful");
+    assert_eq!(
+        calibration["risk_coverage"].as_array().map(Vec::len),
+        Some(101)
+    );
+    let svg = render_svg(Figure::Reliability, &data).unwrap();
+    assert!(svg.contains("Reliability of p_useful"), "{svg}");
+    let svg = render_svg(Figure::RiskCoverage, &data).unwrap();
+    assert!(svg.contains("Risk–coverage"), "{svg}");
+}
+
+/// Without an offer rule (the seed) no candidate has a p_useful: the two figures say so, and
+/// plots.json has no calibration.
+#[test]
+fn calibration_figures_without_p_useful_say_so() {
+    let programs = load_paths(&subset()[..1]).unwrap();
+    let config = EngineConfig::profile(nextpose::engine::Profile::Seed);
+    let grid = PlotGrid {
+        phi_mins: vec![0.5],
+        deltas: vec![0.5],
+    };
+    let data = plot_data(&programs, "seed", &config, &grid).unwrap();
+    for figure in [Figure::Reliability, Figure::RiskCoverage] {
+        let svg = render_svg(figure, &data).unwrap();
+        assert!(svg.contains("no candidate has a p_useful"), "{svg}");
+    }
+    let numbers: serde_json::Value =
+        serde_json::from_str(&nextpose::replay::plots::plotted_json(&data).unwrap()).unwrap();
+    assert!(numbers["calibration"].is_null());
 }
 
 #[test]

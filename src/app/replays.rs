@@ -1,5 +1,5 @@
 //! Replaying uploaded files or a cell's stored programs through the engine and the baselines:
-//! the scoreboard of `nextpose replay`, served.
+//! the scoreboard of `nextpose replay` (the same function), served.
 
 use super::cell_model;
 use super::error::AppError;
@@ -9,13 +9,15 @@ use super::settings::MAX_HORIZON;
 use super::{App, Result};
 
 impl App {
-    /// Replays programs (uploaded files or a cell's stored programs) through the engine and the
-    /// baselines, each program learned from scratch as in `nextpose replay`; returns the
-    /// scoreboard (serialised, the JSON form of `nextpose replay --json`).
+    /// Replays programs (uploaded files or a cell's stored programs) through the engine and
+    /// every baseline, each program learned from scratch, with the oracle bounds and the
+    /// engine's calibration: the scoreboard of `nextpose replay` (the same function,
+    /// [`crate::replay::report::scoreboard`]; serialised, the JSON form of `nextpose replay
+    /// --json`).
     pub async fn replay(&self, input: ReplayRequest) -> Result<crate::replay::report::Report> {
+        use crate::replay::baselines;
         use crate::replay::corpus::{Program as ReplayProgram, Routine as ReplayRoutine};
-        use crate::replay::report::{RunConfig, replay_all};
-        use crate::replay::{Method, baselines, engine_method::EngineMethod};
+        use crate::replay::report::{ScoreboardError, scoreboard};
 
         let profile = input.profile.unwrap_or(crate::engine::Profile::Default);
         let mut config = crate::engine::EngineConfig::profile(profile);
@@ -78,18 +80,15 @@ impl App {
         };
         let gate = baselines::DEFAULT_NEAREST_SEQ_GATE;
         let profile_name = profile.name();
-        // The replay is CPU work (seconds for a large corpus): off the async workers.
+        // The replay is CPU work (seconds for a large corpus): off the async workers. The
+        // scoreboard is `nextpose replay`'s, from the same function.
         blocking(move || -> Result<_> {
-            let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
-                EngineMethod::new(config.clone()).map_err(AppError::from)?,
-            )];
-            methods.extend(baselines::all(&config, gate));
-            replay_all(
-                &programs,
-                &mut methods,
-                RunConfig::new(profile_name, config, gate),
-            )
-            .map_err(|e| AppError::Internal(format!("the replay's arm model: {e}")))
+            scoreboard(&programs, profile_name, &config, gate).map_err(|e| match e {
+                ScoreboardError::Settings(e) => AppError::from(e),
+                ScoreboardError::Arm(e) => {
+                    AppError::Internal(format!("the replay's arm model: {e}"))
+                }
+            })
         })
         .await?
     }

@@ -11,13 +11,12 @@ use serde::Serialize;
 use super::engine_args::EngineArgs;
 use super::write_json;
 use crate::engine::EngineConfig;
-use crate::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
-use crate::replay::engine_method::EngineMethod;
+use crate::replay::baselines::DEFAULT_NEAREST_SEQ_GATE;
+use crate::replay::load_paths;
 #[cfg(feature = "plots")]
 use crate::replay::plots::{PlotGrid, plot_data, write_plots};
-use crate::replay::report::{RunConfig, replay_all};
+use crate::replay::report::scoreboard;
 use crate::replay::sweep::{sweep, sweep_table};
-use crate::replay::{Method, load_paths};
 
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
@@ -39,8 +38,9 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub quiet: bool,
     /// Also write the plots (offered/useful % vs phi_min, median error vs delta, median error
-    /// vs moves assimilated, confidence vs error) into this directory, each as PNG and SVG,
-    /// with the plotted numbers in plots.json.
+    /// vs moves assimilated, confidence vs error, reliability of p_useful, precision vs offered
+    /// share as the p_useful threshold moves) into this directory, each as PNG and SVG, with
+    /// the plotted numbers in plots.json.
     /// The two sweeps replay the engine 31 more times.
     #[cfg(feature = "plots")]
     #[arg(long, value_name = "DIR")]
@@ -74,14 +74,7 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
         bail!("--gate must be finite and non-negative, got {}", args.gate);
     }
     let programs = load_paths(&args.paths)?;
-    let mut methods: Vec<Box<dyn Method>> = vec![Box::new(
-        EngineMethod::new(config.clone()).context("invalid engine settings")?,
-    )];
-    methods.extend(baselines::scoreboard(&config, args.gate));
-    let run_config = RunConfig::new(args.engine.profile_name(), config.clone(), args.gate);
-    let mut report = replay_all(&programs, &mut methods, run_config)
-        .context("loading the arm of the reachability figures")?;
-    report.add_oracles(&programs);
+    let report = scoreboard(&programs, args.engine.profile_name(), &config, args.gate)?;
 
     let mut out = std::io::stdout().lock();
     if !args.quiet {

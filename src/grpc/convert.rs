@@ -13,7 +13,8 @@ use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::kinematics::{ReachPolicy, RobotModel, SolverKind};
 use crate::replay::metrics::Scores;
-use crate::replay::report::{MethodMetrics, Report};
+use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
+use crate::replay::report::{MethodMetrics, OracleSection, Report};
 
 type In<T> = Result<T, Status>;
 
@@ -608,7 +609,88 @@ impl From<Report> for pb::ReplayReport {
                     methods: method_metrics(p.methods),
                 })
                 .collect(),
+            oracles: r.oracles.map(Into::into),
+            calibration: r
+                .calibration
+                .0
+                .into_iter()
+                .map(|(method, c)| calibration_out(method, c))
+                .collect(),
         }
+    }
+}
+
+impl From<OracleSection> for pb::ReplayOracles {
+    fn from(o: OracleSection) -> pb::ReplayOracles {
+        pb::ReplayOracles {
+            meaning: o.meaning.to_string(),
+            useful_max_mm: o.useful_max_mm,
+            useful_max_rad: o.useful_max_rad,
+            kinds: o
+                .kinds
+                .into_iter()
+                .map(|k| pb::OracleBound {
+                    name: k.name,
+                    candidates: k.candidates,
+                    predictable: k.predictable as u64,
+                    covered: k.covered as u64,
+                    share_pct: k.share_pct,
+                    predictable_n1: k.predictable_n1 as u64,
+                    covered_n1: k.covered_n1 as u64,
+                    share_pct_n1: k.share_pct_n1,
+                })
+                .collect(),
+        }
+    }
+}
+
+impl From<ReliabilityBin> for pb::ReliabilityBin {
+    fn from(b: ReliabilityBin) -> pb::ReliabilityBin {
+        pb::ReliabilityBin {
+            from: b.from,
+            to: b.to,
+            candidates: b.candidates as u64,
+            useful: b.useful as u64,
+            mean_p_useful: b.mean_p_useful,
+            observed: b.observed,
+            gap: b.gap,
+            within_target: b.within_target,
+        }
+    }
+}
+
+impl From<RiskCoveragePoint> for pb::RiskCoveragePoint {
+    fn from(p: RiskCoveragePoint) -> pb::RiskCoveragePoint {
+        pb::RiskCoveragePoint {
+            threshold: p.threshold,
+            offered: p.offered as u64,
+            useful: p.useful as u64,
+            offered_pct: p.offered_pct,
+            precision_pct: p.precision_pct,
+            useful_pct: p.useful_pct,
+            saved_pct: p.saved_pct,
+        }
+    }
+}
+
+fn calibration_out(method: String, c: Calibration) -> pb::MethodCalibration {
+    pb::MethodCalibration {
+        method,
+        meaning: c.meaning.to_string(),
+        predictable: c.predictable as u64,
+        candidates: c.candidates as u64,
+        useful: c.useful as u64,
+        offered: c.offered as u64,
+        target_gap: c.target_gap,
+        bins: c.bins.into_iter().map(Into::into).collect(),
+        ece: c.ece,
+        max_abs_gap: c.max_abs_gap,
+        meets_target: c.meets_target,
+        spearman_p_err: c.spearman_p_err,
+        as_offered: Some(c.as_offered.into()),
+        risk_coverage: c.risk_coverage.into_iter().map(Into::into).collect(),
+        target_precision_pct: c.threshold_for_target_precision.target_precision_pct,
+        threshold_for_target_precision: c.threshold_for_target_precision.point.map(Into::into),
     }
 }
 

@@ -17,9 +17,13 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
 }
 
 /// Replay program files, or a cell's stored programs, through the engine (with the given
-/// settings) and the baselines. The answer is the scoreboard in the form `nextpose replay
-/// --json` writes: `config`, `totals` by method (`engine`, `repeat_last`, `nearest_seq`, ...)
-/// and `programs`. Nothing is stored; each program is learned from scratch.
+/// settings) and every baseline. The answer is the scoreboard of `nextpose replay`, in the form
+/// `nextpose replay --json` writes: `config`, `totals` by method (`engine`, `repeat_last`,
+/// `nearest_seq`, ..., `abs_seq`, ..., `work_seq`, ..., then the oracle bounds `oracle_tool`,
+/// ...), `oracles` (what the bounds mean), `calibration` (with the experts' offer rule: the
+/// reliability of the engine's `p_useful` by decile, its expected calibration error and the
+/// risk-coverage curve of the offer threshold) and `programs`. Nothing is stored; each program
+/// is learned from scratch.
 #[utoipa::path(post, path = "/v1/replays", tag = "programs",
     request_body = ReplayRequest,
     responses(

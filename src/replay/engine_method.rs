@@ -1,6 +1,6 @@
 //! The engine under replay: a [`Teacher`] per program, driven waypoint by waypoint.
 
-use super::method::{Guess, Method, ModelSummary};
+use super::method::{Candidate, Guess, Method, ModelSummary, Proposal};
 use crate::engine::{ConfigError, EngineConfig, Pose, Teacher};
 
 pub struct EngineMethod {
@@ -32,10 +32,23 @@ impl Method for EngineMethod {
     }
 
     fn predict(&mut self, taught: &[Pose]) -> Option<Guess> {
+        self.propose(taught).guess
+    }
+
+    /// The offered guess, and with the experts' offer rule the best candidate with its
+    /// `p_useful` whether offered or not (withheld, the prediction's pose is that candidate's).
+    fn propose(&mut self, taught: &[Pose]) -> Proposal {
         debug_assert_eq!(taught.len(), self.teacher.routine().len());
         let p = self.teacher.predict();
+        let candidate = match (p.pose, p.p_useful) {
+            (Some(pose), Some(p_useful)) => Some(Candidate { pose, p_useful }),
+            _ => None,
+        };
         if !p.offered() {
-            return None;
+            return Proposal {
+                guess: None,
+                candidate,
+            };
         }
         // With the experts' offer rule the confidence is p_useful; otherwise the gate that
         // decides most often: the match misfit (negated: higher = more sure), else φ.
@@ -44,12 +57,13 @@ impl Method for EngineMethod {
             (None, Some(_), Some(m)) => -m,
             _ => p.phi,
         };
-        p.pose.map(|pose| Guess {
+        let guess = p.pose.map(|pose| Guess {
             pose,
             confidence: Some(confidence),
             phi: Some(p.phi),
             psi: Some(p.psi),
-        })
+        });
+        Proposal { guess, candidate }
     }
 
     fn observe(&mut self, taught: &[Pose]) {

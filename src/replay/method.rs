@@ -17,6 +17,23 @@ pub struct Guess {
     pub psi: Option<f64>,
 }
 
+/// A method's best candidate for the next waypoint, offered or not, with its calibrated
+/// probability of being useful (the engine's `p_useful` under the experts' offer rule). What the
+/// reliability table and the risk–coverage curve are computed from ([`super::reliability`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    pub pose: Pose,
+    pub p_useful: f64,
+}
+
+/// What a method answers for the next waypoint: the guess it offers (if any) and, for methods
+/// with a calibrated probability, its best candidate whether offered or not.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Proposal {
+    pub guess: Option<Guess>,
+    pub candidate: Option<Candidate>,
+}
+
 /// Size of a method's model after a program, for the report.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ModelSummary {
@@ -41,6 +58,15 @@ pub trait Method {
     /// Guess the waypoint after `taught` (the current routine's waypoints so far, at least one),
     /// or `None` when nothing is offered.
     fn predict(&mut self, taught: &[Pose]) -> Option<Guess>;
+    /// [`Method::predict`] with the method's best candidate, offered or not (what replay calls).
+    /// By default the guess alone: only a method with a calibrated probability has a candidate
+    /// worth recording when it offers nothing.
+    fn propose(&mut self, taught: &[Pose]) -> Proposal {
+        Proposal {
+            guess: self.predict(taught),
+            candidate: None,
+        }
+    }
     /// `taught.last()` has just been taught.
     fn observe(&mut self, taught: &[Pose]);
     /// The routine is finished; `routine` holds all its waypoints.

@@ -22,7 +22,7 @@ use serde::Serialize;
 use statrs::statistics::{Data, Median};
 
 use super::corpus::Program;
-use super::method::{Method, ModelSummary};
+use super::method::{Method, ModelSummary, Proposal};
 
 /// A guess is useful when its position error is at most this (mm)...
 pub const USEFUL_MAX_MM: f64 = 1.0;
@@ -57,6 +57,24 @@ pub struct WaypointRecord {
     pub assimilated: Option<u64>,
     /// Wall-clock time of `predict` + `observe` for this waypoint, µs. Measured, never asserted.
     pub micros: f64,
+    /// The method's best candidate with its `p_useful`, offered or not (engine under the
+    /// experts' offer rule only; see [`super::reliability`]).
+    pub candidate: Option<CandidateRecord>,
+}
+
+/// A candidate's calibrated probability and how far it was from the waypoint then taught.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CandidateRecord {
+    pub p_useful: f64,
+    pub cart_mm: f64,
+    pub angle_rad: f64,
+}
+
+impl CandidateRecord {
+    /// Within [`USEFUL_MAX_MM`] and [`USEFUL_MAX_RAD`] of the truth (offered or not).
+    pub fn useful(&self) -> bool {
+        self.cart_mm <= USEFUL_MAX_MM && self.angle_rad <= USEFUL_MAX_RAD
+    }
 }
 
 impl WaypointRecord {
@@ -94,7 +112,7 @@ pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramReco
             }
             let assimilated = method.summary().map(|s| s.observations);
             let start = Instant::now();
-            let guess = method.predict(&w[..n]);
+            let Proposal { guess, candidate } = method.propose(&w[..n]);
             method.observe(&w[..=n]);
             let micros = start.elapsed().as_secs_f64() * 1e6;
             let (prev, truth) = (&w[n - 1], &w[n]);
@@ -111,6 +129,11 @@ pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramReco
                 psi: guess.as_ref().and_then(|g| g.psi),
                 assimilated,
                 micros,
+                candidate: candidate.map(|c| CandidateRecord {
+                    p_useful: c.p_useful,
+                    cart_mm: c.pose.distance_to(truth),
+                    angle_rad: c.pose.angle_to(truth),
+                }),
             });
         }
         method.finish_routine(w);

@@ -14,10 +14,13 @@
 //! - [`oracle`]: oracle bounds, the share of waypoints some earlier candidate of each kind
 //!   would have got right (not methods: they see the answer).
 //! - [`reach`]: whether the cell's arm could reach the guesses (kinematics).
-//! - [`report`]: all methods on all programs ([`replay_all`]), JSON and text tables.
+//! - [`reliability`]: calibration of `p_useful` (reliability table by decile, ECE) and the
+//!   risk–coverage curve of the offer threshold.
+//! - [`report`]: all methods on all programs ([`replay_all`]), the scoreboard of the CLI and
+//!   the service ([`report::scoreboard`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
 //! - `plots` (cargo feature `plots`, on by default): the seed's figures (φ_min, δ, learning
-//!   curve) and confidence vs error, PNG/SVG.
+//!   curve), confidence vs error, reliability of `p_useful` and risk–coverage, PNG/SVG.
 
 pub mod baselines;
 pub mod corpus;
@@ -29,11 +32,12 @@ pub mod oracle;
 #[cfg(feature = "plots")]
 pub mod plots;
 pub mod reach;
+pub mod reliability;
 pub mod report;
 pub mod sweep;
 
 pub use corpus::{CorpusError, Program, Routine, load_paths};
-pub use method::{Guess, Method, ModelSummary};
-pub use metrics::{ProgramRecord, Scores, WaypointRecord, replay_program};
+pub use method::{Candidate, Guess, Method, ModelSummary, Proposal};
+pub use metrics::{CandidateRecord, ProgramRecord, Scores, WaypointRecord, replay_program};
 pub use report::{Report, RunConfig, replay_all};
 pub use sweep::{SweepRow, sweep};

@@ -132,6 +132,7 @@ pub fn oracle_records(program: &Program) -> Vec<ProgramRecord> {
                     psi: None,
                     assimilated: None,
                     micros: 0.0,
+                    candidate: None,
                 });
             }
         }

@@ -1,6 +1,6 @@
 //! Plots of a replay: the seed's figures 4.10–4.13 and a confidence/error scatter, as PNG and SVG.
 //!
-//! Four figures ([`Figure`]), all over the scoreboard's headline population (waypoints with at
+//! Six figures ([`Figure`]), all over the scoreboard's headline population (waypoints with at
 //! least two predecessors):
 //!
 //! - [`Figure::PhiMin`]: offered % and useful % of predictable waypoints versus the confidence
@@ -10,8 +10,16 @@
 //! - [`Figure::LearningCurve`]: median error versus the number of moves the model had
 //!   assimilated when it guessed (seed Fig. 4.13), pooled over programs in bins that double in
 //!   width, with the offered and useful % of each bin below.
-//! - [`Figure::ConfidenceError`]: the engine's confidence figure against the Cartesian error of
-//!   each offered guess.
+//! - [`Figure::ConfidenceError`]: the engine's confidence figure (`p_useful` under the experts'
+//!   offer rule) against the Cartesian error of each offered guess.
+//! - [`Figure::Reliability`]: observed useful share against mean `p_useful` per decile, over
+//!   every candidate offered or not, with the diagonal and the ±10-point band of issue 13, and
+//!   the candidates per decile below ([`super::reliability`]).
+//! - [`Figure::RiskCoverage`]: precision against offered % of predictable waypoints as the offer
+//!   threshold on `p_useful` moves from 0 to 1.
+//!
+//! The last two need candidates with a `p_useful` (the engine under the experts' offer rule);
+//! without them (the seed profile) they say so on an empty chart.
 //!
 //! [`plot_data`] replays the engine to get what the figures show (the two sweeps and the
 //! per-waypoint records at the run's settings). Rendering ([`render_svg`], [`render_png`]) is
@@ -36,6 +44,7 @@ use crate::engine::{ConfigError, EngineConfig};
 use super::corpus::Program;
 use super::engine_method::EngineMethod;
 use super::metrics::{ProgramRecord, WaypointRecord, median, replay_program, spearman};
+use super::reliability::{Calibration, TARGET_GAP, TARGET_PRECISION_PCT};
 use super::sweep::{SweepRow, sweep};
 
 /// Bins of the learning curve with fewer offered guesses than this get no median point.
@@ -83,20 +92,25 @@ pub enum Figure {
     Delta,
     LearningCurve,
     ConfidenceError,
+    Reliability,
+    RiskCoverage,
 }
 
 impl Figure {
-    pub const ALL: [Figure; 4] = [
+    pub const ALL: [Figure; 6] = [
         Figure::PhiMin,
         Figure::Delta,
         Figure::LearningCurve,
         Figure::ConfidenceError,
+        Figure::Reliability,
+        Figure::RiskCoverage,
     ];
 
     /// Width and height, pixels (PNG) or user units (SVG).
     pub fn size(self) -> (u32, u32) {
         match self {
-            Figure::PhiMin | Figure::ConfidenceError => (960, 720),
+            Figure::PhiMin | Figure::ConfidenceError | Figure::RiskCoverage => (960, 720),
+            Figure::Reliability => (960, 900),
             Figure::Delta => (960, 760),
             Figure::LearningCurve => (960, 1000),
         }
@@ -109,6 +123,8 @@ impl Figure {
             Figure::Delta => "median_error_vs_delta",
             Figure::LearningCurve => "median_error_vs_assimilated",
             Figure::ConfidenceError => "confidence_vs_error",
+            Figure::Reliability => "reliability_p_useful",
+            Figure::RiskCoverage => "precision_vs_offered_threshold",
         }
     }
 }
@@ -278,7 +294,9 @@ pub fn confidence_points(records: &[ProgramRecord]) -> Vec<ScatterPoint> {
 
 /// What the engine reports as its confidence under `config` (see `EngineMethod::predict`).
 pub fn confidence_desc(config: &EngineConfig) -> &'static str {
-    if config.max_misfit.is_some() {
+    if config.offer.is_some() {
+        "confidence = p_useful (the experts' offer rule)"
+    } else if config.max_misfit.is_some() {
         "confidence = −match misfit (higher = surer)"
     } else {
         "confidence = φ"
@@ -338,6 +356,8 @@ struct PlottedNumbers<'a> {
     scatter_points: usize,
     scatter_useful: usize,
     scatter_spearman: Option<f64>,
+    /// The reliability table, ECE and risk–coverage curve (`null` without `p_useful`).
+    calibration: Option<Calibration>,
 }
 
 /// The numbers every figure shows, as pretty JSON.
@@ -355,6 +375,7 @@ pub fn plotted_json(data: &PlotData) -> Result<String, PlotError> {
         scatter_points: points.len(),
         scatter_useful: points.iter().filter(|p| p.useful).count(),
         scatter_spearman: spearman(&conf, &err),
+        calibration: Calibration::of_programs(&data.records),
     };
     Ok(serde_json::to_string_pretty(&numbers)?)
 }
@@ -410,6 +431,8 @@ where
         Figure::Delta => draw_delta(data, root),
         Figure::LearningCurve => draw_learning_curve(data, root),
         Figure::ConfidenceError => draw_confidence_error(data, root),
+        Figure::Reliability => draw_reliability(data, root),
+        Figure::RiskCoverage => draw_risk_coverage(data, root),
     }
 }
 
@@ -935,6 +958,279 @@ where
     )
 }
 
+/// A chart that says why it has nothing to show (no candidate carries `p_useful`).
+fn draw_nothing<DB>(data: &PlotData, root: &DrawingArea<DB, Shift>, caption: &str) -> DrawResult
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+{
+    let (body, bottom) = body_and_footer(root);
+    let mut chart = ChartBuilder::on(&body)
+        .caption(caption, (FONT, 20))
+        .margin(12)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
+    chart.draw_series(std::iter::once(Text::new(
+        "no candidate has a p_useful: this profile has no offer rule".to_string(),
+        (0.2, 0.5),
+        (FONT, 18).into_font().color(&GREY),
+    )))?;
+    footer(&bottom, &subtitle(data))
+}
+
+fn draw_reliability<DB>(data: &PlotData, root: &DrawingArea<DB, Shift>) -> DrawResult
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+{
+    let Some(c) = Calibration::of_programs(&data.records) else {
+        return draw_nothing(data, root, "Reliability of p_useful");
+    };
+    let (body, bottom) = body_and_footer(root);
+    let (_, h) = body.dim_in_pixel();
+    let (top, lower) = body.split_vertically(h * 72 / 100);
+    let pts = |v: Option<f64>| v.map_or_else(|| "–".to_string(), |v| format!("{:.1}", 100.0 * v));
+    let mut chart = ChartBuilder::on(&top)
+        .caption(
+            format!(
+                "Reliability of p_useful: {} candidates (offered or not), ECE {} points, \
+                 largest gap {} points",
+                c.candidates,
+                pts(c.ece),
+                pts(c.max_abs_gap)
+            ),
+            (FONT, 20),
+        )
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(72)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc("mean p_useful of the decile (predicted)")
+        .y_desc("observed useful share")
+        .x_labels(11)
+        .y_labels(11)
+        .x_label_formatter(&fixed(1))
+        .y_label_formatter(&fixed(1))
+        .label_style((FONT, 15))
+        .axis_desc_style((FONT, 17))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.12))
+        .draw()?;
+    // Issue 13's band: observed within TARGET_GAP of the mean p_useful.
+    let g = TARGET_GAP;
+    chart
+        .draw_series(std::iter::once(Polygon::new(
+            vec![
+                (0.0, 0.0),
+                (0.0, g),
+                (1.0 - g, 1.0),
+                (1.0, 1.0),
+                (1.0, 1.0 - g),
+                (g, 0.0),
+            ],
+            GREY.mix(0.15).filled(),
+        )))?
+        .label(format!("within ±{:.0} points", 100.0 * g))
+        .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], GREY.mix(0.15).filled()));
+    chart
+        .draw_series(LineSeries::new(
+            [(0.0, 0.0), (1.0, 1.0)],
+            GREY.stroke_width(1),
+        ))?
+        .label("perfect calibration")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 24, y)], GREY.stroke_width(1)));
+    let points: Vec<(f64, f64, usize, bool)> = c
+        .bins
+        .iter()
+        .filter_map(|b| {
+            Some((
+                b.mean_p_useful?,
+                b.observed?,
+                b.candidates,
+                b.within_target.unwrap_or(true),
+            ))
+        })
+        .collect();
+    chart
+        .draw_series(LineSeries::new(
+            points.iter().map(|p| (p.0, p.1)),
+            BLUE.stroke_width(2),
+        ))?
+        .label("observed, per decile of p_useful")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 24, y)], BLUE.stroke_width(2)));
+    let radius = |n: usize| (3.0 + 1.5 * (n.max(1) as f64).ln()).round() as i32;
+    chart.draw_series(points.iter().map(|&(x, y, n, ok)| {
+        let colour = if ok { BLUE } else { RED };
+        Circle::new((x, y), radius(n), colour.mix(0.8).filled())
+    }))?;
+    chart.draw_series(points.iter().map(|&(x, y, n, _)| {
+        // Below points high on the chart, above the others.
+        let dy = if y > 0.85 { 10 } else { -24 };
+        EmptyElement::at((x, y))
+            + Text::new(
+                format!("n={n}"),
+                (-14, dy),
+                (FONT, 13).into_font().color(&GREY),
+            )
+    }))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .draw()?;
+
+    // Below: candidates per decile.
+    let most = c
+        .bins
+        .iter()
+        .map(|b| b.candidates)
+        .max()
+        .unwrap_or(0)
+        .max(1) as f64
+        * 1.15;
+    let mut counts = ChartBuilder::on(&lower)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(72)
+        .build_cartesian_2d(0.0..1.0, 0.0..most)?;
+    counts
+        .configure_mesh()
+        .x_desc("p_useful decile")
+        .y_desc("candidates")
+        .x_labels(11)
+        .y_labels(4)
+        .x_label_formatter(&fixed(1))
+        .y_label_formatter(&decimals_for(most))
+        .label_style((FONT, 15))
+        .axis_desc_style((FONT, 17))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.12))
+        .draw()?;
+    counts.draw_series(c.bins.iter().map(|b| {
+        Rectangle::new(
+            [(b.from + 0.01, 0.0), (b.to - 0.01, b.candidates as f64)],
+            BLUE.mix(0.5).filled(),
+        )
+    }))?;
+    counts.draw_series(c.bins.iter().filter(|b| b.candidates > 0).map(|b| {
+        EmptyElement::at((b.from + 0.02, b.candidates as f64))
+            + Text::new(
+                format!("{}", b.candidates),
+                (0, -16),
+                (FONT, 13).into_font().color(&BLACK),
+            )
+    }))?;
+    footer(
+        &bottom,
+        &format!(
+            "{}; red: a decile outside ±{:.0} points; useful: ≤ 1 mm, ≤ 0.1 rad",
+            subtitle(data),
+            100.0 * g
+        ),
+    )
+}
+
+fn draw_risk_coverage<DB>(data: &PlotData, root: &DrawingArea<DB, Shift>) -> DrawResult
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+{
+    let Some(c) = Calibration::of_programs(&data.records) else {
+        return draw_nothing(
+            data,
+            root,
+            "Precision vs offered share as the p_useful threshold moves",
+        );
+    };
+    let curve = Series::new(
+        "precision of the offers with p_useful ≥ threshold",
+        BLUE,
+        c.risk_coverage
+            .iter()
+            .filter_map(|p| Some((p.offered_pct?, p.precision_pct?))),
+    );
+    let x_hi = curve.points.iter().map(|p| p.0).fold(0.0_f64, f64::max);
+    let x_max = (x_hi * 1.08).max(1.0);
+    let target = Series::new(
+        &format!("{TARGET_PRECISION_PCT:.0} % precision"),
+        RED,
+        [(0.0, TARGET_PRECISION_PCT), (x_max, TARGET_PRECISION_PCT)],
+    );
+    // Thresholds written beside the curve (once per distinct point).
+    let mut notes: Vec<(f64, f64, String)> = Vec::new();
+    for t in [0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99] {
+        let Some(p) = c
+            .risk_coverage
+            .iter()
+            .find(|p| p.threshold.is_some_and(|u| (u - t).abs() < 1e-9))
+        else {
+            continue;
+        };
+        let (Some(x), Some(y)) = (p.offered_pct, p.precision_pct) else {
+            continue;
+        };
+        if notes
+            .iter()
+            .all(|n| (n.0 - x).abs() > 0.01 * x_max || (n.1 - y).abs() > 1.0)
+        {
+            notes.push((x, y, format!("t={t}")));
+        }
+    }
+    let marker = c.as_offered.offered_pct.map(|x| {
+        let threshold = data
+            .config
+            .offer
+            .map_or_else(String::new, |o| format!(" (threshold {})", o.threshold));
+        (
+            x,
+            format!(
+                "{} profile offers {:.1} %{threshold}, precision {}",
+                data.profile,
+                x,
+                fmt_pct(c.as_offered.precision_pct)
+            ),
+        )
+    });
+    let best = c.threshold_for_target_precision.point.as_ref().map_or_else(
+        || format!("no threshold reaches {TARGET_PRECISION_PCT:.0} %"),
+        |p| {
+            format!(
+                "lowest threshold for ≥ {TARGET_PRECISION_PCT:.0} %: {:.3} ({:.1} % offered)",
+                p.threshold.unwrap_or(f64::NAN),
+                p.offered_pct.unwrap_or(f64::NAN)
+            )
+        },
+    );
+    let panel = LinePanel {
+        caption: format!("Risk–coverage of p_useful: {best}"),
+        x_desc: "offered, % of predictable waypoints",
+        y_desc: "precision of the offers, %",
+        x_range: 0.0..x_max,
+        y_max: 105.0,
+        x_labels: &decimals_for(x_max),
+        marker,
+        series: vec![curve, target],
+        notes,
+    };
+    let (body, bottom) = body_and_footer(root);
+    draw_lines(&body, &panel)?;
+    footer(
+        &bottom,
+        &format!(
+            "{}; {} candidates, offered when p_useful ≥ t for t = 0, 0.01, …, 1",
+            subtitle(data),
+            c.candidates
+        ),
+    )
+}
+
+fn fmt_pct(v: Option<f64>) -> String {
+    v.map_or_else(|| "–".to_string(), |v| format!("{v:.1} %"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -953,6 +1249,7 @@ mod tests {
             psi: None,
             assimilated,
             micros: 1.0,
+            candidate: None,
         }
     }
 
@@ -1021,7 +1318,12 @@ mod tests {
 
     #[test]
     fn confidence_label_follows_the_engine_method() {
-        assert!(confidence_desc(&EngineConfig::default()).contains("misfit"));
+        assert!(confidence_desc(&EngineConfig::default()).contains("p_useful"));
+        let no_rule = EngineConfig {
+            offer: None,
+            ..EngineConfig::default()
+        };
+        assert!(confidence_desc(&no_rule).contains("misfit"));
         let seed = EngineConfig::profile(crate::engine::Profile::Seed);
         assert_eq!(confidence_desc(&seed), "confidence = φ");
     }

@@ -10,7 +10,7 @@ use crate::engine::Pose;
 use crate::kinematics::Mounting;
 use crate::kinematics::placement::ReachCheck;
 
-use super::method::{Guess, Method, ModelSummary};
+use super::method::{Guess, Method, ModelSummary, Proposal};
 
 /// One predicted waypoint's reachability: `n` (predecessors), the guess's (offered only) and
 /// the taught waypoint's.
@@ -69,13 +69,17 @@ impl Method for ReachRecorder<'_> {
     }
 
     fn predict(&mut self, taught: &[Pose]) -> Option<Guess> {
-        let guess = self.inner.predict(taught);
+        self.propose(taught).guess
+    }
+
+    fn propose(&mut self, taught: &[Pose]) -> Proposal {
+        let proposal = self.inner.propose(taught);
         self.seen.push(Seen {
             predecessors: taught.len(),
-            guess: guess.as_ref().map(|g| g.pose),
+            guess: proposal.guess.as_ref().map(|g| g.pose),
             taught: None,
         });
-        guess
+        proposal
     }
 
     fn observe(&mut self, taught: &[Pose]) {

@@ -8,6 +8,11 @@
 //!   "totals":   { "<method>": { ...Scores... }, ..., "oracle_tool": { ...Scores... }, ... },
 //!   "oracles":  { "meaning": ..., "useful_max_mm", "useful_max_rad",
 //!                 "kinds": [ { "name": "oracle_tool", "candidates": ..., "covered", "share_pct", ... } ] },
+//!   "calibration": { "<method>": { "meaning", "predictable", "candidates", "bins": [ { "from", "to",
+//!                 "candidates", "useful", "mean_p_useful", "observed", "gap", "within_target" } ],
+//!                 "ece", "max_abs_gap", "meets_target", "spearman_p_err", "as_offered",
+//!                 "risk_coverage": [ { "threshold", "offered", "offered_pct", "precision_pct", ... } ],
+//!                 "threshold_for_target_precision": { "target_precision_pct", "point" } } },
 //!   "programs": [ { "program": name, "language": ..., "methods": { "<method>": { ...Scores... } } } ] }
 //! ```
 //!
@@ -20,21 +25,35 @@
 //! per program they follow every method, as a perfect selector: `offered = useful`, precision
 //! 100 %, `useful_pct` the share covered, `saved_pct` the most a method drawing only on those
 //! candidates could save. [`Report::totals_table`] lists them in a table of their own.
+//!
+//! `calibration` is there for the methods that give each candidate a calibrated probability
+//! (the engine under the experts' offer rule, whose candidates carry `p_useful`): the
+//! reliability table by decile, the expected calibration error and the risk–coverage curve
+//! ([`super::reliability`]). Absent when no method has one (the seed profile).
+//!
+//! [`scoreboard`] is the one scoreboard `nextpose replay` and the service's replay both
+//! produce: the engine, every baseline, the oracles and the calibration.
 
 use std::fmt::Write as _;
 
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
-use crate::engine::EngineConfig;
+use thiserror::Error;
 
+use crate::engine::{ConfigError, EngineConfig};
+use crate::kinematics::KinematicsError;
+
+use super::baselines;
 use super::corpus::Program;
+use super::engine_method::EngineMethod;
 use super::method::Method;
 use super::metrics::{
     ProgramRecord, Scores, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program, saved_pct,
 };
 use super::oracle::{ORACLES, is_oracle, oracle_records};
 use super::reach::{ReachRecord, ReachRecorder, reach_figures};
+use super::reliability::Calibration;
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
 
 /// The settings a report was produced with.
@@ -103,7 +122,65 @@ pub struct Report {
     /// report has none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub oracles: Option<OracleSection>,
+    /// The calibration of each method whose candidates carry `p_useful` (the engine with the
+    /// experts' offer rule), by name in run order; absent when there is none.
+    #[serde(skip_serializing_if = "Calibrations::is_empty")]
+    pub calibration: Calibrations,
     pub programs: Vec<ProgramReport>,
+}
+
+/// Calibration sections by method name, in run order (serialised as a JSON object).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Calibrations(pub Vec<(String, Calibration)>);
+
+impl Calibrations {
+    pub fn get(&self, method: &str) -> Option<&Calibration> {
+        self.0.iter().find(|(m, _)| m == method).map(|(_, c)| c)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl Serialize for Calibrations {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (name, c) in &self.0 {
+            map.serialize_entry(name, c)?;
+        }
+        map.end()
+    }
+}
+
+/// Why [`scoreboard`] could not be produced.
+#[derive(Debug, Error)]
+pub enum ScoreboardError {
+    #[error("invalid engine settings: {0}")]
+    Settings(#[from] ConfigError),
+    #[error("loading the arm of the reachability figures: {0}")]
+    Arm(#[from] KinematicsError),
+}
+
+/// The scoreboard of `nextpose replay` and of the service's replay (`POST /v1/replays`, the
+/// gRPC `Replay`), one function so the two cannot drift: the engine at `config` (its profile
+/// named `profile`), every baseline ([`baselines::scoreboard`], `gate` for the gated ones), the
+/// oracle bounds ([`Report::add_oracles`]) and the engine's calibration.
+pub fn scoreboard(
+    programs: &[Program],
+    profile: &str,
+    config: &EngineConfig,
+    gate: f64,
+) -> Result<Report, ScoreboardError> {
+    let mut methods: Vec<Box<dyn Method>> = vec![Box::new(EngineMethod::new(config.clone())?)];
+    methods.extend(baselines::scoreboard(config, gate));
+    let mut report = replay_all(
+        programs,
+        &mut methods,
+        RunConfig::new(profile, config.clone(), gate),
+    )?;
+    report.add_oracles(programs);
+    Ok(report)
 }
 
 /// The report's `oracles` section (see the module doc and [`super::oracle`]).
@@ -197,6 +274,13 @@ pub fn replay_all(
             })
             .collect(),
     );
+    let calibration = Calibrations(
+        names
+            .iter()
+            .zip(&records)
+            .filter_map(|(name, recs)| Some((name.clone(), Calibration::of_programs(recs)?)))
+            .collect(),
+    );
     let programs = programs
         .iter()
         .enumerate()
@@ -219,6 +303,7 @@ pub fn replay_all(
         config,
         totals,
         oracles: None,
+        calibration,
         programs,
     })
 }
@@ -355,6 +440,10 @@ impl Report {
         if let Some(table) = self.oracle_table() {
             text.push('\n');
             text.push_str(&table);
+        }
+        for (method, c) in &self.calibration.0 {
+            text.push('\n');
+            text.push_str(&c.table(method));
         }
         text
     }

@@ -936,18 +936,7 @@ fn assert_same_scoreboard(rest: &Value, grpc: &pb::ReplayReport) {
     let same_lines = |rest: &Value, grpc: &[pb::MethodMetrics], at: &str| {
         let rest = rest.as_object().expect("methods");
         let names: Vec<&str> = grpc.iter().map(|m| m.method.as_str()).collect();
-        assert_eq!(
-            names,
-            [
-                "engine",
-                "repeat_last",
-                "nearest_seq",
-                "nearest_seq_gated",
-                "nearest_seq_within",
-                "nearest_seq_within_gated"
-            ],
-            "{at}"
-        );
+        assert_eq!(names, crate::import::scoreboard_methods(), "{at}");
         // (serde_json's map here is sorted by key, not in the order REST wrote it.)
         let mut sorted = names.clone();
         sorted.sort_unstable();
@@ -970,6 +959,62 @@ fn assert_same_scoreboard(rest: &Value, grpc: &pb::ReplayReport) {
         assert_eq!(r["program"], g.program.as_str());
         assert_eq!(r["language"], g.language.as_str());
         same_lines(&r["methods"], &g.methods, &g.program);
+    }
+    // The oracle bounds' section and the calibration of p_useful.
+    let oracles = grpc.oracles.as_ref().expect("oracles");
+    let kinds = rest["oracles"]["kinds"].as_array().unwrap();
+    assert_eq!(kinds.len(), oracles.kinds.len());
+    for (r, g) in kinds.iter().zip(&oracles.kinds) {
+        assert_eq!(r["name"], g.name.as_str());
+        assert_eq!(r["covered"], g.covered);
+        assert_eq!(r["predictable"], g.predictable);
+    }
+    assert_eq!(rest["oracles"]["meaning"], oracles.meaning.as_str());
+    match rest.get("calibration") {
+        None => assert!(grpc.calibration.is_empty()),
+        Some(calibration) => {
+            let rest = calibration.as_object().unwrap();
+            assert_eq!(rest.len(), grpc.calibration.len());
+            for c in &grpc.calibration {
+                let r = &rest[&c.method];
+                let bins: Vec<Value> = c
+                    .bins
+                    .iter()
+                    .map(|b| {
+                        json!({
+                            "from": b.from, "to": b.to, "candidates": b.candidates,
+                            "useful": b.useful, "mean_p_useful": b.mean_p_useful,
+                            "observed": b.observed, "gap": b.gap,
+                            "within_target": b.within_target,
+                        })
+                    })
+                    .collect();
+                let rest_bins = r["bins"].as_array().unwrap();
+                assert_eq!(rest_bins.len(), bins.len());
+                for (rb, gb) in rest_bins.iter().zip(&bins) {
+                    assert_same_figures(rb, gb, &format!("{}: bin", c.method));
+                }
+                assert_eq!(r["candidates"], c.candidates);
+                assert_eq!(r["meets_target"], c.meets_target);
+                assert_same_figures(
+                    &json!({ "ece": r["ece"], "spearman": r["spearman_p_err"] }),
+                    &json!({ "ece": c.ece, "spearman": c.spearman_p_err }),
+                    &c.method,
+                );
+                let curve = r["risk_coverage"].as_array().unwrap();
+                assert_eq!(curve.len(), c.risk_coverage.len());
+                for (rp, gp) in curve.iter().zip(&c.risk_coverage) {
+                    assert_eq!(rp["offered"], gp.offered);
+                    assert_eq!(rp["useful"], gp.useful);
+                }
+                let best = &r["threshold_for_target_precision"]["point"];
+                let g = c.threshold_for_target_precision.as_ref();
+                assert_eq!(best.is_null(), g.is_none());
+                if let Some(g) = g {
+                    assert_eq!(best["offered"], g.offered);
+                }
+            }
+        }
     }
     let config = grpc.config.as_ref().unwrap();
     let json: Value = serde_json::from_str(&config.json).unwrap();

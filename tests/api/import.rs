@@ -234,6 +234,41 @@ async fn nextpose_import_uploads_files_to_a_running_server() {
     assert!(!output.status.success());
 }
 
+/// The methods of `nextpose replay`'s scoreboard, in run order: the engine, every baseline,
+/// the oracle bounds.
+pub(crate) fn scoreboard_methods() -> Vec<String> {
+    use nextpose::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
+    let config = nextpose::engine::EngineConfig::default();
+    let mut names = vec!["engine".to_string()];
+    names.extend(
+        baselines::scoreboard(&config, DEFAULT_NEAREST_SEQ_GATE)
+            .iter()
+            .map(|m| m.name().to_string()),
+    );
+    names.extend(
+        nextpose::replay::oracle::ORACLES
+            .iter()
+            .map(|o| o.name.to_string()),
+    );
+    names
+}
+
+/// A report's JSON without the measured time per waypoint (totals and per program).
+fn without_timing(mut report: Value) -> Value {
+    let strip = |methods: &mut Value| {
+        for line in methods.as_object_mut().expect("methods").values_mut() {
+            line.as_object_mut()
+                .expect("a line")
+                .remove("us_per_waypoint");
+        }
+    };
+    strip(&mut report["totals"]);
+    for p in report["programs"].as_array_mut().expect("programs") {
+        strip(&mut p["methods"]);
+    }
+    report
+}
+
 #[tokio::test]
 async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
     let app = spawn_app().await;
@@ -241,19 +276,50 @@ async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
     let report = app
         .post_ok("/v1/replays", &json!({ "files": files }), StatusCode::OK)
         .await;
-    for method in [
-        "engine",
-        "repeat_last",
-        "nearest_seq",
-        "nearest_seq_gated",
-        "nearest_seq_within",
-        "nearest_seq_within_gated",
-    ] {
+    // Every method of the CLI's scoreboard, the baselines and oracle bounds of issue 13 too.
+    let methods = scoreboard_methods();
+    let mut expected: Vec<&str> = methods.iter().map(String::as_str).collect();
+    expected.sort_unstable();
+    let totals = report["totals"].as_object().unwrap();
+    assert_eq!(
+        totals.keys().map(String::as_str).collect::<Vec<_>>(),
+        expected
+    );
+    for method in &methods {
         let t = &report["totals"][method];
         assert!(t["predictable"].as_u64().unwrap() > 10, "{method}: {t}");
         assert!(t["saved_pct"].is_number(), "{method}");
     }
     assert!(!report["programs"].as_array().unwrap().is_empty());
+    assert!(report["oracles"]["kinds"].is_array());
+    let calibration = &report["calibration"]["engine"];
+    assert_eq!(calibration["bins"].as_array().map(Vec::len), Some(10));
+    assert!(calibration["risk_coverage"].is_array());
+
+    // The very report of the library function the CLI prints, but for the time per waypoint.
+    let texts: Vec<(String, String)> = files
+        .iter()
+        .map(|f| {
+            let text = |k: &str| f[k].as_str().unwrap().to_string();
+            (text("name"), text("content"))
+        })
+        .collect();
+    let texts: Vec<(&str, &str)> = texts
+        .iter()
+        .map(|(n, c)| (n.as_str(), c.as_str()))
+        .collect();
+    let programs = nextpose::import::parse_files(&texts).unwrap().to_replay();
+    let cli = nextpose::replay::report::scoreboard(
+        &programs,
+        "default",
+        &nextpose::engine::EngineConfig::default(),
+        nextpose::replay::baselines::DEFAULT_NEAREST_SEQ_GATE,
+    )
+    .unwrap();
+    assert_eq!(
+        without_timing(report.clone()),
+        without_timing(serde_json::to_value(&cli).unwrap())
+    );
 
     // The same programs imported into a cell and replayed from there give the same totals.
     let cell = app.create_cell("replayed").await;
