@@ -179,11 +179,11 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
     assert_eq!(by_name.len(), loaded.len());
 
     // So `--history repository` gives program k the k programs before it.
-    let plan = Plan {
+    let exact = Plan {
         history: History::Repository,
         ..plan(2)
     };
-    for (k, s) in sessions(&plan, &loaded, "t").iter().enumerate() {
+    for (k, s) in sessions(&exact, &loaded, "t").iter().enumerate() {
         let warm = match &s.warmup {
             Warmup::None => 0,
             Warmup::Programs(p) => {

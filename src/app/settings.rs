@@ -49,8 +49,8 @@ pub struct CellSettings {
     /// Predictions the arm cannot reach: withheld (default) or offered flagged.
     pub reach_policy: ReachPolicy,
     /// Teaching noise, one sigma per axis of a taught waypoint (0 for exact, offline programs;
-    /// a joystick operator's scatter, e.g. from `POST /v1/cells/{id}/noise`). The experts match
-    /// within the tolerance widened by it.
+    /// for a joystick operator, the scatter of a calibration routine: one point recorded several
+    /// times). The experts match within the tolerance widened by it.
     #[serde(default)]
     pub noise: Noise,
     /// Acceptance tolerance: a suggestion this close to what is then taught counts as right
@@ -168,30 +168,6 @@ impl CellSettings {
     }
 
     pub fn validate(&self) -> Result<(), AppError> {
-        self.engine_config().validate()?;
-        for (name, value, range) in [
-            ("sigma_t_mm", self.sigma_t_mm, SIGMA_T_MM),
-            ("sigma_q", self.sigma_q, SIGMA_Q),
-        ] {
-            if !range.contains(&value) {
-                return Err(AppError::Invalid(format!(
-                    "{name} = {value} is outside {} to {}",
-                    range.start(),
-                    range.end()
-                )));
-            }
-        }
-        if self.horizon > MAX_HORIZON {
-            return Err(AppError::Invalid(format!(
-                "horizon {} is above the maximum of {MAX_HORIZON}",
-                self.horizon
-            )));
-        }
-        if self.robot.trim().is_empty() {
-            return Err(AppError::Invalid("robot must not be empty".into()));
-        }
-        self.base.to_pose()?;
-        self.tool.to_pose()?;
         for (name, value) in [
             ("noise.mm", self.noise.mm),
             ("noise.rad", self.noise.rad),
@@ -217,6 +193,30 @@ impl CellSettings {
                 self.noise.mm, self.noise.rad
             )));
         }
+        self.engine_config().validate()?;
+        for (name, value, range) in [
+            ("sigma_t_mm", self.sigma_t_mm, SIGMA_T_MM),
+            ("sigma_q", self.sigma_q, SIGMA_Q),
+        ] {
+            if !range.contains(&value) {
+                return Err(AppError::Invalid(format!(
+                    "{name} = {value} is outside {} to {}",
+                    range.start(),
+                    range.end()
+                )));
+            }
+        }
+        if self.horizon > MAX_HORIZON {
+            return Err(AppError::Invalid(format!(
+                "horizon {} is above the maximum of {MAX_HORIZON}",
+                self.horizon
+            )));
+        }
+        if self.robot.trim().is_empty() {
+            return Err(AppError::Invalid("robot must not be empty".into()));
+        }
+        self.base.to_pose()?;
+        self.tool.to_pose()?;
         // Whatever passes must give a working model (as creating a routine will build it).
         crate::engine::Teacher::new(self.engine_config())?;
         Ok(())

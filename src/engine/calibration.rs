@@ -152,17 +152,33 @@ fn prior(c: &Coarse) -> f64 {
 pub struct Calibration {
     coarse: HashMap<Coarse, Count>,
     fine: HashMap<Fine, Count>,
+    /// Start from 0.5 in every class instead of [`PRIOR`] (a noisy cell: the prior's counts come
+    /// from exact programs, whose repeats are right far more often than a noisy cell's).
+    uninformed: bool,
 }
 
 impl Calibration {
+    /// A cell's calibration starting from [`PRIOR`].
     pub fn new() -> Calibration {
         Calibration::default()
+    }
+
+    /// A calibration that starts from 0.5 in every class and learns only from the cell.
+    pub fn uninformed() -> Calibration {
+        Calibration {
+            uninformed: true,
+            ..Calibration::default()
+        }
     }
 
     /// The estimated probability that a candidate with this evidence is right.
     pub fn p_useful(&self, expert: Expert, evidence: &Evidence) -> f64 {
         let f = Fine::of(expert, evidence);
-        let p0 = prior(&f.coarse);
+        let p0 = if self.uninformed {
+            0.5
+        } else {
+            prior(&f.coarse)
+        };
         let p1 = self
             .coarse
             .get(&f.coarse)

@@ -6,8 +6,7 @@
 //!
 //! **Where it comes from.** Set from a calibration routine, the seed's §4.5.1: the operator jogs
 //! to one unreferenced point several times and the scatter of the recorded poses is the noise
-//! ([`Noise::from_scatter`]); or estimated online from how far apart the poses of a pattern lie
-//! once its repetitions are aligned ([`NoiseEstimate`]).
+//! ([`Noise::from_scatter`]; the simulation's cells are set that way).
 //!
 //! **What it changes.** Two elements read from noisy waypoints differ even when they mean the
 //! same: two poses by the difference of two errors, two moves by four (each move is the
@@ -108,6 +107,12 @@ impl Noise {
         (f * self.mm, f * self.rad)
     }
 
+    /// Whether the noise is too small to matter at this tolerance: no element's match tolerance
+    /// is widened by it (the cell then behaves as an exact one).
+    pub fn is_negligible(&self, tolerance: &Tolerance) -> bool {
+        self.widen(*tolerance, Frame::Work) == *tolerance
+    }
+
     /// A tolerance for matching noisy elements of `frame` (see the module doc).
     pub fn widen(&self, tolerance: Tolerance, frame: Frame) -> Tolerance {
         let (mm, rad) = self.difference_rms(frame);
@@ -138,42 +143,6 @@ impl Noise {
         let t = self.judging(tolerance);
         let right = candidate.distance_to(taught) <= t.mm && candidate.angle_to(taught) <= t.rad;
         f64::from(u8::from(right))
-    }
-}
-
-/// The cell's running estimate of its noise from aligned repetitions: each alignment of `k`
-/// poses against an earlier repetition leaves residuals that are the difference of two errors
-/// per pose (less what the alignment itself absorbs), so the mean squared residual per axis is
-/// about twice the variance.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct NoiseEstimate {
-    ss_mm: f64,
-    ss_rad: f64,
-    dof: f64,
-}
-
-impl NoiseEstimate {
-    /// Adds an alignment's squared residuals (sums over its poses, of position in mm² and of
-    /// angle in rad²) and its degrees of freedom (three per pose, less what the alignment fit).
-    pub fn add(&mut self, ss_mm: f64, ss_rad: f64, dof: f64) {
-        if ss_mm.is_finite() && ss_rad.is_finite() && dof > 0.0 {
-            self.ss_mm += ss_mm;
-            self.ss_rad += ss_rad;
-            self.dof += dof;
-        }
-    }
-
-    /// Degrees of freedom gathered.
-    pub fn dof(&self) -> f64 {
-        self.dof
-    }
-
-    /// The estimate, once there is anything to estimate from.
-    pub fn noise(&self) -> Option<Noise> {
-        (self.dof > 0.0).then(|| Noise {
-            mm: (self.ss_mm / (2.0 * self.dof)).sqrt(),
-            rad: (self.ss_rad / (2.0 * self.dof)).sqrt(),
-        })
     }
 }
 

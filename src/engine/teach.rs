@@ -25,11 +25,10 @@ use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
 use super::hmm::Hmm;
 use super::learner::{ModelStats, ObservationGraph};
 use super::metric::Metric;
-use super::noise::NoiseEstimate;
 use super::pose::{Move, Observation, Pose, scale_translation};
 use super::predict::{PredictOptions, Prediction, Withheld, predict_move};
 use super::scale;
-use super::template::{self, TemplateExpert};
+use super::template::TemplateExpert;
 
 /// The engine for one work cell.
 #[derive(Debug, Clone)]
@@ -47,8 +46,6 @@ pub struct Teacher {
     experts: [SequenceExpert; 3],
     /// The template expert over the finished routines.
     template: TemplateExpert,
-    /// The noise the template expert's alignments show (taught waypoints with an offer rule).
-    noise_estimate: NoiseEstimate,
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
     /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
@@ -61,6 +58,16 @@ impl Teacher {
         let metric = Metric::diagonal(config.sigma_t, config.sigma_q)?;
         let graph = ObservationGraph::new(metric, config.delta, config.merge)?
             .with_recency(config.recency)?;
+        // The prior's counts are exact programs'; a cell whose noise matters learns its own
+        // from scratch.
+        let exact = config
+            .offer
+            .is_none_or(|r| config.noise.is_negligible(&r.tolerance));
+        let calibration = if exact {
+            Calibration::new()
+        } else {
+            Calibration::uninformed()
+        };
         Ok(Teacher {
             config,
             graph,
@@ -70,8 +77,7 @@ impl Teacher {
             before_routine: None,
             experts: SequenceExpert::all(),
             template: TemplateExpert::new(),
-            noise_estimate: NoiseEstimate::default(),
-            calibration: Calibration::new(),
+            calibration,
             outcomes: Vec::new(),
         })
     }
@@ -96,12 +102,6 @@ impl Teacher {
     /// The cell's calibration of its experts' candidates.
     pub fn calibration(&self) -> &Calibration {
         &self.calibration
-    }
-
-    /// The noise the cell's taught waypoints show so far (aligned repetitions; with an offer
-    /// rule).
-    pub fn noise_estimate(&self) -> &NoiseEstimate {
-        &self.noise_estimate
     }
 
     /// Appends a taught waypoint to the current routine. With an offer rule, the waypoint first
@@ -213,11 +213,7 @@ impl Teacher {
                 .iter()
                 .flat_map(|e| e.proposals(routine, &noise.widen(rule.tolerance, e.frame()))),
         );
-        out.extend(
-            self.template
-                .propose(routine, noise, &rule.tolerance)
-                .map(|p| p.candidate),
-        );
+        out.extend(self.template.propose(routine, noise, &rule.tolerance));
         out
     }
 
@@ -250,10 +246,6 @@ impl Teacher {
         out.withheld =
             (p < rule.threshold).then(|| own_reason.unwrap_or(Withheld::Unlikely { p_useful: p }));
         out
-    }
-
-    fn offer_tolerance(&self) -> super::frames::Tolerance {
-        self.config.offer.map(|r| r.tolerance).unwrap_or_default()
     }
 
     fn restore_routine_start(&mut self) {
@@ -324,17 +316,6 @@ impl Teacher {
     pub fn finish_routine(&mut self) {
         for e in &mut self.experts {
             e.learn(&self.routine);
-        }
-        if self.config.offer.is_some() {
-            for m in template::MIN_POSES..=self.routine.len() {
-                if let Some(p) = self.template.propose(
-                    &self.routine[..m],
-                    &self.config.noise,
-                    &self.offer_tolerance(),
-                ) {
-                    template::observe(&mut self.noise_estimate, &p);
-                }
-            }
         }
         self.template.learn(&self.routine);
         self.outcomes.clear();

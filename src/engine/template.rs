@@ -25,7 +25,7 @@ use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuatern
 
 use super::experts::{Candidate, Evidence, Expert};
 use super::frames::{Frame, Tolerance};
-use super::noise::{Noise, NoiseEstimate};
+use super::noise::Noise;
 use super::pose::Pose;
 
 /// Most waypoints aligned at once.
@@ -50,15 +50,6 @@ struct Place {
     poses: usize,
     guess: Pose,
     ss_mm: f64,
-    ss_rad: f64,
-}
-
-/// A proposal, and what its alignments say about the cell's noise.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TemplateProposal {
-    pub candidate: Candidate,
-    /// The residuals of the best-fitting place (for [`NoiseEstimate::add`]).
-    pub residual: (f64, f64, f64),
 }
 
 impl TemplateExpert {
@@ -85,7 +76,7 @@ impl TemplateExpert {
         routine: &[Pose],
         noise: &Noise,
         tolerance: &Tolerance,
-    ) -> Option<TemplateProposal> {
+    ) -> Option<Candidate> {
         let m = routine.len();
         if m < MIN_POSES {
             return None;
@@ -110,14 +101,13 @@ impl TemplateExpert {
             let j = j as usize;
             let most = MAX_POSES.min(m).min(j + 1);
             if let Some(p) = (MIN_POSES..=most).rev().find_map(|k| {
-                align(&earlier[j + 1 - k..=j], &routine[m - k..], lever, &gate).map(
-                    |(g, ss_mm, ss_rad)| Place {
+                align(&earlier[j + 1 - k..=j], &routine[m - k..], lever, &gate).map(|(g, ss_mm)| {
+                    Place {
                         poses: k,
                         guess: Pose::from_isometry(g * earlier[j + 1].isometry()),
                         ss_mm,
-                        ss_rad,
-                    },
-                )
+                    }
+                })
             }) {
                 places.push(p);
             }
@@ -134,24 +124,16 @@ impl TemplateExpert {
             })
             .collect();
         let guess = mean_pose(agree.iter().map(|p| &p.guess), &best.guess);
-        Some(TemplateProposal {
-            candidate: Candidate {
-                expert: Expert::Template,
-                pose: guess,
-                evidence: Evidence {
-                    context: poses - 1,
-                    places: places.len(),
-                    agreeing: agree.len(),
-                    in_routine: false,
-                    gated_in: false,
-                },
+        Some(Candidate {
+            expert: Expert::Template,
+            pose: guess,
+            evidence: Evidence {
+                context: poses - 1,
+                places: places.len(),
+                agreeing: agree.len(),
+                in_routine: false,
+                gated_in: false,
             },
-            // A rigid fit of k poses takes 6 of their 3k position degrees of freedom.
-            residual: (
-                best.ss_mm,
-                best.ss_rad,
-                (3 * poses).saturating_sub(6) as f64,
-            ),
         })
     }
 }
@@ -169,14 +151,13 @@ fn points(p: &Pose, lever: f64) -> [Point3<f64>; 4] {
 }
 
 /// The rigid transform taking `from` onto `to` (as many poses each), when every aligned pose is
-/// within `gate` of its counterpart; with the sums of squared position (mm²) and angle (rad²)
-/// residuals.
+/// within `gate` of its counterpart; with the sum of squared position residuals (mm²).
 fn align(
     from: &[Pose],
     to: &[Pose],
     lever: f64,
     gate: &Tolerance,
-) -> Option<(Isometry3<f64>, f64, f64)> {
+) -> Option<(Isometry3<f64>, f64)> {
     let a: Vec<Point3<f64>> = from.iter().flat_map(|p| points(p, lever)).collect();
     let b: Vec<Point3<f64>> = to.iter().flat_map(|p| points(p, lever)).collect();
     let n = a.len() as f64;
@@ -194,7 +175,7 @@ fn align(
     let rotation = UnitQuaternion::from_matrix(&r);
     let t = cb - rotation * ca;
     let g = Isometry3::from_parts(Translation3::from(t), rotation);
-    let (mut ss_mm, mut ss_rad) = (0.0, 0.0);
+    let mut ss_mm = 0.0;
     for (p, q) in from.iter().zip(to) {
         let moved = Pose::from_isometry(g * p.isometry());
         let (dm, da) = (moved.distance_to(q), moved.angle_to(q));
@@ -202,9 +183,8 @@ fn align(
             return None;
         }
         ss_mm += dm * dm;
-        ss_rad += da * da;
     }
-    Some((g, ss_mm, ss_rad))
+    Some((g, ss_mm))
 }
 
 /// The mean of poses: positions averaged, rotations by their chordal mean on `near`'s
@@ -225,12 +205,6 @@ fn mean_pose<'a>(poses: impl Iterator<Item = &'a Pose>, near: &Pose) -> Pose {
         Translation3::from(p / n),
         UnitQuaternion::new_normalize(q),
     ))
-}
-
-/// Adds a proposal's residuals to a running noise estimate.
-pub fn observe(estimate: &mut NoiseEstimate, proposal: &TemplateProposal) {
-    let (ss_mm, ss_rad, dof) = proposal.residual;
-    estimate.add(ss_mm, ss_rad, dof);
 }
 
 #[cfg(test)]
@@ -285,10 +259,9 @@ mod tests {
         e.learn(&task(0.0, 0.0, 0.0));
         let placed = task(40.0, -30.0, 0.25);
         for m in 2..placed.len() {
-            let p = e
+            let c = e
                 .propose(&placed[..m], &Noise::EXACT, &Tolerance::SEED)
                 .expect("a candidate");
-            let c = p.candidate;
             assert!(c.pose.distance_to(&placed[m]) < 1e-6, "at {m}");
             assert!(c.pose.angle_to(&placed[m]) < 1e-6, "at {m}");
             assert_eq!(c.evidence.context, m.min(MAX_POSES) - 1);
@@ -311,8 +284,7 @@ mod tests {
     /// Noisy (7 mm, 0.02 rad per axis): repetitions taught before by other hands, the task
     /// placed anew and taught with the same noise. Aligning several waypoints and averaging
     /// several repetitions puts the guess closer to the waypoint meant than the last taught
-    /// waypoint's own error would allow a move-by-move guess to be, and the residuals estimate
-    /// the noise.
+    /// waypoint's own error would allow a move-by-move guess to be.
     #[test]
     fn a_noisy_task_is_predicted_within_the_operators_tolerance() {
         let noise = Noise { mm: 7.0, rad: 0.02 };
@@ -328,7 +300,6 @@ mod tests {
             e.learn(&noisy(&t, &noise, &mut rng));
         }
         let (mut within, mut errors, mut total) = (0usize, 0.0, 0usize);
-        let mut estimate = NoiseEstimate::default();
         for trial in 0..40 {
             let meant = task(
                 -30.0 + f64::from(trial),
@@ -337,23 +308,19 @@ mod tests {
             );
             let taught = noisy(&meant, &noise, &mut rng);
             for m in 3..meant.len() {
-                let p = e
+                let c = e
                     .propose(&taught[..m], &noise, &tolerance)
                     .expect("a candidate");
-                observe(&mut estimate, &p);
-                let d = p.candidate.pose.distance_to(&meant[m]);
+                let d = c.pose.distance_to(&meant[m]);
                 errors += d * d;
                 total += 1;
-                within += usize::from(
-                    d <= tolerance.mm && p.candidate.pose.angle_to(&meant[m]) <= tolerance.rad,
-                );
+                within +=
+                    usize::from(d <= tolerance.mm && c.pose.angle_to(&meant[m]) <= tolerance.rad);
             }
         }
         let rms = (errors / total as f64).sqrt();
         // A move-by-move guess is at least the last waypoint's error away: 7·√3 ≈ 12 mm RMS.
         assert!(rms < 10.0, "RMS error {rms} mm");
         assert!(within as f64 >= 0.95 * total as f64, "{within} of {total}");
-        let est = estimate.noise().unwrap();
-        assert!(est.mm > 4.0 && est.mm < 10.0, "{est:?}");
     }
 }

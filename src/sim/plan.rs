@@ -8,9 +8,9 @@ use serde::Serialize;
 
 use super::SimError;
 use super::operator::{OperatorModel, Time};
-use crate::engine::Profile;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
+use crate::engine::{Pose, Profile};
 use crate::kinematics::placement::{ReachCheck, ReachSetup};
 use crate::kinematics::{Mounting, ReachPolicy};
 use crate::program::Program;
@@ -166,19 +166,21 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The cell's teaching noise and acceptance tolerance under this plan: with calibrated σs,
-    /// the operator's per-axis scatter and "close enough"; otherwise an exact cell with the
-    /// seed's tolerance.
+    /// The cell's teaching noise and acceptance tolerance under this plan. With calibrated σs:
+    /// the noise the operator's calibration routine shows (the seed's §4.5.1: one unreferenced
+    /// point recorded [`CALIBRATION_POSES`] times, [`Noise::from_scatter`]) and the operator's
+    /// "close enough"; otherwise an exact cell with the seed's tolerance.
     pub fn noise(&self) -> (Noise, Tolerance) {
         if !self.calibrate_sigma {
             return (Noise::EXACT, Tolerance::SEED);
         }
         let o = &self.operator;
+        let point = Pose::identity();
+        let recorded: Vec<Pose> = (0..CALIBRATION_POSES)
+            .map(|i| o.place(&point, &mut waypoint_rng(CALIBRATION_STREAM, 0, 0, i)))
+            .collect();
         (
-            Noise {
-                mm: o.sigma_axis_mm(),
-                rad: o.sigma_axis_rad(),
-            },
+            Noise::from_scatter(&recorded).unwrap_or(Noise::EXACT),
             Tolerance {
                 mm: o.accept_mm,
                 rad: o.accept_rad,
@@ -251,6 +253,11 @@ pub fn repository(program: &Program) -> String {
         .join("__")
 }
 
+/// How many times the operator records the calibration routine's point ([`Plan::noise`]).
+pub const CALIBRATION_POSES: usize = 12;
+/// Salt of the calibration routine's stream.
+const CALIBRATION_STREAM: u64 = 0x6361_6c69_6272_6174;
+
 /// Salt of the streams of an online-taught history ([`Plan::as_taught_online`]).
 const HISTORY_STREAM: u64 = 0x6869_7374_6f72_7921;
 
@@ -313,6 +320,38 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, d);
+    }
+
+    /// The simulated calibration routine finds about the operator's scatter (twelve poses: a
+    /// standard error of about 12 %), and its "close enough" is the cell's tolerance.
+    #[test]
+    fn the_calibration_routine_estimates_the_operators_noise() {
+        let limits = super::super::arm::JogLimits::default();
+        let plan = Plan {
+            conditions: table_4_1_conditions(),
+            seeds: vec![1],
+            operator: OperatorModel::online(limits.tcp_mm_s),
+            limits,
+            history: History::None,
+            reach_policy: ReachPolicy::Withhold,
+            calibrate_sigma: true,
+        };
+        let (noise, tolerance) = plan.noise();
+        let o = &plan.operator;
+        assert!(
+            (noise.mm / o.sigma_axis_mm() - 1.0).abs() < 0.3,
+            "{noise:?}"
+        );
+        assert!(
+            (noise.rad / o.sigma_axis_rad() - 1.0).abs() < 0.3,
+            "{noise:?}"
+        );
+        assert_eq!((tolerance.mm, tolerance.rad), (o.accept_mm, o.accept_rad));
+        let exact = Plan {
+            calibrate_sigma: false,
+            ..plan
+        };
+        assert_eq!(exact.noise(), (Noise::EXACT, Tolerance::SEED));
     }
 
     #[test]

@@ -471,3 +471,104 @@ async fn health_and_metrics() {
     let r = app.get("/healthz").await;
     assert!(r.headers().contains_key("x-request-id"));
 }
+
+/// A joystick cell: its settings carry the operator's noise, "close enough" and a lower offer
+/// threshold. The U seam is taught six times at other places with 5 mm of scatter (a fixed,
+/// deterministic pattern per waypoint), then taught again: the experts, matching within the
+/// tolerance widened by the noise (and the template expert aligning whole stretches), offer the
+/// next waypoints, within the operator's tolerance of the one meant, although no two noisy
+/// moves are alike within 1 mm.
+#[tokio::test]
+async fn a_joystick_cell_gets_noisy_repeats_offered_within_its_tolerance() {
+    let app = spawn_app().await;
+    let settings = json!({
+        "noise": { "mm": 5.0, "rad": 0.01 },
+        "tolerance": { "mm": 15.0, "rad": 0.1 },
+        "offer_threshold": 0.5,
+        "reach_policy": "flag"
+    });
+    let cell = app.create_cell_with("joystick", settings).await;
+    let stored = app.get_ok(&format!("/v1/cells/{cell}")).await;
+    assert_eq!(
+        stored["settings"]["noise"],
+        json!({ "mm": 5.0, "rad": 0.01 })
+    );
+    assert_eq!(
+        stored["settings"]["tolerance"],
+        json!({ "mm": 15.0, "rad": 0.1 })
+    );
+    assert_eq!(stored["settings"]["offer_threshold"], 0.5);
+
+    // About 5 mm per axis of scatter: a fixed pseudo-random pattern, different per waypoint.
+    let scatter = |poses: Vec<serde_json::Value>, k: f64| -> Vec<serde_json::Value> {
+        poses
+            .into_iter()
+            .enumerate()
+            .map(|(i, mut p)| {
+                for (j, axis) in ["x", "y", "z"].iter().enumerate() {
+                    let e = 7.0 * ((k * 12.9898 + i as f64 * 78.233 + j as f64 * 37.719).sin());
+                    p[*axis] = json!(p[*axis].as_f64().unwrap() + e);
+                }
+                p
+            })
+            .collect()
+    };
+    let program = app.create_program(cell, "seams").await;
+    for k in 0..6 {
+        let f = f64::from(k);
+        let seam = scatter(
+            u_seam([300.0 + 15.0 * f, -40.0 + 10.0 * f, 250.0], 0.05 * f),
+            f,
+        );
+        app.teach_routine(program, &seam).await;
+    }
+    let meant = u_seam([330.0, 20.0, 250.0], -0.1);
+    let taught = scatter(meant.clone(), 11.0);
+    let routine = app.create_routine(program).await;
+    let (mut offered, mut within, mut errors) = (0, 0, Vec::new());
+    for (i, p) in taught.iter().enumerate().take(meant.len() - 1) {
+        let prediction = app.append(routine, p).await["prediction"].clone();
+        if prediction["offered"] == true {
+            offered += 1;
+            let err = distance(&prediction["pose"], &meant[i + 1]);
+            within += usize::from(err <= 15.0);
+            errors.push((i + 2, err, prediction["expert"].clone()));
+            assert!(prediction["p_useful"].as_f64().unwrap() >= 0.5);
+        }
+        if i == 4 {
+            assert_eq!(prediction["offered"], true, "{prediction}");
+            assert!(prediction["expert"].is_string(), "{prediction}");
+        }
+    }
+    // More likely right than not, as the threshold says.
+    assert!(offered >= 4, "only {offered} offered: {errors:?}");
+    assert!(2 * within > offered, "{errors:?}");
+
+    // An exact cell has no noise, the seed's tolerance and the default threshold.
+    let exact = app.create_cell("exact").await;
+    let s = &app.get_ok(&format!("/v1/cells/{exact}")).await["settings"];
+    assert_eq!(s["noise"], json!({ "mm": 0.0, "rad": 0.0 }));
+    assert_eq!(s["tolerance"], json!({ "mm": 1.0, "rad": 0.1 }));
+    assert_eq!(s["offer_threshold"], 0.9);
+
+    // Bad values are refused by name, and the seed profile has no offer rule to set.
+    for (settings, names) in [
+        (json!({ "noise": { "mm": -1.0, "rad": 0.0 } }), "noise.mm"),
+        (json!({ "noise": { "mm": 1.0, "rad": 2.0 } }), "noise"),
+        (
+            json!({ "tolerance": { "mm": 1.0, "rad": -0.1 } }),
+            "tolerance.rad",
+        ),
+        (json!({ "offer_threshold": 1.5 }), "offer_threshold"),
+        (
+            json!({ "profile": "seed", "offer_threshold": 0.5 }),
+            "no offer rule",
+        ),
+    ] {
+        let r = app
+            .post("/v1/cells", &json!({ "name": "bad", "settings": settings }))
+            .await;
+        let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        assert!(message.contains(names), "{message}");
+    }
+}
