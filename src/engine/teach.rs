@@ -44,8 +44,9 @@ pub struct Teacher {
     before_routine: Option<Box<ObservationGraph>>,
     /// The sequence experts (tool-frame, work-frame, absolute) over the finished routines.
     experts: [SequenceExpert; 3],
-    /// The template expert over the finished routines.
-    template: TemplateExpert,
+    /// The template expert over the finished routines; only in a cell whose noise matters (on
+    /// exact waypoints it finds what a long tool-frame context finds).
+    template: Option<TemplateExpert>,
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
     /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
@@ -76,7 +77,7 @@ impl Teacher {
             assimilated: 0,
             before_routine: None,
             experts: SequenceExpert::all(),
-            template: TemplateExpert::new(),
+            template: (!exact).then(TemplateExpert::new),
             calibration,
             outcomes: Vec::new(),
         })
@@ -213,7 +214,11 @@ impl Teacher {
                 .iter()
                 .flat_map(|e| e.proposals(routine, &noise.widen(rule.tolerance, e.frame()))),
         );
-        out.extend(self.template.propose(routine, noise, &rule.tolerance));
+        out.extend(
+            self.template
+                .as_ref()
+                .and_then(|t| t.propose(routine, noise, &rule.tolerance)),
+        );
         out
     }
 
@@ -317,7 +322,9 @@ impl Teacher {
         for e in &mut self.experts {
             e.learn(&self.routine);
         }
-        self.template.learn(&self.routine);
+        if let Some(t) = self.template.as_mut() {
+            t.learn(&self.routine);
+        }
         self.outcomes.clear();
         if self.config.learn_within_routine {
             for x in &self.moves[self.assimilated..] {

@@ -19,7 +19,8 @@
 //!
 //! **Finding stretches.** The length of the move into a waypoint does not change under `G`, so
 //! the earlier waypoints are kept sorted by it and only those whose incoming move is about as
-//! long as the last taught one are aligned.
+//! long as the last taught one are looked at; of those, only the steps back whose lengths and
+//! turns match too are aligned.
 
 use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 
@@ -60,12 +61,27 @@ impl TemplateExpert {
     /// Remembers a finished routine.
     pub fn learn(&mut self, routine: &[Pose]) {
         let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
-        for j in 1..routine.len().saturating_sub(1) {
-            let len = routine[j].distance_to(&routine[j - 1]);
-            self.by_length
-                .push((len, r, u32::try_from(j).unwrap_or(u32::MAX)));
+        let mut fresh: Vec<(f64, u32, u32)> = (1..routine.len().saturating_sub(1))
+            .map(|j| {
+                let len = routine[j].distance_to(&routine[j - 1]);
+                (len, r, u32::try_from(j).unwrap_or(u32::MAX))
+            })
+            .collect();
+        fresh.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Merge the routine's few entries into the sorted many, in one pass.
+        let old = std::mem::take(&mut self.by_length);
+        self.by_length.reserve(old.len() + fresh.len());
+        let (mut a, mut b) = (old.into_iter().peekable(), fresh.into_iter().peekable());
+        while let (Some(x), Some(y)) = (a.peek(), b.peek()) {
+            let next = if x.0.total_cmp(&y.0).is_le() {
+                a.next()
+            } else {
+                b.next()
+            };
+            self.by_length.extend(next);
         }
-        self.by_length.sort_by(|a, b| a.0.total_cmp(&b.0));
+        self.by_length.extend(a);
+        self.by_length.extend(b);
         self.routines.push(routine.to_vec());
     }
 
@@ -99,7 +115,20 @@ impl TemplateExpert {
             }
             let earlier = &self.routines[r as usize];
             let j = j as usize;
-            let most = MAX_POSES.min(m).min(j + 1);
+            // Rigid moves keep the length and the turn of every step: count the steps back from
+            // here that keep them within what two misfits allow, before aligning anything.
+            let steps = (1..MAX_POSES.min(m).min(j + 1))
+                .take_while(|&i| {
+                    let (a0, a1) = (&earlier[j - i], &earlier[j + 1 - i]);
+                    let (b0, b1) = (&routine[m - 1 - i], &routine[m - i]);
+                    (a0.distance_to(a1) - b0.distance_to(b1)).abs() <= 2.0 * gate.mm
+                        && (a0.angle_to(a1) - b0.angle_to(b1)).abs() <= 2.0 * gate.rad
+                })
+                .count();
+            let most = steps + 1;
+            if most < MIN_POSES {
+                continue;
+            }
             if let Some(p) = (MIN_POSES..=most).rev().find_map(|k| {
                 align(&earlier[j + 1 - k..=j], &routine[m - k..], lever, &gate).map(|(g, ss_mm)| {
                     Place {
