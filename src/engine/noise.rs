@@ -59,24 +59,8 @@ impl Noise {
             return None;
         }
         let n = poses.len() as f64;
-        let mean = poses
-            .iter()
-            .map(|p| p.position())
-            .fold(nalgebra::Vector3::zeros(), |a, p| a + p)
-            / n;
-        let first = poses[0].rotation();
-        // The chordal mean: quaternions summed on one hemisphere and normalised.
-        let sum = poses
-            .iter()
-            .fold(nalgebra::Quaternion::identity() * 0.0, |a, p| {
-                let q = p.rotation().into_inner();
-                a + if q.dot(&first.into_inner()) < 0.0 {
-                    -q
-                } else {
-                    q
-                }
-            });
-        let mean_rotation = nalgebra::UnitQuaternion::new_normalize(sum);
+        let centre = super::pose::mean(poses.iter(), &poses[0])?;
+        let (mean, mean_rotation) = (centre.position(), centre.rotation());
         let dof = 3.0 * (n - 1.0);
         let ss_mm: f64 = poses
             .iter()
@@ -147,14 +131,14 @@ impl Noise {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{UnitQuaternion, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-        // Box–Muller.
+    /// A standard normal draw (Box–Muller); the engine's tests share it.
+    pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f64 {
         let u: f64 = rng.random_range(1e-12..1.0);
         let v: f64 = rng.random_range(0.0..1.0);
         (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()

@@ -194,6 +194,26 @@ impl Move {
     }
 }
 
+/// The mean of poses: positions averaged, rotations by their chordal mean (quaternions summed on
+/// `near`'s hemisphere and normalised). None for no poses (or rotations that cancel out).
+pub fn mean<'a>(poses: impl Iterator<Item = &'a Pose>, near: &Pose) -> Option<Pose> {
+    let reference = near.rotation().into_inner();
+    let (mut p, mut q, mut n) = (Vector3::zeros(), Quaternion::new(0.0, 0.0, 0.0, 0.0), 0.0);
+    for pose in poses {
+        p += pose.position();
+        let r = pose.rotation().into_inner();
+        q += if r.dot(&reference) < 0.0 { -r } else { r };
+        n += 1.0;
+    }
+    if n == 0.0 || q.norm() < 1e-9 {
+        return None;
+    }
+    Some(Pose::from_isometry(Isometry3::from_parts(
+        Translation3::from(p / n),
+        UnitQuaternion::new_normalize(q),
+    )))
+}
+
 /// The observations of a routine: one per consecutive pair of waypoints.
 pub fn observations(waypoints: &[Pose]) -> Vec<Observation> {
     waypoints

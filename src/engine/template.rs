@@ -22,7 +22,7 @@
 //! long as the last taught one are looked at; of those, only the steps back whose lengths and
 //! turns match too are aligned.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 
 use super::experts::{Candidate, Evidence, Expert};
 use super::frames::{Frame, Tolerance};
@@ -152,7 +152,8 @@ impl TemplateExpert {
                     && p.guess.angle_to(&best.guess) <= gate.rad
             })
             .collect();
-        let guess = mean_pose(agree.iter().map(|p| &p.guess), &best.guess);
+        let guess =
+            super::pose::mean(agree.iter().map(|p| &p.guess), &best.guess).unwrap_or(best.guess);
         Some(Candidate {
             expert: Expert::Template,
             pose: guess,
@@ -216,37 +217,12 @@ fn align(
     Some((g, ss_mm))
 }
 
-/// The mean of poses: positions averaged, rotations by their chordal mean on `near`'s
-/// hemisphere.
-fn mean_pose<'a>(poses: impl Iterator<Item = &'a Pose>, near: &Pose) -> Pose {
-    let reference = near.rotation().into_inner();
-    let (mut p, mut q, mut n) = (Vector3::zeros(), Quaternion::new(0.0, 0.0, 0.0, 0.0), 0.0);
-    for pose in poses {
-        p += pose.position();
-        let r = pose.rotation().into_inner();
-        q += if r.dot(&reference) < 0.0 { -r } else { r };
-        n += 1.0;
-    }
-    if n == 0.0 || q.norm() < 1e-9 {
-        return *near;
-    }
-    Pose::from_isometry(Isometry3::from_parts(
-        Translation3::from(p / n),
-        UnitQuaternion::new_normalize(q),
-    ))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{Rng, SeedableRng};
+    use crate::engine::noise::tests::gauss;
+    use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
-
-    fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-        let u: f64 = rng.random_range(1e-12..1.0);
-        let v: f64 = rng.random_range(0.0..1.0);
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    }
 
     /// A pentagram-like task of 6 waypoints, tool down, placed by `(dx, dy, turn)`.
     fn task(dx: f64, dy: f64, turn: f64) -> Vec<Pose> {
