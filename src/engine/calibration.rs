@@ -88,7 +88,7 @@ impl Fine {
 
 /// Outcomes counted: candidates, and the useful ones among them. An outcome is a probability
 /// that the candidate was useful (0 or 1 in an exact cell; in a noisy one, how likely the meant
-/// waypoint was within the tolerance, [`super::noise::Noise::p_within`]), so the counts are
+/// waypoint was within the tolerance, [`super::noise::Noise::outcome`]), so the counts are
 /// sums of them.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Count {

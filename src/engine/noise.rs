@@ -123,7 +123,7 @@ impl Noise {
 
     /// Whether `candidate` counts as right when `taught` is what was then taught (1 or 0): within
     /// [`Noise::judging`]'s tolerance of it.
-    pub fn p_within(&self, tolerance: &Tolerance, candidate: &Pose, taught: &Pose) -> f64 {
+    pub fn outcome(&self, tolerance: &Tolerance, candidate: &Pose, taught: &Pose) -> f64 {
         let t = self.judging(tolerance);
         let right = candidate.distance_to(taught) <= t.mm && candidate.angle_to(taught) <= t.rad;
         f64::from(u8::from(right))
@@ -176,8 +176,8 @@ pub(crate) mod tests {
         let at = |x: f64| Pose::new([x, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
         let t = Tolerance::SEED;
         assert_eq!(Noise::EXACT.judging(&t), t);
-        assert_eq!(Noise::EXACT.p_within(&t, &at(0.9), &at(0.0)), 1.0);
-        assert_eq!(Noise::EXACT.p_within(&t, &at(1.1), &at(0.0)), 0.0);
+        assert_eq!(Noise::EXACT.outcome(&t, &at(0.9), &at(0.0)), 1.0);
+        assert_eq!(Noise::EXACT.outcome(&t, &at(1.1), &at(0.0)), 0.0);
         let noise = Noise {
             mm: 11.55,
             rad: 0.02,
@@ -190,7 +190,7 @@ pub(crate) mod tests {
             .map(|_| {
                 let e = Vector3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)) * noise.mm;
                 let taught = Pose::from_isometry(nalgebra::Isometry3::translation(e.x, e.y, e.z));
-                noise.p_within(&accept, &meant, &taught)
+                noise.outcome(&accept, &meant, &taught)
             })
             .sum();
         let share = right / f64::from(trials);

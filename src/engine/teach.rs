@@ -115,7 +115,7 @@ impl Teacher {
                 self.candidates(&self.routine, &model, &rule)
                     .into_iter()
                     .map(|c| {
-                        let right = self.config.noise.p_within(&rule.tolerance, &c.pose, &pose);
+                        let right = self.config.noise.outcome(&rule.tolerance, &c.pose, &pose);
                         (c.expert, c.evidence, right)
                     })
                     .collect()
