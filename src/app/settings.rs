@@ -59,7 +59,7 @@ pub struct CellSettings {
     #[serde(default)]
     pub tolerance: Tolerance,
     /// The offer rule's threshold: a suggestion is offered when its `p_useful` reaches it
-    /// (0–1; the default profile's 0.9 gives ≥ 90 % precision on exact programs; a joystick
+    /// (0–1; the default profile's 0.7 gives ≥ 90 % precision on exact programs; a joystick
     /// cell may take less, since a near miss still saves most of a jog). None for a profile
     /// without an offer rule (seed).
     #[serde(default)]

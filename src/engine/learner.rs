@@ -14,6 +14,12 @@
 //! of the *open* routine and [`ObservationGraph::end_routine`] closes it. The open routine's last
 //! node is *pending*: its newest member's successor is not known yet, which is different from
 //! the routine having ended there. The HMM view ([`super::hmm`]) keeps the two apart.
+//!
+//! **Taking moves back.** Undo must leave the graph exactly as a rebuild would. Between
+//! [`ObservationGraph::begin_journal`] and [`ObservationGraph::commit`], every push keeps the
+//! first pre-image of each node it changes (a node's statistics are not reversible bit for bit),
+//! and [`ObservationGraph::rollback`] puts them back, drops the nodes created since and restores
+//! the counters: the cost is that of the moves taken back, not of the model's size.
 
 use kiddo::{MutableKdTree, SquaredEuclidean};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
@@ -209,6 +215,23 @@ pub struct ObservationGraph {
     open_path: Vec<usize>,
     /// Every assimilated move's node in order, [`TRACE_END`] after each finished routine.
     trace: Vec<u32>,
+    /// What to restore on [`ObservationGraph::rollback`], while a journal is kept.
+    journal: Option<Box<Journal>>,
+}
+
+/// The graph as it was when the journal began: its counters, and the first pre-image of every
+/// node changed since (nodes created since are dropped instead).
+#[derive(Debug, Clone)]
+struct Journal {
+    nodes: usize,
+    edges: usize,
+    routines: u32,
+    depth: usize,
+    observations: u64,
+    open: Option<OpenRoutine>,
+    open_path: Vec<usize>,
+    trace: usize,
+    touched: Vec<(usize, Node)>,
 }
 
 /// Marks the end of a routine in [`ObservationGraph::trace`].
@@ -235,6 +258,7 @@ impl ObservationGraph {
             open: None,
             open_path: Vec::new(),
             trace: Vec::new(),
+            journal: None,
         })
     }
 
@@ -291,7 +315,14 @@ impl ObservationGraph {
     /// the node it joined.
     pub fn push(&mut self, x: &Observation) -> usize {
         let z = self.metric.whiten(x);
-        let node = match self.best_node(&z) {
+        let best = self.best_node(&z);
+        if let Some(i) = best {
+            self.remember(i);
+        }
+        if let Some(open) = self.open {
+            self.remember(open.last);
+        }
+        let node = match best {
             Some(i) => {
                 self.nodes[i].absorb(&z);
                 self.means[i] = self.nodes[i].mean;
@@ -335,11 +366,72 @@ impl ObservationGraph {
     pub fn end_routine(&mut self) {
         self.open_path.clear();
         if let Some(open) = self.open.take() {
+            self.remember(open.last);
             let recency = self.recency;
             self.nodes[open.last].count_end(recency);
             self.trace.push(TRACE_END);
             self.routines += 1;
             self.depth = self.depth.max(open.len);
+        }
+    }
+
+    /// Starts keeping what [`ObservationGraph::rollback`] needs to take back the moves pushed
+    /// from now on (a journal already kept goes on from where it began).
+    pub fn begin_journal(&mut self) {
+        if self.journal.is_none() {
+            self.journal = Some(Box::new(Journal {
+                nodes: self.nodes.len(),
+                edges: self.edges,
+                routines: self.routines,
+                depth: self.depth,
+                observations: self.observations,
+                open: self.open,
+                open_path: self.open_path.clone(),
+                trace: self.trace.len(),
+                touched: Vec::new(),
+            }));
+        }
+    }
+
+    /// Keeps what was learned since [`ObservationGraph::begin_journal`] and stops journaling.
+    pub fn commit(&mut self) {
+        self.journal = None;
+    }
+
+    /// Takes the graph back to what it was at [`ObservationGraph::begin_journal`] and stops
+    /// journaling (nothing to do without a journal).
+    pub fn rollback(&mut self) {
+        let Some(j) = self.journal.take() else {
+            return;
+        };
+        for id in (j.nodes..self.nodes.len()).rev() {
+            self.index.remove(id);
+        }
+        self.nodes.truncate(j.nodes);
+        self.means.truncate(j.nodes);
+        for (i, old) in j.touched.into_iter().rev() {
+            if self.means[i] != old.mean {
+                self.index.moved(i, &old.mean);
+            }
+            self.means[i] = old.mean;
+            self.nodes[i] = old;
+        }
+        self.edges = j.edges;
+        self.routines = j.routines;
+        self.depth = j.depth;
+        self.observations = j.observations;
+        self.open = j.open;
+        self.open_path = j.open_path;
+        self.trace.truncate(j.trace);
+    }
+
+    /// Keeps node `i`'s pre-image in the journal, the first time it is changed.
+    fn remember(&mut self, i: usize) {
+        if let Some(j) = self.journal.as_mut()
+            && i < j.nodes
+            && !j.touched.iter().any(|(k, _)| *k == i)
+        {
+            j.touched.push((i, self.nodes[i].clone()));
         }
     }
 
@@ -444,6 +536,15 @@ impl NodeIndex {
         }
     }
 
+    /// Drops node `id` from the index (the newest nodes, on rollback).
+    fn remove(&mut self, id: usize) {
+        if let Some(p) = self.stored.get(id).copied().flatten() {
+            self.tree.remove(&p, id as u32);
+        }
+        self.overflow.retain(|k| *k != id);
+        self.stored.truncate(id);
+    }
+
     fn moved(&mut self, id: usize, new: &Observation) {
         if let Some(p) = self.stored.get(id).copied().flatten() {
             self.tree.remove(&p, id as u32);
@@ -461,6 +562,9 @@ impl NodeIndex {
             .unsorted()
             .visit(|n| out.push(n.item as usize));
         out.extend_from_slice(&self.overflow);
+        // In node order: the tree's layout (which depends on how it was built, e.g. after a
+        // rollback) must not change what a caller computes from the candidates.
+        out.sort_unstable();
     }
 }
 
@@ -506,6 +610,59 @@ mod tests {
         assert_eq!(g.nodes()[0].successors().collect::<Vec<_>>(), vec![(1, 2)]);
         assert_eq!(g.nodes()[2].out_total(), 0);
         assert!((s.perplexity - 2.0 / 3.0).abs() < 1e-12);
+    }
+
+    fn same_graph(a: &ObservationGraph, b: &ObservationGraph) {
+        assert_eq!(a.nodes(), b.nodes());
+        assert_eq!(a.means(), b.means());
+        assert_eq!(a.stats(), b.stats());
+        assert_eq!(a.trace(), b.trace());
+        assert_eq!(a.pending(), b.pending());
+        assert_eq!(a.open_path(), b.open_path());
+        for (i, z) in a.means().iter().enumerate() {
+            let (mut ca, mut cb) = (Vec::new(), Vec::new());
+            a.candidates(z, 4.0, &mut ca);
+            b.candidates(z, 4.0, &mut cb);
+            assert_eq!(ca, cb, "node {i}");
+        }
+    }
+
+    /// A rollback leaves the graph exactly as it was when the journal began, whether the moves
+    /// since joined existing nodes (changing their means, edges and recency weights) or made new
+    /// ones, and whether a routine was open at the start; a commit keeps what was learned.
+    #[test]
+    fn rollback_restores_the_graph_the_journal_began_with() {
+        let mut rng = StdRng::seed_from_u64(7);
+        let mut random = |g: &mut ObservationGraph, n: usize| {
+            for _ in 0..n {
+                // A few distinct moves, jittered: some merge, some start nodes.
+                let k = f64::from(rng.random_range(0..6u8)) * 10.0;
+                g.push(&obs([k + rng.random_range(-0.3..0.3), k, 0.0]));
+            }
+        };
+        let mut g = graph(0.7, MergeRule::Incremental).with_recency(0.9).unwrap();
+        for _ in 0..20 {
+            random(&mut g, 8);
+            g.end_routine();
+        }
+        random(&mut g, 3);
+        let before = g.clone();
+        g.begin_journal();
+        random(&mut g, 6);
+        g.push(&obs([500.0, 500.0, 0.0]));
+        random(&mut g, 6);
+        assert!(g.stats().states > before.stats().states);
+        g.rollback();
+        same_graph(&g, &before);
+        // Rolled back again without a journal: nothing changes.
+        g.rollback();
+        same_graph(&g, &before);
+        g.begin_journal();
+        random(&mut g, 5);
+        let learned = g.clone();
+        g.commit();
+        g.rollback();
+        same_graph(&g, &learned);
     }
 
     #[test]

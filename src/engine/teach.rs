@@ -13,10 +13,10 @@
 //! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
 //!
 //! **Undo.** The operator may delete the last waypoint of the routine being taught. When that
-//! takes back a move that was already assimilated, the model is restored from a snapshot taken
-//! when the routine's first move was assimilated and the remaining settled moves are learned
-//! again, so the model after an undo is exactly the model a rebuild from the stored waypoints
-//! gives.
+//! takes back a move that was already assimilated, the model is rolled back to where it was
+//! before the routine's first move was assimilated (the graph's journal, whose cost is that of
+//! the routine's moves, not of the model) and the remaining settled moves are learned again, so
+//! the model after an undo is exactly the model a rebuild from the stored waypoints gives.
 
 use super::calibration::Calibration;
 use super::config::{EngineConfig, OfferRule};
@@ -39,9 +39,6 @@ pub struct Teacher {
     moves: Vec<Observation>,
     /// Moves of the current routine already assimilated (within-routine learning only).
     assimilated: usize,
-    /// The model before the current routine's first move was assimilated (within-routine
-    /// learning only), for undo.
-    before_routine: Option<Box<ObservationGraph>>,
     /// The sequence experts (tool-frame, work-frame, absolute) over the finished routines.
     experts: [SequenceExpert; 3],
     /// The template expert over the finished routines; only in a cell whose noise matters (on
@@ -50,7 +47,26 @@ pub struct Teacher {
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
     /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
-    outcomes: Vec<Vec<(Expert, Evidence, f64)>>,
+    outcomes: Vec<Counted>,
+    /// What follows the current routine with the cell's settings: computed once when the routine
+    /// or the model changes, answered by [`Teacher::predict`] and judged by the next
+    /// [`Teacher::teach`].
+    ahead: Ahead,
+}
+
+/// The candidates after a routine and the prediction they give.
+#[derive(Debug, Clone)]
+struct Ahead {
+    candidates: Vec<Candidate>,
+    prediction: Prediction,
+}
+
+/// The outcomes one taught waypoint counted: every candidate's, and the chosen one's by its
+/// first-stage estimate.
+#[derive(Debug, Clone, Default)]
+struct Counted {
+    candidates: Vec<(Expert, Evidence, f64)>,
+    chosen: Option<(f64, f64)>,
 }
 
 impl Teacher {
@@ -69,17 +85,21 @@ impl Teacher {
         } else {
             Calibration::uninformed()
         };
+        let ahead = Ahead {
+            candidates: Vec::new(),
+            prediction: Prediction::withheld(Withheld::NothingTaught, 0),
+        };
         Ok(Teacher {
             config,
             graph,
             routine: Vec::new(),
             moves: Vec::new(),
             assimilated: 0,
-            before_routine: None,
             experts: SequenceExpert::all(),
             template: (!exact).then(TemplateExpert::new),
             calibration,
             outcomes: Vec::new(),
+            ahead,
         })
     }
 
@@ -110,20 +130,27 @@ impl Teacher {
     pub fn teach(&mut self, pose: Pose) {
         let counted = match self.config.offer {
             Some(rule) if !self.routine.is_empty() => {
-                let opts = PredictOptions::from_config(&self.config);
-                let model = self.model_prediction(&self.routine, &self.moves, &opts);
-                self.candidates(&self.routine, &model, &rule)
-                    .into_iter()
-                    .map(|c| {
-                        let right = self.config.noise.outcome(&rule.tolerance, &c.pose, &pose);
-                        (c.expert, c.evidence, right)
-                    })
-                    .collect()
+                let candidates = &self.ahead.candidates;
+                let outcome =
+                    |c: &Candidate| self.config.noise.outcome(&rule.tolerance, &c.pose, &pose);
+                let chosen = self
+                    .likeliest(candidates)
+                    .map(|(first, c)| (first, outcome(c)));
+                Counted {
+                    candidates: candidates
+                        .iter()
+                        .map(|c| (c.expert, c.evidence, outcome(c)))
+                        .collect(),
+                    chosen,
+                }
             }
-            _ => Vec::new(),
+            _ => Counted::default(),
         };
-        for (expert, evidence, right) in &counted {
+        for (expert, evidence, right) in &counted.candidates {
             self.calibration.record(*expert, evidence, *right);
+        }
+        if let Some((first, right)) = counted.chosen {
+            self.calibration.record_chosen(first, right);
         }
         self.outcomes.push(counted);
         if let Some(last) = self.routine.last() {
@@ -131,6 +158,13 @@ impl Teacher {
         }
         self.routine.push(pose);
         self.settle();
+        self.look_ahead();
+    }
+
+    /// Recomputes [`Teacher::ahead`] after the routine or the model changed.
+    fn look_ahead(&mut self) {
+        let opts = PredictOptions::from_config(&self.config);
+        self.ahead = self.ahead_of(&self.routine, &self.moves, &opts);
     }
 
     /// Within-routine learning: assimilates the moves older than the lag (`within_lag`).
@@ -139,8 +173,9 @@ impl Teacher {
             return;
         }
         let settled = self.moves.len().saturating_sub(self.config.within_lag());
-        if self.assimilated < settled && self.before_routine.is_none() {
-            self.before_routine = Some(Box::new(self.graph.clone()));
+        if self.assimilated < settled {
+            // Undo may take these moves back (`restore_routine_start`).
+            self.graph.begin_journal();
         }
         while self.assimilated < settled {
             self.graph.push(&self.moves[self.assimilated]);
@@ -159,6 +194,7 @@ impl Teacher {
             self.restore_routine_start();
             self.settle();
         }
+        self.look_ahead();
         Some(pose)
     }
 
@@ -170,11 +206,16 @@ impl Teacher {
         self.routine.clear();
         self.moves.clear();
         self.restore_routine_start();
+        self.look_ahead();
     }
 
     fn forget_last_outcomes(&mut self) {
-        for (expert, evidence, right) in self.outcomes.pop().unwrap_or_default() {
+        let counted = self.outcomes.pop().unwrap_or_default();
+        for (expert, evidence, right) in counted.candidates {
             self.calibration.forget(expert, &evidence, right);
+        }
+        if let Some((first, right)) = counted.chosen {
+            self.calibration.forget_chosen(first, right);
         }
     }
 
@@ -225,20 +266,40 @@ impl Teacher {
     /// The prediction after `routine`: the model's alone without an offer rule (the seed);
     /// with one, the likeliest candidate, offered when its `p_useful` reaches the threshold.
     fn choose(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Prediction {
+        self.ahead_of(routine, moves, opts).prediction
+    }
+
+    /// The candidates after `routine` (none without an offer rule) and the prediction they give.
+    fn ahead_of(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Ahead {
         let model = self.model_prediction(routine, moves, opts);
         let (Some(rule), Some(last)) = (self.config.offer, routine.last()) else {
-            return model;
+            return Ahead {
+                candidates: Vec::new(),
+                prediction: model,
+            };
         };
-        let mut best: Option<(f64, Candidate)> = None;
-        for c in self.candidates(routine, &model, &rule) {
-            let p = self.calibration.p_useful(c.expert, &c.evidence);
-            if best.as_ref().is_none_or(|(b, _)| p > *b) {
-                best = Some((p, c));
-            }
+        let candidates = self.candidates(routine, &model, &rule);
+        let prediction = self.decide(model, &candidates, &rule, last);
+        Ahead {
+            candidates,
+            prediction,
         }
-        let Some((p, c)) = best else {
+    }
+
+    /// The offer rule's prediction from the candidates: the likeliest one, offered when its
+    /// `p_useful` reaches the threshold (the model's own prediction when there is none).
+    fn decide(
+        &self,
+        model: Prediction,
+        candidates: &[Candidate],
+        rule: &OfferRule,
+        last: &Pose,
+    ) -> Prediction {
+        let Some((first, c)) = self.likeliest(candidates) else {
             return model;
         };
+        let p = self.calibration.chosen(first);
+        let c = *c;
         let mut out = model;
         if c.expert != Expert::Model {
             out.pose = Some(c.pose);
@@ -253,20 +314,35 @@ impl Teacher {
         out
     }
 
-    fn restore_routine_start(&mut self) {
-        if let Some(graph) = self.before_routine.take() {
-            self.graph = *graph;
+    /// The candidate with the highest first-stage `p_useful` (the first of equals), with it.
+    fn likeliest<'a>(&self, candidates: &'a [Candidate]) -> Option<(f64, &'a Candidate)> {
+        let mut best: Option<(f64, &Candidate)> = None;
+        for c in candidates {
+            let p = self.calibration.p_useful(c.expert, &c.evidence);
+            if best.is_none_or(|(b, _)| p > b) {
+                best = Some((p, c));
+            }
         }
+        best
+    }
+
+    /// The model as it was before the current routine's first move was assimilated.
+    fn restore_routine_start(&mut self) {
+        self.graph.rollback();
         self.assimilated = 0;
     }
 
-    /// Predicts the next waypoint of the current routine with the cell's settings.
+    /// Predicts the next waypoint of the current routine with the cell's settings (computed
+    /// when the routine last changed).
     pub fn predict(&self) -> Prediction {
-        self.predict_with(&PredictOptions::from_config(&self.config))
+        self.ahead.prediction.clone()
     }
 
     /// Predicts with per-request settings.
     pub fn predict_with(&self, opts: &PredictOptions) -> Prediction {
+        if *opts == PredictOptions::from_config(&self.config) {
+            return self.predict();
+        }
         self.choose(&self.routine, &self.moves, opts)
     }
 
@@ -326,6 +402,7 @@ impl Teacher {
             t.learn(&self.routine);
         }
         self.outcomes.clear();
+        self.graph.commit();
         if self.config.learn_within_routine {
             for x in &self.moves[self.assimilated..] {
                 self.graph.push(x);
@@ -344,7 +421,7 @@ impl Teacher {
         self.routine.clear();
         self.moves.clear();
         self.assimilated = 0;
-        self.before_routine = None;
+        self.look_ahead();
     }
 
     /// Learn-Scaled-HMM: ψ of the finished routine against the current model, when the routine is

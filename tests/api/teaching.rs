@@ -549,7 +549,7 @@ async fn a_joystick_cell_gets_noisy_repeats_offered_within_its_tolerance() {
     let s = &app.get_ok(&format!("/v1/cells/{exact}")).await["settings"];
     assert_eq!(s["noise"], json!({ "mm": 0.0, "rad": 0.0 }));
     assert_eq!(s["tolerance"], json!({ "mm": 1.0, "rad": 0.1 }));
-    assert_eq!(s["offer_threshold"], 0.9);
+    assert_eq!(s["offer_threshold"], 0.7);
 
     // Bad values are refused by name, and the seed profile has no offer rule to set.
     for (settings, names) in [
