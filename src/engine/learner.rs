@@ -640,7 +640,9 @@ mod tests {
                 g.push(&obs([k + rng.random_range(-0.3..0.3), k, 0.0]));
             }
         };
-        let mut g = graph(0.7, MergeRule::Incremental).with_recency(0.9).unwrap();
+        let mut g = graph(0.7, MergeRule::Incremental)
+            .with_recency(0.9)
+            .unwrap();
         for _ in 0..20 {
             random(&mut g, 8);
             g.end_routine();
