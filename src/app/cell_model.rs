@@ -16,7 +16,8 @@ pub(crate) struct CellModel {
     pub teacher: Teacher,
     /// The routine being taught (its waypoints are in the teacher).
     pub open: Option<i64>,
-    /// Finished routines assimilated.
+    /// The cell's model version (`cells.model_version`: advanced by each routine learned and
+    /// each edit of a learned routine).
     pub version: i64,
 }
 
@@ -84,6 +85,7 @@ impl CellModel {
         }
         let config = settings.engine_config();
         let open = open.map(|r| r.id);
+        let version = cell.model_version;
         super::blocking(move || -> Result<CellModel, AppError> {
             let mut teacher = Teacher::new(config)?;
             for routine in &finished {
@@ -103,7 +105,7 @@ impl CellModel {
                 arm,
                 teacher,
                 open,
-                version: finished.len() as i64,
+                version,
             })
         })
         .await?

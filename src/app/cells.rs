@@ -7,7 +7,7 @@ use super::{App, Result, check_name};
 use crate::storage::CellRow;
 
 impl App {
-    fn cell(&self, row: CellRow) -> Result<Cell> {
+    pub(super) fn cell(&self, row: CellRow) -> Result<Cell> {
         Ok(Cell {
             settings: parse_settings(&row)?,
             id: row.id,

@@ -1,4 +1,4 @@
-//! Importing offline programs (RAPID, KRL, FANUC TP) into a cell as immutable programs, learned
+//! Importing offline programs (RAPID, KRL, FANUC TP) into a cell as finished programs, learned
 //! in program order unless asked not to.
 
 use super::error::AppError;
@@ -27,7 +27,7 @@ fn motion_of(instruction: &str) -> MotionType {
 
 impl App {
     /// Imports offline programs (RAPID, KRL, FANUC TP) into a cell as new programs whose
-    /// routines are immutable; with `learn` (default) the model learns them in program order.
+    /// routines take no teaching (edits apply); with `learn` (default) the model learns them in program order.
     /// All of it is one transaction: a syntax error or a name clash imports nothing.
     pub async fn import(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
         self.to_completion(move |app| async move { app.import_now(cell_id, input).await })

@@ -21,6 +21,7 @@
 
 mod cell_model;
 mod cells;
+mod editing;
 pub mod error;
 mod feedback;
 mod imports;

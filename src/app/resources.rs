@@ -273,6 +273,107 @@ pub struct Undone {
     pub prediction: PredictionDto,
 }
 
+/// A field an edit may leave out (unchanged), set, or clear with `null`.
+fn present<'de, D, T>(d: D) -> Result<Option<Option<T>>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    Option::<T>::deserialize(d).map(Some)
+}
+
+/// Changes to a waypoint ("modify position" and more): fields left out stay as they are;
+/// `joints`, `motion` and `name` may be cleared with `null`.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointPatch {
+    pub pose: Option<PoseValues>,
+    /// Taught joint values (rad; 1 to 12 values), or `null` to clear them.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<Vec<f64>>, nullable, min_items = 1, max_items = 12)]
+    pub joints: Option<Option<Vec<f64>>>,
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<MotionType>, nullable)]
+    pub motion: Option<Option<MotionType>>,
+    /// Not blank; at most 200 characters; `null` to clear it.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200)]
+    pub name: Option<Option<String>>,
+}
+
+/// Where an inserted waypoint goes, next to an existing one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Side {
+    Before,
+    After,
+}
+
+/// A waypoint to insert before or after an existing one of any routine.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InsertWaypoint {
+    pub side: Side,
+    pub waypoint: NewWaypointDto,
+}
+
+/// What an edit of a waypoint did, and what reverts it: `previous` holds the waypoint's
+/// values before a change or a delete (re-insert them at its `seq`; `null` after an insert,
+/// which a delete of `waypoint` reverts). `model_version` is the cell's model version after
+/// the edit: it advances when a learned (finished) routine changed; the model is rebuilt from
+/// the stored routines.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct WaypointEdit {
+    /// The waypoint as it is now (`null` after a delete).
+    pub waypoint: Option<Waypoint>,
+    pub previous: Option<Waypoint>,
+    pub model_version: i64,
+}
+
+/// Changes to a routine: its name (`null` clears it) and its place in its program (1 = first;
+/// beyond the last is the last).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RoutinePatch {
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200)]
+    pub name: Option<Option<String>>,
+    #[schema(minimum = 1)]
+    pub position: Option<i64>,
+}
+
+/// A routine after an edit, with its values before (what reverts it).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct RoutineEdit {
+    pub routine: Routine,
+    pub previous: Routine,
+}
+
+/// A new name for a program or a cell.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Rename {
+    /// Not blank; at most 200 characters; unique among its siblings.
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: String,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Finished {
     pub routine: Routine,

@@ -1,5 +1,5 @@
 //! Routines of a program: start one (a cell teaches one at a time), list, read, resume, delete
-//! the one being taught, finish it (the model learns it).
+//! one, finish it (the model learns it). Other edits are in `editing`.
 
 use super::error::AppError;
 use super::registry::lock_map;
@@ -69,14 +69,26 @@ impl App {
         Ok(detail)
     }
 
-    /// Deletes a routine that is being taught, with its waypoints; the model forgets it.
+    /// Deletes a routine with its waypoints. The one being taught is forgotten by the model
+    /// at once (as if never taught); a finished one that the model learned leaves it by a
+    /// rebuild (the model version advances; see `editing`).
     pub async fn delete_routine(&self, id: i64) -> Result<()> {
-        self.to_completion(move |app| async move { app.delete_routine_now(id).await })
-            .await
+        self.to_completion(move |app| async move {
+            if app.routine_row(id).await?.finished() {
+                app.delete_finished_routine_now(id).await
+            } else {
+                app.delete_routine_now(id).await
+            }
+        })
+        .await
     }
 
     async fn delete_routine_now(&self, id: i64) -> Result<()> {
-        let (mut locked, r) = self.lock_open_routine(id).await?;
+        let (mut locked, r) = match self.lock_open_routine(id).await {
+            // Finished while we waited for the lock.
+            Err(AppError::Conflict(_)) => return self.delete_finished_routine_now(id).await,
+            other => other?,
+        };
         self.store.delete_open_routine(r.id).await?;
         lock_map(&self.routine_cells).remove(&r.id);
         let model = locked.model()?;
@@ -88,7 +100,8 @@ impl App {
         Ok(())
     }
 
-    /// Finishes a routine: it becomes immutable and the cell's model assimilates it.
+    /// Finishes a routine: it takes no more teaching (edits still apply) and the cell's model
+    /// assimilates it.
     pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
         self.to_completion(move |app| async move { app.finish_routine_now(id).await })
             .await

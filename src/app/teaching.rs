@@ -13,7 +13,7 @@ use crate::kinematics::Reachability;
 use crate::storage::NewWaypoint;
 
 impl App {
-    fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
+    pub(super) fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
         if let Some(n) = &input.name {
             check_name("waypoint name", n)?;
         }

@@ -907,3 +907,58 @@ impl TryFrom<pb::CellStats> for CellStats {
         })
     }
 }
+
+pub fn waypoint_patch(r: &pb::ModifyWaypointRequest) -> In<WaypointPatch> {
+    Ok(WaypointPatch {
+        pose: r.pose.map(Into::into),
+        joints: r
+            .joints
+            .as_ref()
+            .map(|j| (!j.values.is_empty()).then(|| j.values.clone())),
+        motion: r.motion.map(motion_in).transpose()?,
+        name: r.name.as_ref().map(|n| (!n.is_empty()).then(|| n.clone())),
+    })
+}
+
+pub fn insert_waypoint(r: pb::InsertWaypointRequest) -> In<InsertWaypoint> {
+    let side = match pb::Side::try_from(r.side) {
+        Ok(pb::Side::Before) => Side::Before,
+        Ok(pb::Side::After) => Side::After,
+        Ok(pb::Side::Unspecified) => {
+            return Err(Status::invalid_argument(
+                "side must be SIDE_BEFORE or SIDE_AFTER",
+            ));
+        }
+        Err(_) => return Err(Status::invalid_argument(format!("unknown side {}", r.side))),
+    };
+    Ok(InsertWaypoint {
+        side,
+        waypoint: new_waypoint(required(r.waypoint, "waypoint")?)?,
+    })
+}
+
+pub fn routine_patch(r: &pb::EditRoutineRequest) -> RoutinePatch {
+    RoutinePatch {
+        name: r.name.as_ref().map(|n| (!n.is_empty()).then(|| n.clone())),
+        position: r.position,
+    }
+}
+
+impl From<WaypointEdit> for pb::WaypointEdit {
+    fn from(e: WaypointEdit) -> pb::WaypointEdit {
+        pb::WaypointEdit {
+            waypoint: e.waypoint.map(Into::into),
+            previous: e.previous.map(Into::into),
+            model_version: e.model_version,
+        }
+    }
+}
+
+impl From<RoutineEdit> for pb::RoutineEdit {
+    fn from(e: RoutineEdit) -> pb::RoutineEdit {
+        pb::RoutineEdit {
+            routine: Some(e.routine.into()),
+            previous: Some(e.previous.into()),
+        }
+    }
+}

@@ -29,6 +29,7 @@ use tower::ServiceExt;
 
 use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
+use crate::app::resources::Rename;
 use crate::app::{App, AppError};
 use crate::transport::TransportOptions;
 use crate::transport::auth::BearerToken;
@@ -160,6 +161,78 @@ impl Nextpose for Service {
             .await
             .map_err(status::status)?;
         Ok(Response::new(pb::DeleteRoutineResponse {}))
+    }
+
+    async fn edit_routine(&self, r: Request<pb::EditRoutineRequest>) -> Reply<pb::RoutineEdit> {
+        let r = r.into_inner();
+        let patch = convert::routine_patch(&r);
+        reply(self.app.edit_routine(r.routine_id, patch).await)
+    }
+
+    async fn rename_program(&self, r: Request<pb::RenameProgramRequest>) -> Reply<pb::Program> {
+        let r = r.into_inner();
+        reply(
+            self.app
+                .rename_program(r.program_id, Rename { name: r.name })
+                .await,
+        )
+    }
+
+    async fn delete_program(
+        &self,
+        r: Request<pb::DeleteProgramRequest>,
+    ) -> Reply<pb::DeleteProgramResponse> {
+        self.app
+            .delete_program(r.into_inner().program_id)
+            .await
+            .map_err(status::status)?;
+        Ok(Response::new(pb::DeleteProgramResponse {}))
+    }
+
+    async fn rename_cell(&self, r: Request<pb::RenameCellRequest>) -> Reply<pb::Cell> {
+        let r = r.into_inner();
+        reply(
+            self.app
+                .rename_cell(r.cell_id, Rename { name: r.name })
+                .await,
+        )
+    }
+
+    async fn delete_cell(
+        &self,
+        r: Request<pb::DeleteCellRequest>,
+    ) -> Reply<pb::DeleteCellResponse> {
+        self.app
+            .delete_cell(r.into_inner().cell_id)
+            .await
+            .map_err(status::status)?;
+        Ok(Response::new(pb::DeleteCellResponse {}))
+    }
+
+    async fn modify_waypoint(
+        &self,
+        r: Request<pb::ModifyWaypointRequest>,
+    ) -> Reply<pb::WaypointEdit> {
+        let r = r.into_inner();
+        let patch = convert::waypoint_patch(&r)?;
+        reply(self.app.modify_waypoint(r.waypoint_id, patch).await)
+    }
+
+    async fn insert_waypoint(
+        &self,
+        r: Request<pb::InsertWaypointRequest>,
+    ) -> Reply<pb::WaypointEdit> {
+        let r = r.into_inner();
+        let id = r.waypoint_id;
+        let input = convert::insert_waypoint(r)?;
+        reply(self.app.insert_waypoint(id, input).await)
+    }
+
+    async fn delete_waypoint(
+        &self,
+        r: Request<pb::DeleteWaypointRequest>,
+    ) -> Reply<pb::WaypointEdit> {
+        reply(self.app.delete_waypoint(r.into_inner().waypoint_id).await)
     }
 
     async fn finish_routine(&self, r: Request<pb::FinishRoutineRequest>) -> Reply<pb::Finished> {

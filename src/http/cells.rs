@@ -10,12 +10,12 @@ use utoipa_axum::routes;
 use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo};
+use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo, Rename};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_cell, list_cells))
-        .routes(routes!(get_cell))
+        .routes(routes!(get_cell, rename_cell, delete_cell))
         .routes(routes!(cell_stats))
         .routes(routes!(rebuild_model))
 }
@@ -92,4 +92,41 @@ async fn rebuild_model(
     Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<ModelInfo>, ApiError> {
     Ok(axum::Json(app.rebuild(cell_id).await?))
+}
+
+/// Rename a cell.
+#[utoipa::path(patch, path = "/v1/cells/{cell_id}", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    request_body = Rename,
+    responses(
+        (status = 200, description = "Renamed", body = Cell),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 409, description = "Name taken", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn rename_cell(
+    State(app): State<Arc<App>>,
+    Path(Id(cell_id)): Path<Id>,
+    Json(body): Json<Rename>,
+) -> Result<axum::Json<Cell>, ApiError> {
+    Ok(axum::Json(app.rename_cell(cell_id, body).await?))
+}
+
+/// Delete a cell with its programs, routines, predictions and feedback.
+#[utoipa::path(delete, path = "/v1/cells/{cell_id}", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    responses(
+        (status = 204, description = "Deleted"),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+    ))]
+async fn delete_cell(
+    State(app): State<Arc<App>>,
+    Path(Id(cell_id)): Path<Id>,
+) -> Result<StatusCode, ApiError> {
+    app.delete_cell(cell_id).await?;
+    Ok(StatusCode::NO_CONTENT)
 }

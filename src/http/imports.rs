@@ -16,7 +16,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new().routes(routes!(import_programs))
 }
 
-/// Import offline program files into a cell as new programs (immutable routines), optionally
+/// Import offline program files into a cell as new programs (finished routines), optionally
 /// learning them in program order. Everything or nothing: a syntax error names file, line and
 /// column and imports nothing. The response lists what was imported and what was skipped and
 /// why (joint moves, targets computed at run time, ...).

@@ -10,12 +10,12 @@ use utoipa_axum::routes;
 use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{CreateProgram, Program};
+use crate::app::resources::{CreateProgram, Program, Rename};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_program, list_programs))
-        .routes(routes!(get_program))
+        .routes(routes!(get_program, rename_program, delete_program))
 }
 
 /// Create a program in a cell.
@@ -70,4 +70,42 @@ async fn get_program(
     Path(Id(program_id)): Path<Id>,
 ) -> Result<axum::Json<Program>, ApiError> {
     Ok(axum::Json(app.get_program(program_id).await?))
+}
+
+/// Rename a program.
+#[utoipa::path(patch, path = "/v1/programs/{program_id}", tag = "programs",
+    params(("program_id" = i64, Path, description = "Program id")),
+    request_body = Rename,
+    responses(
+        (status = 200, description = "Renamed", body = Program),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 409, description = "Name taken in this cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn rename_program(
+    State(app): State<Arc<App>>,
+    Path(Id(program_id)): Path<Id>,
+    Json(body): Json<Rename>,
+) -> Result<axum::Json<Program>, ApiError> {
+    Ok(axum::Json(app.rename_program(program_id, body).await?))
+}
+
+/// Delete a program with its routines; the routines the model learned leave it (the model is
+/// rebuilt and its version advances).
+#[utoipa::path(delete, path = "/v1/programs/{program_id}", tag = "programs",
+    params(("program_id" = i64, Path, description = "Program id")),
+    responses(
+        (status = 204, description = "Deleted"),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+    ))]
+async fn delete_program(
+    State(app): State<Arc<App>>,
+    Path(Id(program_id)): Path<Id>,
+) -> Result<StatusCode, ApiError> {
+    app.delete_program(program_id).await?;
+    Ok(StatusCode::NO_CONTENT)
 }

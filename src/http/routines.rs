@@ -1,5 +1,6 @@
 //! Routines and teaching: `/v1/programs/{program_id}/routines`, `/v1/routines/...` (waypoints,
-//! undo, finish, predictions) and `/v1/predictions/{prediction_id}/feedback`.
+//! undo, finish, predictions), `/v1/waypoints/...` (editing) and
+//! `/v1/predictions/{prediction_id}/feedback`.
 
 use std::sync::Arc;
 
@@ -12,14 +13,17 @@ use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{
-    CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, NewWaypointDto, PredictQuery,
-    PredictionSet, Routine, RoutineDetail, Taught, Undone,
+    CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, InsertWaypoint, NewWaypointDto,
+    PredictQuery, PredictionSet, Routine, RoutineDetail, RoutineEdit, RoutinePatch, Taught, Undone,
+    WaypointEdit, WaypointPatch,
 };
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_routine, list_routines))
-        .routes(routes!(get_routine, delete_routine))
+        .routes(routes!(get_routine, edit_routine, delete_routine))
+        .routes(routes!(modify_waypoint, delete_waypoint))
+        .routes(routes!(insert_waypoint))
         .routes(routes!(append_waypoint))
         .routes(routes!(undo_waypoint))
         .routes(routes!(finish_routine))
@@ -81,14 +85,14 @@ async fn get_routine(
     Ok(axum::Json(app.get_routine(routine_id).await?))
 }
 
-/// Delete a routine that is being taught (a finished routine is immutable).
+/// Delete a routine with its waypoints: the one being taught is forgotten at once; a finished
+/// one the model learned leaves it (the model is rebuilt and its version advances).
 #[utoipa::path(delete, path = "/v1/routines/{routine_id}", tag = "routines",
     params(("routine_id" = i64, Path, description = "Routine id")),
     responses(
         (status = 204, description = "Deleted"),
         (status = 400, description = "Malformed id", body = ErrorBody),
         (status = 404, description = "No such routine", body = ErrorBody),
-        (status = 409, description = "The routine is finished", body = ErrorBody),
     ))]
 async fn delete_routine(
     State(app): State<Arc<App>>,
@@ -139,7 +143,7 @@ async fn undo_waypoint(
     Ok(axum::Json(app.undo(routine_id).await?))
 }
 
-/// Finish a routine: it becomes immutable and the cell's model learns it.
+/// Finish a routine: it takes no more teaching (edits still apply) and the cell's model learns it.
 #[utoipa::path(post, path = "/v1/routines/{routine_id}/finish", tag = "teaching",
     params(("routine_id" = i64, Path, description = "Routine id")),
     responses(
@@ -197,5 +201,86 @@ async fn feedback(
     Ok((
         StatusCode::CREATED,
         axum::Json(app.feedback(prediction_id, body).await?),
+    ))
+}
+
+/// Rename a routine and/or move it within its program; the answer carries its values before.
+#[utoipa::path(patch, path = "/v1/routines/{routine_id}", tag = "routines",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    request_body = RoutinePatch,
+    responses(
+        (status = 200, description = "Changed; `previous` reverts it", body = RoutineEdit),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid name or position, or unknown fields", body = ErrorBody),
+    ))]
+async fn edit_routine(
+    State(app): State<Arc<App>>,
+    Path(Id(routine_id)): Path<Id>,
+    Json(body): Json<RoutinePatch>,
+) -> Result<axum::Json<RoutineEdit>, ApiError> {
+    Ok(axum::Json(app.edit_routine(routine_id, body).await?))
+}
+
+/// Modify a waypoint of any routine, finished or being taught ("modify position"): the fields
+/// given change. A changed pose in a learned routine rebuilds the cell's model and advances
+/// its version; the answer carries the previous values.
+#[utoipa::path(patch, path = "/v1/waypoints/{waypoint_id}", tag = "editing",
+    params(("waypoint_id" = i64, Path, description = "Waypoint id")),
+    request_body = WaypointPatch,
+    responses(
+        (status = 200, description = "Changed; `previous` reverts it", body = WaypointEdit),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such waypoint", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid pose, joints, name or unknown fields", body = ErrorBody),
+    ))]
+async fn modify_waypoint(
+    State(app): State<Arc<App>>,
+    Path(Id(waypoint_id)): Path<Id>,
+    Json(body): Json<WaypointPatch>,
+) -> Result<axum::Json<WaypointEdit>, ApiError> {
+    Ok(axum::Json(app.modify_waypoint(waypoint_id, body).await?))
+}
+
+/// Delete a waypoint of any routine; the ones after it move up. The answer carries the deleted
+/// values (`previous`), which an insert at its place reverts.
+#[utoipa::path(delete, path = "/v1/waypoints/{waypoint_id}", tag = "editing",
+    params(("waypoint_id" = i64, Path, description = "Waypoint id")),
+    responses(
+        (status = 200, description = "Deleted; `previous` holds it", body = WaypointEdit),
+        (status = 400, description = "Malformed id", body = ErrorBody),
+        (status = 404, description = "No such waypoint", body = ErrorBody),
+    ))]
+async fn delete_waypoint(
+    State(app): State<Arc<App>>,
+    Path(Id(waypoint_id)): Path<Id>,
+) -> Result<axum::Json<WaypointEdit>, ApiError> {
+    Ok(axum::Json(app.delete_waypoint(waypoint_id).await?))
+}
+
+/// Insert a waypoint before or after this one, in any routine; the ones after it move down.
+#[utoipa::path(post, path = "/v1/waypoints/{waypoint_id}/insert", tag = "editing",
+    params(("waypoint_id" = i64, Path, description = "The waypoint to insert next to")),
+    request_body = InsertWaypoint,
+    responses(
+        (status = 201, description = "Inserted; deleting it reverts the insert", body = WaypointEdit),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such waypoint", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid side, pose, joints, name or unknown fields", body = ErrorBody),
+    ))]
+async fn insert_waypoint(
+    State(app): State<Arc<App>>,
+    Path(Id(waypoint_id)): Path<Id>,
+    Json(body): Json<InsertWaypoint>,
+) -> Result<(StatusCode, axum::Json<WaypointEdit>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.insert_waypoint(waypoint_id, body).await?),
     ))
 }

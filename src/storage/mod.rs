@@ -19,7 +19,7 @@ use sqlx::sqlite::{
 
 pub use rows::{
     CellRow, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction, NewWaypoint,
-    PoseColumns, PredictionRow, ProgramRow, RoutineRow, WaypointRow,
+    PoseColumns, PredictionRow, ProgramRow, RoutineRow, WaypointRow, WaypointValues,
 };
 
 /// How hard commits try to reach the disk.
@@ -119,7 +119,7 @@ impl Store {
     pub async fn insert_cell(&self, name: &str, settings_json: &str) -> Result<CellRow> {
         sqlx::query_as::<_, CellRow>(
             "INSERT INTO cells (name, settings) VALUES (?, ?) \
-             RETURNING id, name, settings, created_at",
+             RETURNING id, name, settings, created_at, model_version",
         )
         .bind(name)
         .bind(settings_json)
@@ -130,7 +130,7 @@ impl Store {
 
     pub async fn cell(&self, id: i64) -> Result<Option<CellRow>> {
         Ok(sqlx::query_as::<_, CellRow>(
-            "SELECT id, name, settings, created_at FROM cells WHERE id = ?",
+            "SELECT id, name, settings, created_at, model_version FROM cells WHERE id = ?",
         )
         .bind(id)
         .fetch_optional(&self.pool)
@@ -139,7 +139,7 @@ impl Store {
 
     pub async fn cells(&self) -> Result<Vec<CellRow>> {
         Ok(sqlx::query_as::<_, CellRow>(
-            "SELECT id, name, settings, created_at FROM cells ORDER BY id",
+            "SELECT id, name, settings, created_at, model_version FROM cells ORDER BY id",
         )
         .fetch_all(&self.pool)
         .await?)
@@ -258,6 +258,7 @@ impl Store {
 
     /// Marks a routine finished; returns its place in the cell's assimilation order.
     pub async fn finish_routine(&self, cell_id: i64, routine_id: i64) -> Result<i64> {
+        let mut tx = self.pool.begin().await?;
         let row: (i64,) = sqlx::query_as(
             "UPDATE routines SET \
                finish_seq = (SELECT COALESCE(MAX(finish_seq), 0) + 1 FROM routines \
@@ -268,9 +269,11 @@ impl Store {
         )
         .bind(cell_id)
         .bind(routine_id)
-        .fetch_one(&self.pool)
+        .fetch_one(&mut *tx)
         .await
         .map_err(classify)?;
+        advance_model_version(&mut tx, cell_id, 1).await?;
+        tx.commit().await?;
         Ok(row.0)
     }
 
@@ -339,6 +342,9 @@ impl Store {
                     .map_err(classify)?;
                 }
                 ids.push(id);
+            }
+            if learn {
+                advance_model_version(&mut tx, cell_id, ids.len() as i64).await?;
             }
             out.push((program, ids));
         }
@@ -430,6 +436,274 @@ impl Store {
             .await?;
         tx.commit().await?;
         Ok(row)
+    }
+
+    // ---- edits -------------------------------------------------------------------------------
+    //
+    // Every edit is one transaction; one that changes a learned routine advances the cell's
+    // model version in it (`advance`). Places (`seq`, `position`) stay 1, 2, …: rows after the
+    // place are shifted through negative values, since SQLite checks `UNIQUE` per row.
+
+    pub async fn waypoint(&self, id: i64) -> Result<Option<WaypointRow>> {
+        let sql = format!(
+            "SELECT {} FROM waypoints WHERE id = ?",
+            Self::WAYPOINT_COLUMNS
+        );
+        Ok(sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(id)
+            .fetch_optional(&self.pool)
+            .await?)
+    }
+
+    /// Sets a waypoint's values. Returns the row before and after, and the model version.
+    pub async fn update_waypoint(
+        &self,
+        id: i64,
+        v: &WaypointValues,
+        cell_id: i64,
+        advance: bool,
+    ) -> Result<(WaypointRow, WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        let select = format!(
+            "SELECT {} FROM waypoints WHERE id = ?",
+            Self::WAYPOINT_COLUMNS
+        );
+        let before = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(select))
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?
+            .ok_or(StorageError::NotFound)?;
+        let sql = format!(
+            "UPDATE waypoints SET x = ?, y = ?, z = ?, qw = ?, qx = ?, qy = ?, qz = ?, \
+             joints = ?, motion = ?, name = ?, reachable = ? WHERE id = ? RETURNING {}",
+            Self::WAYPOINT_COLUMNS
+        );
+        let p = &v.pose;
+        let after = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(&v.joints)
+            .bind(&v.motion)
+            .bind(&v.name)
+            .bind(v.reachable)
+            .bind(id)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(classify)?;
+        let version = advance_model_version(&mut tx, cell_id, i64::from(advance)).await?;
+        tx.commit().await?;
+        Ok((before, after, version))
+    }
+
+    /// Inserts a waypoint at place `seq` of a routine (1 = first); the waypoints from there on
+    /// move one place down. Returns the stored row and the model version.
+    pub async fn insert_waypoint(
+        &self,
+        routine_id: i64,
+        seq: i64,
+        v: &WaypointValues,
+        cell_id: i64,
+        advance: bool,
+    ) -> Result<(WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("UPDATE waypoints SET seq = -seq - 1 WHERE routine_id = ? AND seq >= ?")
+            .bind(routine_id)
+            .bind(seq)
+            .execute(&mut *tx)
+            .await?;
+        sqlx::query("UPDATE waypoints SET seq = -seq WHERE routine_id = ? AND seq < 0")
+            .bind(routine_id)
+            .execute(&mut *tx)
+            .await?;
+        let sql = format!(
+            "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+             reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING {}",
+            Self::WAYPOINT_COLUMNS
+        );
+        let p = &v.pose;
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(routine_id)
+            .bind(seq)
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(&v.joints)
+            .bind(&v.motion)
+            .bind(&v.name)
+            .bind(v.reachable)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(classify)?;
+        let version = advance_model_version(&mut tx, cell_id, i64::from(advance)).await?;
+        tx.commit().await?;
+        Ok((row, version))
+    }
+
+    /// Deletes a waypoint; the ones after it move one place up. Returns the deleted row and
+    /// the model version.
+    pub async fn delete_waypoint(
+        &self,
+        id: i64,
+        cell_id: i64,
+        advance: bool,
+    ) -> Result<(WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        let sql = format!(
+            "DELETE FROM waypoints WHERE id = ? RETURNING {}",
+            Self::WAYPOINT_COLUMNS
+        );
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?
+            .ok_or(StorageError::NotFound)?;
+        sqlx::query("UPDATE waypoints SET seq = -(seq - 1) WHERE routine_id = ? AND seq > ?")
+            .bind(row.routine_id)
+            .bind(row.seq)
+            .execute(&mut *tx)
+            .await?;
+        sqlx::query("UPDATE waypoints SET seq = -seq WHERE routine_id = ? AND seq < 0")
+            .bind(row.routine_id)
+            .execute(&mut *tx)
+            .await?;
+        let version = advance_model_version(&mut tx, cell_id, i64::from(advance)).await?;
+        tx.commit().await?;
+        Ok((row, version))
+    }
+
+    /// Renames a routine (None: no name).
+    pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
+        let done = sqlx::query("UPDATE routines SET name = ? WHERE id = ?")
+            .bind(name)
+            .bind(id)
+            .execute(&self.pool)
+            .await
+            .map_err(classify)?;
+        if done.rows_affected() == 0 {
+            return Err(StorageError::NotFound);
+        }
+        Ok(())
+    }
+
+    /// Moves a routine to place `position` of its program (1 = first, clamped to the last);
+    /// the others keep their order.
+    pub async fn move_routine(&self, id: i64, position: i64) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
+        let (program_id, from): (i64, i64) =
+            sqlx::query_as("SELECT program_id, position FROM routines WHERE id = ?")
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await?
+                .ok_or(StorageError::NotFound)?;
+        let (count,): (i64,) = sqlx::query_as("SELECT COUNT(*) FROM routines WHERE program_id = ?")
+            .bind(program_id)
+            .fetch_one(&mut *tx)
+            .await?;
+        let to = position.clamp(1, count.max(1));
+        // Out of the way (place 0), the others closed up, opened at `to`, then back in.
+        sqlx::query("UPDATE routines SET position = 0 WHERE id = ?")
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        close_up_routines(&mut tx, program_id, from).await?;
+        sqlx::query(
+            "UPDATE routines SET position = -(position + 1) WHERE program_id = ? AND position >= ?",
+        )
+        .bind(program_id)
+        .bind(to)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query(
+            "UPDATE routines SET position = -position WHERE program_id = ? AND position < 0",
+        )
+        .bind(program_id)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query("UPDATE routines SET position = ? WHERE id = ?")
+            .bind(to)
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(())
+    }
+
+    /// Deletes a routine, finished or not, with its waypoints, predictions and feedback; the
+    /// routines after it in its program move one place up. Returns the model version.
+    pub async fn delete_routine(&self, id: i64, cell_id: i64, advance: bool) -> Result<i64> {
+        let mut tx = self.pool.begin().await?;
+        let (program_id, position): (i64, i64) =
+            sqlx::query_as("DELETE FROM routines WHERE id = ? RETURNING program_id, position")
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await?
+                .ok_or(StorageError::NotFound)?;
+        close_up_routines(&mut tx, program_id, position).await?;
+        let version = advance_model_version(&mut tx, cell_id, i64::from(advance)).await?;
+        tx.commit().await?;
+        Ok(version)
+    }
+
+    pub async fn rename_program(&self, id: i64, name: &str) -> Result<ProgramRow> {
+        sqlx::query_as::<_, ProgramRow>(
+            "UPDATE programs SET name = ? WHERE id = ? RETURNING id, cell_id, name, created_at",
+        )
+        .bind(name)
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await
+        .map_err(classify)?
+        .ok_or(StorageError::NotFound)
+    }
+
+    /// Deletes a program with its routines; returns the model version (advanced when a
+    /// learned routine went with it).
+    pub async fn delete_program(&self, id: i64, cell_id: i64, advance: bool) -> Result<i64> {
+        let mut tx = self.pool.begin().await?;
+        let done = sqlx::query("DELETE FROM programs WHERE id = ?")
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        if done.rows_affected() == 0 {
+            return Err(StorageError::NotFound);
+        }
+        let version = advance_model_version(&mut tx, cell_id, i64::from(advance)).await?;
+        tx.commit().await?;
+        Ok(version)
+    }
+
+    pub async fn rename_cell(&self, id: i64, name: &str) -> Result<CellRow> {
+        sqlx::query_as::<_, CellRow>(
+            "UPDATE cells SET name = ? WHERE id = ? \
+             RETURNING id, name, settings, created_at, model_version",
+        )
+        .bind(name)
+        .bind(id)
+        .fetch_optional(&self.pool)
+        .await
+        .map_err(classify)?
+        .ok_or(StorageError::NotFound)
+    }
+
+    /// Deletes a cell with everything it holds.
+    pub async fn delete_cell(&self, id: i64) -> Result<()> {
+        let done = sqlx::query("DELETE FROM cells WHERE id = ?")
+            .bind(id)
+            .execute(&self.pool)
+            .await?;
+        if done.rows_affected() == 0 {
+            return Err(StorageError::NotFound);
+        }
+        Ok(())
     }
 
     // ---- predictions and feedback -----------------------------------------------------------
@@ -546,6 +820,43 @@ fn match_routine_sql(columns: &str, tail: &str) -> String {
 }
 
 /// Inserts a prediction made after the waypoint `after_waypoint` (None: nothing taught yet).
+/// Advances a cell's model version by `by` (0: reads it) in the transaction; returns it.
+async fn advance_model_version(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    cell_id: i64,
+    by: i64,
+) -> Result<i64> {
+    let (v,): (i64,) = sqlx::query_as(
+        "UPDATE cells SET model_version = model_version + ? WHERE id = ? RETURNING model_version",
+    )
+    .bind(by)
+    .bind(cell_id)
+    .fetch_optional(&mut **tx)
+    .await?
+    .ok_or(StorageError::NotFound)?;
+    Ok(v)
+}
+
+/// Closes the gap a routine left at `position` of its program.
+async fn close_up_routines(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    program_id: i64,
+    position: i64,
+) -> Result<()> {
+    sqlx::query(
+        "UPDATE routines SET position = -(position - 1) WHERE program_id = ? AND position > ?",
+    )
+    .bind(program_id)
+    .bind(position)
+    .execute(&mut **tx)
+    .await?;
+    sqlx::query("UPDATE routines SET position = -position WHERE program_id = ? AND position < 0")
+        .bind(program_id)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}
+
 async fn insert_prediction(
     tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
     pr: &NewPrediction,

@@ -20,6 +20,9 @@ pub struct CellRow {
     pub name: String,
     pub settings: String,
     pub created_at: String,
+    /// Advanced each time the cell's learned model changes (a routine learned, an edit of a
+    /// learned routine).
+    pub model_version: i64,
 }
 
 #[derive(Debug, Clone, FromRow)]
@@ -40,7 +43,7 @@ pub struct RoutineRow {
     pub finish_seq: Option<i64>,
     pub finished_at: Option<String>,
     pub created_at: String,
-    /// Imported from an offline program (immutable; learned only when `finish_seq` is set).
+    /// Imported from an offline program (takes no teaching; learned only when `finish_seq` is set).
     pub imported: bool,
     /// Number of waypoints.
     pub waypoints: i64,
@@ -79,6 +82,16 @@ pub struct WaypointRow {
     /// Whether the cell's arm reaches it (None: not checked).
     pub reachable: Option<bool>,
     pub created_at: String,
+}
+
+/// A waypoint's values as an edit sets them (its routine and place stay).
+#[derive(Debug, Clone)]
+pub struct WaypointValues {
+    pub pose: PoseColumns,
+    pub joints: Option<String>,
+    pub motion: Option<String>,
+    pub name: Option<String>,
+    pub reachable: Option<bool>,
 }
 
 #[derive(Debug, Clone)]

@@ -1333,3 +1333,104 @@ async fn grpc_calls_are_counted_in_metrics_and_carry_request_ids() {
         "{metrics}"
     );
 }
+
+/// Editing over gRPC: the same operations as REST over the same application, the same
+/// answers (REST reads back what gRPC changed), the same refusals.
+#[tokio::test]
+async fn editing_over_grpc_changes_what_rest_reads_back() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("edited over grpc").await;
+    let program = app.create_program(cell, "p").await;
+    let (r, _) = app
+        .teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let before = app.get_ok(&format!("/v1/routines/{r}")).await;
+    let w = before["waypoints"][1]["id"].as_i64().expect("id");
+    let mut c = client(&app).await;
+    let moved = pose([410.0, 5.0, 305.0], [0.0; 3]);
+    let edit = c
+        .modify_waypoint(pb::ModifyWaypointRequest {
+            waypoint_id: w,
+            pose: Some(pb_pose(&moved)),
+            name: Some("corner".into()),
+            ..Default::default()
+        })
+        .await
+        .expect("modify")
+        .into_inner();
+    let version = edit.model_version;
+    assert_eq!(
+        edit.previous.expect("previous").pose,
+        Some(pb_pose(&before["waypoints"][1]["pose"]))
+    );
+    let now = app.get_ok(&format!("/v1/routines/{r}")).await;
+    assert_eq!(now["waypoints"][1]["name"], "corner");
+    assert!(distance(&now["waypoints"][1]["pose"], &moved) < 1e-9);
+    let inserted = c
+        .insert_waypoint(pb::InsertWaypointRequest {
+            waypoint_id: w,
+            side: pb::Side::Before.into(),
+            waypoint: Some(waypoint(&moved)),
+        })
+        .await
+        .expect("insert")
+        .into_inner();
+    assert_eq!(inserted.waypoint.as_ref().expect("waypoint").seq, 2);
+    assert_eq!(inserted.model_version, version + 1);
+    let id = inserted.waypoint.expect("waypoint").id;
+    let deleted = c
+        .delete_waypoint(pb::DeleteWaypointRequest { waypoint_id: id })
+        .await
+        .expect("delete")
+        .into_inner();
+    assert_eq!(deleted.previous.expect("previous").id, id);
+    assert_eq!(deleted.model_version, version + 2);
+    assert_eq!(
+        app.get_ok(&format!("/v1/routines/{r}")).await["waypoints"]
+            .as_array()
+            .expect("waypoints")
+            .len(),
+        before["waypoints"].as_array().expect("waypoints").len()
+    );
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["version"], version + 2);
+    let unknown = c
+        .modify_waypoint(pb::ModifyWaypointRequest {
+            waypoint_id: 999_999,
+            ..Default::default()
+        })
+        .await
+        .expect_err("no such waypoint");
+    assert_eq!(unknown.code(), tonic::Code::NotFound);
+    let no_side = c
+        .insert_waypoint(pb::InsertWaypointRequest {
+            waypoint_id: w,
+            side: pb::Side::Unspecified.into(),
+            waypoint: Some(waypoint(&moved)),
+        })
+        .await
+        .expect_err("no side");
+    assert_eq!(no_side.code(), tonic::Code::InvalidArgument);
+    let renamed = c
+        .edit_routine(pb::EditRoutineRequest {
+            routine_id: r,
+            name: Some("seam".into()),
+            position: None,
+        })
+        .await
+        .expect("rename")
+        .into_inner();
+    assert_eq!(
+        renamed.routine.expect("routine").name.as_deref(),
+        Some("seam")
+    );
+    c.delete_program(pb::DeleteProgramRequest {
+        program_id: program,
+    })
+    .await
+    .expect("delete program");
+    assert_eq!(
+        app.get(&format!("/v1/programs/{program}")).await.status(),
+        reqwest::StatusCode::NOT_FOUND
+    );
+}

@@ -119,6 +119,13 @@ impl TestApp {
             .expect("request")
     }
 
+    pub async fn patch(&self, path: &str, body: &Value) -> Response {
+        self.auth(self.client.patch(self.url(path)).json(body))
+            .send()
+            .await
+            .expect("request")
+    }
+
     pub async fn delete(&self, path: &str) -> Response {
         self.auth(self.client.delete(self.url(path)))
             .send()

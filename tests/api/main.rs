@@ -3,6 +3,7 @@
 
 mod cancellation;
 mod durability;
+mod editing;
 mod errors;
 mod grpc;
 mod helpers;

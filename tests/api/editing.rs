@@ -1,0 +1,384 @@
+//! Editing what was taught (issue 14): waypoints of finished and open routines modified,
+//! inserted and deleted; routines renamed, moved and deleted; programs and cells renamed and
+//! deleted. After any edits the cell's model must be the model of a fresh cell taught the
+//! edited routines, and its predictions the same.
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use reqwest::StatusCode;
+use serde_json::{Value, json};
+
+use crate::helpers::*;
+
+/// The routines of a cell's program as stored: (id, finish_seq, poses).
+async fn stored_routines(app: &TestApp, program: i64) -> Vec<(i64, Option<i64>, Vec<Value>)> {
+    let list = app
+        .get_ok(&format!("/v1/programs/{program}/routines"))
+        .await;
+    let mut out = Vec::new();
+    for r in list.as_array().expect("routines") {
+        let id = r["id"].as_i64().expect("id");
+        let detail = app.get_ok(&format!("/v1/routines/{id}")).await;
+        let poses = detail["waypoints"]
+            .as_array()
+            .expect("waypoints")
+            .iter()
+            .map(|w| w["pose"].clone())
+            .collect();
+        out.push((id, r["finish_seq"].as_i64(), poses));
+    }
+    out
+}
+
+/// A fresh cell taught the routines of `program` of `app` as they are stored now (finished ones
+/// in the order the model learned them, then the open one, left open). Returns its open routine.
+async fn fresh_copy(app: &TestApp, program: i64, name: &str) -> (i64, Option<i64>) {
+    let mut routines = stored_routines(app, program).await;
+    routines.sort_by_key(|(_, seq, _)| seq.unwrap_or(i64::MAX));
+    let cell = app.create_cell(name).await;
+    let copy = app.create_program(cell, "copy").await;
+    let mut open = None;
+    for (_, seq, poses) in &routines {
+        let r = app.create_routine(copy).await;
+        for p in poses {
+            app.append(r, p).await;
+        }
+        if seq.is_some() {
+            app.finish(r).await;
+        } else {
+            open = Some(r);
+        }
+    }
+    (cell, open)
+}
+
+fn model_of(stats: &Value) -> Value {
+    let m = &stats["model"];
+    json!([
+        m["states"],
+        m["edges"],
+        m["routines"],
+        m["depth"],
+        m["observations"]
+    ])
+}
+
+fn jitter(rng: &mut StdRng, p: &Value) -> Value {
+    let mut q = p.clone();
+    for k in ["x", "y", "z"] {
+        let v = q[k].as_f64().expect("coordinate") + rng.random_range(-40.0..40.0);
+        q[k] = json!(v);
+    }
+    q
+}
+
+/// Random edits of finished and open routines, several sequences: after each sequence the
+/// cell's model equals that of a fresh cell taught the edited routines, its prediction for the
+/// open routine is the fresh cell's, and a rebuild from the database changes nothing.
+#[tokio::test]
+async fn any_edits_leave_the_model_of_a_fresh_cell_taught_the_edited_routines() {
+    let app = spawn_app().await;
+    for seed in 0..4u64 {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let cell = app.create_cell(&format!("edited-{seed}")).await;
+        let program = app.create_program(cell, "seams").await;
+        for k in 0..3 {
+            app.teach_routine(program, &u_seam([400.0 + 30.0 * k as f64, 0.0, 300.0], 0.0))
+                .await;
+        }
+        let open = app.create_routine(program).await;
+        for p in &u_seam([500.0, 100.0, 300.0], 0.2)[..5] {
+            app.append(open, p).await;
+        }
+        let mut version = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"]["version"]
+            .as_i64()
+            .expect("version");
+        for _ in 0..8 {
+            let routines = stored_routines(&app, program).await;
+            let (rid, finished, poses) = &routines[rng.random_range(0..routines.len())];
+            let detail = app.get_ok(&format!("/v1/routines/{rid}")).await;
+            let w = &detail["waypoints"][rng.random_range(0..poses.len())];
+            let wid = w["id"].as_i64().expect("waypoint id");
+            let edit = match rng.random_range(0..3) {
+                0 => {
+                    let body = json!({ "pose": jitter(&mut rng, &w["pose"]) });
+                    let e = expect(
+                        app.patch(&format!("/v1/waypoints/{wid}"), &body).await,
+                        StatusCode::OK,
+                    )
+                    .await;
+                    assert_eq!(e["previous"]["pose"], w["pose"]);
+                    assert_eq!(e["waypoint"]["pose"], body["pose"]);
+                    e
+                }
+                1 => {
+                    let side = if rng.random_bool(0.5) {
+                        "before"
+                    } else {
+                        "after"
+                    };
+                    let body = json!({ "side": side,
+                        "waypoint": { "pose": jitter(&mut rng, &w["pose"]), "name": "inserted" } });
+                    let e = expect(
+                        app.post(&format!("/v1/waypoints/{wid}/insert"), &body)
+                            .await,
+                        StatusCode::CREATED,
+                    )
+                    .await;
+                    let at = w["seq"].as_i64().expect("seq") + i64::from(side == "after");
+                    assert_eq!(e["waypoint"]["seq"], at);
+                    e
+                }
+                _ if poses.len() > 3 => {
+                    let e = expect(
+                        app.delete(&format!("/v1/waypoints/{wid}")).await,
+                        StatusCode::OK,
+                    )
+                    .await;
+                    assert_eq!(e["previous"]["id"], wid);
+                    e
+                }
+                _ => continue,
+            };
+            let now = edit["model_version"].as_i64().expect("model_version");
+            // Edits of a learned routine advance the model version; of the open one, not.
+            assert_eq!(now, version + i64::from(finished.is_some()), "{edit}");
+            version = now;
+        }
+        // Places stay 1, 2, … in every routine.
+        for (rid, _, _) in stored_routines(&app, program).await {
+            let d = app.get_ok(&format!("/v1/routines/{rid}")).await;
+            let seqs: Vec<i64> = d["waypoints"]
+                .as_array()
+                .expect("waypoints")
+                .iter()
+                .map(|w| w["seq"].as_i64().expect("seq"))
+                .collect();
+            assert_eq!(seqs, (1..=seqs.len() as i64).collect::<Vec<_>>());
+        }
+        let edited = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+        assert_eq!(edited["model"]["version"], version);
+        let (fresh, fresh_open) = fresh_copy(&app, program, &format!("fresh-{seed}")).await;
+        let copy = app.get_ok(&format!("/v1/cells/{fresh}/stats")).await;
+        assert_eq!(model_of(&edited), model_of(&copy), "seed {seed}");
+        let ours = app.get_ok(&format!("/v1/routines/{open}/prediction")).await;
+        let theirs = app
+            .get_ok(&format!(
+                "/v1/routines/{}/prediction",
+                fresh_open.expect("open routine")
+            ))
+            .await;
+        for k in ["pose", "p_useful", "expert", "withheld", "offered"] {
+            assert_eq!(
+                ours["predictions"][0][k], theirs["predictions"][0][k],
+                "seed {seed}: {k}"
+            );
+        }
+        let rebuilt = app
+            .post_ok(
+                &format!("/v1/cells/{cell}/rebuild"),
+                &json!({}),
+                StatusCode::OK,
+            )
+            .await;
+        assert_eq!(rebuilt["version"], version);
+    }
+    let metrics = app.get("/metrics").await.text().await.expect("metrics");
+    assert_eq!(
+        sample(&metrics, "nextpose_model_divergences_total"),
+        Some(0.0)
+    );
+}
+
+/// Bad edits are refused with a 4xx that names the problem, and change nothing.
+#[tokio::test]
+async fn bad_edits_are_refused_and_change_nothing() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("strict").await;
+    let program = app.create_program(cell, "p").await;
+    app.create_program(cell, "other").await;
+    let (r, _) = app
+        .teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let before = app.get_ok(&format!("/v1/routines/{r}")).await;
+    let w = before["waypoints"][2]["id"].as_i64().expect("id");
+    let cases = [
+        (
+            json!({ "pose": { "x": 1.0 } }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+        (
+            json!({ "pose": pose([f64::MAX, 0.0, 0.0], [0.0; 3]), "extra": 1 }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+        (json!({ "joints": [] }), StatusCode::UNPROCESSABLE_ENTITY),
+        (
+            json!({ "joints": [0.0, 0.1] }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+        (json!({ "name": "  " }), StatusCode::UNPROCESSABLE_ENTITY),
+        (
+            json!({ "motion": "sideways" }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+        ),
+    ];
+    for (body, status) in cases {
+        let r = app.patch(&format!("/v1/waypoints/{w}"), &body).await;
+        assert_eq!(r.status(), status, "{body}");
+    }
+    expect_error(
+        app.patch("/v1/waypoints/999999", &json!({ "name": "x" }))
+            .await,
+        StatusCode::NOT_FOUND,
+        "not_found",
+    )
+    .await;
+    let bad_side = app
+        .post(
+            &format!("/v1/waypoints/{w}/insert"),
+            &json!({ "side": "beside", "waypoint": { "pose": pose([0.0; 3], [0.0; 3]) } }),
+        )
+        .await;
+    assert_eq!(bad_side.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    let zero = app
+        .patch(&format!("/v1/routines/{r}"), &json!({ "position": 0 }))
+        .await;
+    assert_eq!(zero.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    let taken = app
+        .patch(
+            &format!("/v1/programs/{program}"),
+            &json!({ "name": "other" }),
+        )
+        .await;
+    assert_eq!(taken.status(), StatusCode::CONFLICT);
+    assert_eq!(app.get_ok(&format!("/v1/routines/{r}")).await, before);
+    assert_eq!(
+        app.get_ok(&format!("/v1/programs/{program}")).await["name"],
+        "p"
+    );
+}
+
+/// Renaming and moving routines, renaming programs and cells; the answer carries the previous
+/// values. Deleting a learned routine takes it out of the model; deleting a program, a cell.
+#[tokio::test]
+async fn routines_programs_and_cells_are_renamed_moved_and_deleted() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("tidy").await;
+    let program = app.create_program(cell, "p").await;
+    let mut ids = Vec::new();
+    for k in 0..3 {
+        ids.push(
+            app.teach_routine(program, &u_seam([400.0 + 50.0 * k as f64, 0.0, 300.0], 0.0))
+                .await
+                .0,
+        );
+    }
+    let moved = expect(
+        app.patch(
+            &format!("/v1/routines/{}", ids[2]),
+            &json!({ "position": 1, "name": "first now" }),
+        )
+        .await,
+        StatusCode::OK,
+    )
+    .await;
+    assert_eq!(moved["previous"]["position"], 3);
+    assert_eq!(moved["previous"]["name"], Value::Null);
+    assert_eq!(moved["routine"]["position"], 1);
+    assert_eq!(moved["routine"]["name"], "first now");
+    let order: Vec<i64> = stored_routines(&app, program)
+        .await
+        .iter()
+        .map(|(id, _, _)| *id)
+        .collect();
+    assert_eq!(order, vec![ids[2], ids[0], ids[1]]);
+    let version = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"]["version"]
+        .as_i64()
+        .expect("version");
+    let r = app.delete(&format!("/v1/routines/{}", ids[0])).await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["routines"], 2);
+    assert_eq!(stats["model"]["version"], version + 1);
+    let positions: Vec<i64> = app
+        .get_ok(&format!("/v1/programs/{program}/routines"))
+        .await
+        .as_array()
+        .expect("routines")
+        .iter()
+        .map(|r| r["position"].as_i64().expect("position"))
+        .collect();
+    assert_eq!(positions, vec![1, 2]);
+    let renamed = expect(
+        app.patch(&format!("/v1/cells/{cell}"), &json!({ "name": "tidier" }))
+            .await,
+        StatusCode::OK,
+    )
+    .await;
+    assert_eq!(renamed["name"], "tidier");
+    let r = app.delete(&format!("/v1/programs/{program}")).await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["routines"], 0);
+    assert_eq!(
+        app.get(&format!("/v1/routines/{}", ids[1])).await.status(),
+        StatusCode::NOT_FOUND
+    );
+    let r = app.delete(&format!("/v1/cells/{cell}")).await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    assert_eq!(
+        app.get(&format!("/v1/cells/{cell}")).await.status(),
+        StatusCode::NOT_FOUND
+    );
+    assert_eq!(
+        app.get(&format!("/v1/cells/{cell}/stats")).await.status(),
+        StatusCode::NOT_FOUND
+    );
+}
+
+/// A prediction made by an older model version still takes feedback after an edit advanced
+/// the version, and it is counted.
+#[tokio::test]
+async fn feedback_on_a_prediction_of_an_older_model_is_accepted() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("versions").await;
+    let program = app.create_program(cell, "p").await;
+    let (first, _) = app
+        .teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let r = app.create_routine(program).await;
+    let seam = u_seam([600.0, 50.0, 300.0], 0.3);
+    let mut offered = None;
+    for p in &seam {
+        let t = app.append(r, p).await;
+        if t["prediction"]["offered"] == true {
+            offered = Some(t["prediction"].clone());
+            break;
+        }
+    }
+    let offered = offered.expect("the second copy of the seam is predicted");
+    let old_version = offered["model_version"].as_i64().expect("version");
+    let w = app.get_ok(&format!("/v1/routines/{first}")).await["waypoints"][1]["id"]
+        .as_i64()
+        .expect("id");
+    let edit = expect(
+        app.patch(
+            &format!("/v1/waypoints/{w}"),
+            &json!({ "pose": pose([1.0, 2.0, 3.0], [0.0; 3]) }),
+        )
+        .await,
+        StatusCode::OK,
+    )
+    .await;
+    assert_eq!(edit["model_version"], old_version + 1);
+    let id = offered["id"].as_i64().expect("prediction id");
+    let fb = app
+        .post(
+            &format!("/v1/predictions/{id}/feedback"),
+            &json!({ "verdict": "accepted" }),
+        )
+        .await;
+    assert!(fb.status().is_success(), "{}", fb.status());
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["feedback"]["accepted"], 1);
+}
