@@ -115,7 +115,7 @@ fn cycle(g: &Graph) -> Option<Vec<String>> {
 fn no_cycles_between_top_level_modules() {
     let (top, _) = graphs();
     assert!(
-        top.contains_key("engine") && top.contains_key("app"),
+        top.contains_key("engine") && top.contains_key("app") && top.contains_key("export"),
         "{top:?}"
     );
     assert_eq!(cycle(&top), None, "{top:#?}");
@@ -139,6 +139,7 @@ fn modules_use_only_what_their_layer_allows() {
         ("program", &["engine"]),
         ("kinematics", &["engine"]),
         ("import", &["engine", "program"]),
+        ("export", &["engine", "kinematics", "program"]),
         ("sim", &["engine", "kinematics", "program"]),
         ("replay", &["engine", "import", "kinematics", "program"]),
         ("storage", &[]),
@@ -189,11 +190,11 @@ fn modules_use_only_what_their_layer_allows() {
     }
 }
 
-/// The engine, the program type and the importer do no I/O and know no async runtime.
+/// The engine, the program type, the importer and the exporter do no I/O and know no async runtime.
 #[test]
 fn pure_modules_do_no_io() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    for module in ["engine", "program.rs", "import"] {
+    for module in ["engine", "program.rs", "import", "export"] {
         let mut files = Vec::new();
         let path = src.join(module);
         if path.is_dir() {

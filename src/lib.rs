@@ -5,6 +5,8 @@
 //!   reading URDF files.
 //! - [`program`]: the recorded-program type (program → routines → poses) every part shares.
 //! - [`import`]: parses offline programs (ABB RAPID, KUKA KRL, FANUC TP) into waypoints. Pure.
+//! - [`export`]: writes programs as ABB RAPID, KUKA KRL and FANUC TP files (the converse of
+//!   [`import`]), with arm configurations from [`kinematics`]. Pure.
 //! - [`replay`]: replays recorded programs through the engine and baselines and reports accuracy
 //!   (the product's scoreboard). Reads corpus files; everything else it does is computation.
 //! - [`app`]: the application service both adapters call: cells, programs, routines, teaching,
@@ -32,6 +34,7 @@ mod architecture;
 pub mod cli;
 pub mod client;
 pub mod engine;
+pub mod export;
 pub mod grpc;
 pub mod http;
 pub mod import;

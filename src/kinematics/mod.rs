@@ -5,6 +5,8 @@
 //! - [`urdf`]: loads a serial six-revolute chain from URDF ([`Chain`]), FK and Jacobian.
 //! - [`opw`]: closed-form IK of ortho-parallel arms with a spherical wrist (`rs-opw-kinematics`).
 //! - [`ur`]: closed-form IK of the Universal Robots family (ours).
+//! - [`configuration`]: arm configuration (shoulder, elbow, wrist flip, turns) of a joint
+//!   vector as RAPID `confdata`, KRL Status/Turn and FANUC `CONFIG`; the IK solution it names.
 //! - [`reach`]: reachability of a target in a cell (base and tool frames, limits, singularity).
 //! - [`units`]: the one conversion between the crate's millimetres and URDF metres.
 //!
@@ -25,6 +27,7 @@
 //! robot.ik(&flange) / robot.fk(&q)                 all solutions / tool0 pose, base frame, mm
 //! ```
 
+pub mod configuration;
 pub mod error;
 pub mod opw;
 pub mod placement;
@@ -41,6 +44,10 @@ use serde::Serialize;
 
 use crate::engine::Pose;
 
+pub use configuration::{
+    ArmConfiguration, ConfigurationError, Elbow, KrlStatusTurn, RapidConfdata, Shoulder, Wrist,
+    configuration, pick_solution,
+};
 pub use error::KinematicsError;
 pub use opw::OpwSolver;
 pub use reach::{
