@@ -150,6 +150,7 @@ impl CellSetup {
                 noise: Some(self.noise),
                 tolerance: Some(self.tolerance),
                 offer_threshold: self.offer_threshold,
+                export: None,
             },
         }
     }

@@ -23,6 +23,7 @@ mod cell_model;
 mod cells;
 mod editing;
 pub mod error;
+mod exports;
 mod feedback;
 mod imports;
 mod offer;

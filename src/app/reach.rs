@@ -100,6 +100,10 @@ impl CellArm {
         })
     }
 
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
     pub fn policy(&self) -> ReachPolicy {
         self.config.policy
     }

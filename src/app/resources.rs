@@ -374,6 +374,33 @@ pub struct Rename {
     pub name: String,
 }
 
+/// Query of a program export.
+#[derive(Debug, Clone, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct ExportQuery {
+    /// `rapid` (one `.mod`), `krl` (a `.src` and its `.dat`) or `fanuc` (one `.ls` per
+    /// routine).
+    pub format: String,
+}
+
+/// One file of an exported program.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct ExportedFileDto {
+    pub file_name: String,
+    pub text: String,
+}
+
+/// A program written for a controller: the files, what the export had to change or could not
+/// say (renamed targets, unpaired circles, unknown configurations, unreachable targets), and
+/// the waypoints out of the arm's reach (their moves carry a comment in the file).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct ProgramExport {
+    pub format: String,
+    pub files: Vec<ExportedFileDto>,
+    pub warnings: Vec<String>,
+    pub unreachable: Vec<i64>,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct Finished {
     pub routine: Routine,

@@ -9,6 +9,7 @@ use crate::engine::PoseValues;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::engine::{EngineConfig, Pose, Profile};
+use crate::export::ExportSettings;
 use crate::kinematics::ReachPolicy;
 
 /// Robot model a new cell uses when none is named.
@@ -64,6 +65,9 @@ pub struct CellSettings {
     /// without an offer rule (seed).
     #[serde(default)]
     pub offer_threshold: Option<f64>,
+    /// Speed, zone, work object and tool written into exported controller programs.
+    #[serde(default)]
+    pub export: ExportSettings,
 }
 
 /// Settings given when a cell is created; anything left out takes the profile's value.
@@ -84,6 +88,7 @@ pub struct CellSettingsInput {
     pub noise: Option<Noise>,
     pub tolerance: Option<Tolerance>,
     pub offer_threshold: Option<f64>,
+    pub export: Option<ExportSettings>,
 }
 
 /// Largest horizon a cell or a request may ask for.
@@ -139,6 +144,7 @@ impl CellSettingsInput {
                 }
                 (None, rule) => rule.map(|r| r.threshold),
             },
+            export: self.export.unwrap_or_default(),
         };
         settings.validate()?;
         Ok(settings)
@@ -168,6 +174,9 @@ impl CellSettings {
     }
 
     pub fn validate(&self) -> Result<(), AppError> {
+        self.export
+            .validate()
+            .map_err(|e| AppError::Invalid(format!("export: {e}")))?;
         for (name, value) in [
             ("noise.mm", self.noise.mm),
             ("noise.rad", self.noise.rad),

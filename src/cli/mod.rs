@@ -14,6 +14,7 @@
 //! error, not a panic.
 
 mod engine_args;
+mod export;
 mod import;
 mod lab;
 mod replay;
@@ -29,6 +30,7 @@ use clap::{Parser, Subcommand};
 use serde::Serialize;
 
 pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
+pub use export::ExportArgs;
 pub use import::ImportArgs;
 pub use lab::LabArgs;
 pub use replay::{ReplayArgs, SweepArgs};
@@ -58,6 +60,8 @@ pub enum Command {
     Openapi,
     /// Import offline program files (RAPID, KRL, FANUC TP) into a cell of a running server.
     Import(ImportArgs),
+    /// Export a stored program of a running server as controller files (RAPID, KRL, FANUC TP).
+    Export(ExportArgs),
     /// Simulated operators teach corpus programs against the service; print the
     /// programming-time table (the shape of the seed's Table 4.1).
     Simulate(SimulateArgs),
@@ -78,6 +82,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Sweep(args) => replay::run_sweep(&args),
         Command::Serve(args) => serve::run_serve(args),
         Command::Import(args) => import::run_import(args),
+        Command::Export(args) => export::run_export(args),
         Command::Simulate(args) => simulate::run_simulate(&args),
         Command::Lab(args) => lab::run_lab(&args),
         Command::Openapi => {

@@ -9,7 +9,7 @@ use super::{ClientError, Result};
 use crate::app::resources::{
     Cell, CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, FeedbackRecorded,
     Finished, ImportRequest, ImportResult, ModelInfo, NewWaypointDto, PredictQuery, PredictionSet,
-    Program, Routine, Taught,
+    Program, ProgramExport, Routine, Taught,
 };
 use crate::http::error::ErrorBody;
 
@@ -145,6 +145,12 @@ impl RestClient {
 
     pub async fn import(&self, cell: i64, request: &ImportRequest) -> Result<ImportResult> {
         self.post(&format!("/v1/cells/{cell}/imports"), request)
+            .await
+    }
+
+    /// A program as a controller file (`rapid`, `krl`, `fanuc`).
+    pub async fn export(&self, program: i64, format: &str) -> Result<ProgramExport> {
+        self.get(&format!("/v1/programs/{program}/export?format={format}"))
             .await
     }
 }

@@ -125,7 +125,7 @@ pub struct ExportProgram {
 }
 
 /// The motion parameters written into every move (a cell's settings).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExportSettings {
     /// TCP speed of linear and circular moves, mm/s (`v100`, `$VEL.CP`, `100mm/sec`).

@@ -11,6 +11,7 @@ use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
 use crate::engine::Profile;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
+use crate::export::ExportSettings;
 use crate::kinematics::{ReachPolicy, RobotModel, SolverKind};
 use crate::replay::metrics::Scores;
 use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
@@ -133,8 +134,45 @@ pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
                 rad: t.rad,
             }),
             offer_threshold: s.offer_threshold,
+            export: s.export.map(export_settings_in),
         },
     })
+}
+
+fn export_settings_in(e: pb::ExportSettings) -> ExportSettings {
+    ExportSettings {
+        speed_mm_s: e.speed_mm_s,
+        zone_mm: e.zone_mm,
+        work_object: e.work_object,
+        tool: e.tool,
+    }
+}
+
+fn export_settings_out(e: ExportSettings) -> pb::ExportSettings {
+    pb::ExportSettings {
+        speed_mm_s: e.speed_mm_s,
+        zone_mm: e.zone_mm,
+        work_object: e.work_object,
+        tool: e.tool,
+    }
+}
+
+impl From<ProgramExport> for pb::ProgramExport {
+    fn from(e: ProgramExport) -> pb::ProgramExport {
+        pb::ProgramExport {
+            format: e.format,
+            files: e
+                .files
+                .into_iter()
+                .map(|f| pb::ExportedFile {
+                    file_name: f.file_name,
+                    text: f.text,
+                })
+                .collect(),
+            warnings: e.warnings,
+            unreachable: e.unreachable,
+        }
+    }
 }
 
 fn tolerance_out(mm: f64, rad: f64) -> pb::Tolerance {
@@ -157,6 +195,7 @@ fn settings_out(s: CellSettings) -> pb::CellSettings {
         noise: Some(tolerance_out(s.noise.mm, s.noise.rad)),
         tolerance: Some(tolerance_out(s.tolerance.mm, s.tolerance.rad)),
         offer_threshold: s.offer_threshold,
+        export: Some(export_settings_out(s.export)),
     }
 }
 
@@ -721,6 +760,7 @@ fn settings_input_out(s: CellSettingsInput) -> pb::CellSettingsInput {
         noise: s.noise.map(|n| tolerance_out(n.mm, n.rad)),
         tolerance: s.tolerance.map(|t| tolerance_out(t.mm, t.rad)),
         offer_threshold: s.offer_threshold,
+        export: s.export.map(export_settings_out),
     }
 }
 

@@ -29,7 +29,7 @@ use tower::ServiceExt;
 
 use crate::app::resources::CreateProgram;
 use crate::app::resources::CreateRoutine;
-use crate::app::resources::Rename;
+use crate::app::resources::{ExportQuery, Rename};
 use crate::app::{App, AppError};
 use crate::transport::TransportOptions;
 use crate::transport::auth::BearerToken;
@@ -167,6 +167,15 @@ impl Nextpose for Service {
         let r = r.into_inner();
         let patch = convert::routine_patch(&r);
         reply(self.app.edit_routine(r.routine_id, patch).await)
+    }
+
+    async fn export_program(
+        &self,
+        r: Request<pb::ExportProgramRequest>,
+    ) -> Reply<pb::ProgramExport> {
+        let r = r.into_inner();
+        let query = ExportQuery { format: r.format };
+        reply(self.app.export_program(r.program_id, query).await)
     }
 
     async fn rename_program(&self, r: Request<pb::RenameProgramRequest>) -> Reply<pb::Program> {

@@ -7,15 +7,16 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Id, Json, Path};
+use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{CreateProgram, Program, Rename};
+use crate::app::resources::{CreateProgram, ExportQuery, Program, ProgramExport, Rename};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_program, list_programs))
         .routes(routes!(get_program, rename_program, delete_program))
+        .routes(routes!(export_program))
 }
 
 /// Create a program in a cell.
@@ -108,4 +109,25 @@ async fn delete_program(
 ) -> Result<StatusCode, ApiError> {
     app.delete_program(program_id).await?;
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// Export a program as a controller file: RAPID (one `.mod`), KRL (a `.src` and its `.dat`) or
+/// FANUC TP (one `.ls` per routine), in the cell's work frame, with names, motion types, the
+/// cell's speed and zone (`settings.export`), and each target's arm configuration (RAPID
+/// `confdata`, KRL `S`/`T`, FANUC `CONFIG`) from the joint solution the service chooses. Targets
+/// out of the arm's reach get a comment in the file and are listed in `unreachable`.
+#[utoipa::path(get, path = "/v1/programs/{program_id}/export", tag = "programs",
+    params(("program_id" = i64, Path, description = "Program id"), ExportQuery),
+    responses(
+        (status = 200, description = "The files and what the export had to say", body = ProgramExport),
+        (status = 400, description = "Malformed id or query", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 422, description = "Unknown format, or a setting the format cannot write", body = ErrorBody),
+    ))]
+async fn export_program(
+    State(app): State<Arc<App>>,
+    Path(Id(program_id)): Path<Id>,
+    Query(query): Query<ExportQuery>,
+) -> Result<axum::Json<ProgramExport>, ApiError> {
+    Ok(axum::Json(app.export_program(program_id, query).await?))
 }

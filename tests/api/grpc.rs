@@ -1434,3 +1434,48 @@ async fn editing_over_grpc_changes_what_rest_reads_back() {
         reqwest::StatusCode::NOT_FOUND
     );
 }
+
+/// Export over gRPC gives the files REST gives; an unknown format is INVALID_ARGUMENT.
+#[tokio::test]
+async fn export_over_grpc_gives_the_files_rest_gives() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("exported over grpc").await;
+    let program = app.create_program(cell, "Seam").await;
+    app.teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let mut c = client(&app).await;
+    for format in ["rapid", "krl", "fanuc"] {
+        let rest = app
+            .get_ok(&format!("/v1/programs/{program}/export?format={format}"))
+            .await;
+        let grpc = c
+            .export_program(pb::ExportProgramRequest {
+                program_id: program,
+                format: format.into(),
+            })
+            .await
+            .expect("export")
+            .into_inner();
+        assert_eq!(grpc.format, format);
+        assert_eq!(
+            grpc.files.len(),
+            rest["files"].as_array().expect("files").len()
+        );
+        for (g, r) in grpc
+            .files
+            .iter()
+            .zip(rest["files"].as_array().expect("files"))
+        {
+            assert_eq!(g.file_name, r["file_name"].as_str().expect("name"));
+            assert_eq!(g.text, r["text"].as_str().expect("text"));
+        }
+    }
+    let bad = c
+        .export_program(pb::ExportProgramRequest {
+            program_id: program,
+            format: "basic".into(),
+        })
+        .await
+        .expect_err("unknown format");
+    assert_eq!(bad.code(), tonic::Code::InvalidArgument);
+}

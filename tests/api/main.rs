@@ -5,6 +5,7 @@ mod cancellation;
 mod durability;
 mod editing;
 mod errors;
+mod export;
 mod grpc;
 mod helpers;
 mod import;

@@ -1,0 +1,100 @@
+//! Exporting a stored program as a controller file (RAPID, KRL, FANUC TP): the waypoints in the
+//! cell's work frame with their names and motion types, the cell's speed and zone, and the arm
+//! configuration of the joint solution the service chooses for each target (the taught joints
+//! when the pendant sent them, else the solution nearest the previous target's, as the preview
+//! of a prediction chooses it), so the controller takes the branch the pendant showed.
+
+use std::str::FromStr;
+
+use super::cell_model::{parse_settings, stored_joints, stored_pose};
+use super::error::AppError;
+use super::reach::CellArm;
+use super::registry::blocking;
+use super::resources::*;
+use super::{App, Result};
+use crate::export::{self, ExportProgram, ExportRoutine, ExportWaypoint, Format, Motion};
+use crate::kinematics::{self, Joints};
+
+impl App {
+    pub async fn export_program(&self, id: i64, query: ExportQuery) -> Result<ProgramExport> {
+        let format =
+            Format::from_str(&query.format).map_err(|e| AppError::Invalid(e.to_string()))?;
+        let p = self.program_row(id).await?;
+        let settings = parse_settings(&self.cell_row(p.cell_id).await?)?;
+        let arm = match self.robots.get(&settings.robot) {
+            Some(robot) => Some(CellArm::new(robot, &settings)?),
+            None => None,
+        };
+        let mut routines = Vec::new();
+        for r in self.store.routines(id).await? {
+            let rows = self.store.waypoints(r.id).await?;
+            let name = r
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("routine{}", r.position));
+            routines.push((name, rows));
+        }
+        let program_name = p.name.clone();
+        blocking(move || -> Result<ProgramExport> {
+            let mut unreachable = Vec::new();
+            let mut out = Vec::with_capacity(routines.len());
+            for (name, rows) in routines {
+                let mut previous: Option<Joints> = None;
+                let mut waypoints = Vec::with_capacity(rows.len());
+                for w in &rows {
+                    let pose = stored_pose(w)?;
+                    let taught: Option<Joints> =
+                        stored_joints(w)?.and_then(|j| j.as_slice().try_into().ok());
+                    let (reachable, joints) = match &arm {
+                        Some(arm) => {
+                            let reach = arm.check(&pose, previous.as_ref());
+                            (Some(reach.is_reachable()), taught.or(reach.chosen))
+                        }
+                        None => (w.reachable, taught),
+                    };
+                    if reachable == Some(false) {
+                        unreachable.push(w.id);
+                    }
+                    previous = joints.or(previous);
+                    let configuration = match (&arm, &joints) {
+                        (Some(arm), Some(q)) => kinematics::configuration(arm.robot(), q).ok(),
+                        _ => None,
+                    };
+                    waypoints.push(ExportWaypoint {
+                        name: w.name.clone(),
+                        pose,
+                        motion: match w.motion.as_deref().and_then(MotionType::parse) {
+                            Some(MotionType::Joint) => Motion::Joint,
+                            Some(MotionType::Circular) => Motion::Circular,
+                            // A taught waypoint without a motion type: a straight move.
+                            Some(MotionType::Linear) | None => Motion::Linear,
+                        },
+                        configuration,
+                        reachable,
+                    });
+                }
+                out.push(ExportRoutine { name, waypoints });
+            }
+            let program = ExportProgram {
+                name: program_name,
+                routines: out,
+            };
+            let exported = export::export(&program, format, &settings.export)
+                .map_err(|e| AppError::Invalid(e.to_string()))?;
+            Ok(ProgramExport {
+                format: format.as_str().to_string(),
+                files: exported
+                    .files
+                    .into_iter()
+                    .map(|f| ExportedFileDto {
+                        file_name: f.file_name,
+                        text: f.text,
+                    })
+                    .collect(),
+                warnings: exported.warnings.iter().map(ToString::to_string).collect(),
+                unreachable,
+            })
+        })
+        .await?
+    }
+}

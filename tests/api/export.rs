@@ -1,0 +1,239 @@
+//! Export through the service (issue 14): every program of the shared corpus imported into a
+//! cell (import → store), exported in the three formats over REST, and read back by our
+//! importer gives the stored poses (to the printed precision), names and routines; targets
+//! carry the arm configuration of the joint solution the service chose; unreachable targets
+//! are said so in the file and in the answer.
+
+use std::fs;
+use std::path::PathBuf;
+
+use nextpose::export::Format;
+use nextpose::import::{decode_text, parse_files};
+use reqwest::StatusCode;
+use serde_json::{Value, json};
+
+use crate::helpers::*;
+
+/// One repository's raw files as an upload body (names are the original paths).
+fn uploads() -> Vec<(String, Vec<Value>)> {
+    let raw = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus/raw"));
+    let mut repos: Vec<PathBuf> = fs::read_dir(&raw)
+        .expect("corpus/raw")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.is_dir())
+        .collect();
+    repos.sort();
+    repos
+        .into_iter()
+        .map(|dir| {
+            let mut files: Vec<(String, String)> = fs::read_dir(&dir)
+                .expect("repo dir")
+                .map(|e| e.expect("entry").path())
+                .map(|p| {
+                    let flat = p.file_name().expect("name").to_string_lossy().into_owned();
+                    (
+                        flat.replace("__", "/"),
+                        decode_text(&fs::read(&p).expect("read")),
+                    )
+                })
+                .collect();
+            files.sort();
+            (
+                dir.file_name()
+                    .expect("name")
+                    .to_string_lossy()
+                    .into_owned(),
+                files
+                    .into_iter()
+                    .map(|(name, content)| json!({ "name": name, "content": content }))
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+fn pose_of(v: &Value) -> nextpose::engine::Pose {
+    let f = |k: &str| v[k].as_f64().expect(k);
+    nextpose::engine::Pose::new(
+        [f("x"), f("y"), f("z")],
+        [f("qw"), f("qx"), f("qy"), f("qz")],
+    )
+    .expect("pose")
+}
+
+#[tokio::test]
+async fn every_corpus_program_survives_import_store_export_import_in_all_three_formats() {
+    let app = spawn_app().await;
+    let mut programs = 0;
+    let mut unreachable_seen = 0;
+    let mut stored_programs = Vec::new();
+    for (repo, files) in uploads() {
+        let cell = app
+            .create_cell_with(&format!("export {repo}"), json!({ "reach_policy": "flag" }))
+            .await;
+        let r = app
+            .post(
+                &format!("/v1/cells/{cell}/imports"),
+                &json!({ "files": files, "learn": false }),
+            )
+            .await;
+        if r.status() == StatusCode::CREATED {
+            stored_programs.push((repo.clone(), r.json::<Value>().await.expect("json")));
+            continue;
+        }
+        // Two modules of one repository declare the same module name (a cell's programs need
+        // distinct names): each file goes into a cell of its own.
+        expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        for (k, f) in files.iter().enumerate() {
+            let cell = app
+                .create_cell_with(
+                    &format!("export {repo} {k}"),
+                    json!({ "reach_policy": "flag" }),
+                )
+                .await;
+            let imported = app
+                .post_ok(
+                    &format!("/v1/cells/{cell}/imports"),
+                    &json!({ "files": [f], "learn": false }),
+                    StatusCode::CREATED,
+                )
+                .await;
+            stored_programs.push((repo.clone(), imported));
+        }
+    }
+    for (repo, imported) in stored_programs {
+        for p in imported["programs"].as_array().expect("programs") {
+            let id = p["program"]["id"].as_i64().expect("program id");
+            programs += 1;
+            let mut stored = Vec::new();
+            for r in app
+                .get_ok(&format!("/v1/programs/{id}/routines"))
+                .await
+                .as_array()
+                .expect("routines")
+            {
+                let rid = r["id"].as_i64().expect("routine id");
+                stored.push(app.get_ok(&format!("/v1/routines/{rid}")).await["waypoints"].clone());
+            }
+            for format in Format::ALL {
+                let out = app
+                    .get_ok(&format!(
+                        "/v1/programs/{id}/export?format={}",
+                        format.as_str()
+                    ))
+                    .await;
+                let files: Vec<(String, String)> = out["files"]
+                    .as_array()
+                    .expect("files")
+                    .iter()
+                    .map(|f| {
+                        (
+                            f["file_name"].as_str().expect("name").to_string(),
+                            f["text"].as_str().expect("text").to_string(),
+                        )
+                    })
+                    .collect();
+                let pairs: Vec<(&str, &str)> = files
+                    .iter()
+                    .map(|(n, t)| (n.as_str(), t.as_str()))
+                    .collect();
+                let back = parse_files(&pairs).expect("the export parses");
+                assert_eq!(back.programs.len(), 1, "{repo} {id} {format:?}");
+                let routines = &back.programs[0].routines;
+                assert_eq!(routines.len(), stored.len(), "{repo} {id} {format:?}");
+                // RAPID and KRL keep the routines' order; FANUC's listings come back in file
+                // name order: each routine read back is matched with a stored one.
+                let same = |r: &nextpose::import::ImportedRoutine, s: &Value| {
+                    let s = s.as_array().expect("waypoints");
+                    r.waypoints.len() == s.len()
+                        && r.waypoints.iter().zip(s).all(|(w, sw)| {
+                            let p = pose_of(&sw["pose"]);
+                            p.distance_to(&w.pose) <= format.position_tolerance_mm()
+                                && p.angle_to(&w.pose) <= format.orientation_tolerance_rad()
+                        })
+                };
+                let mut unmatched: Vec<&Value> = stored.iter().collect();
+                for (k, r) in routines.iter().enumerate() {
+                    let at = match format {
+                        Format::Fanuc => unmatched.iter().position(|s| same(r, s)),
+                        _ => Some(k - (stored.len() - unmatched.len()))
+                            .filter(|&i| same(r, unmatched[i])),
+                    };
+                    let at = at.unwrap_or_else(|| {
+                        panic!(
+                            "{repo} {id} {format:?}: routine {} does not read back",
+                            r.name
+                        )
+                    });
+                    unmatched.remove(at);
+                }
+                // The unreachable targets are the program's waypoints (imports are not checked
+                // for reach when stored: the export checks them), each with its comment.
+                let ids: Vec<&Value> = stored
+                    .iter()
+                    .flat_map(|s| s.as_array().expect("waypoints"))
+                    .map(|w| &w["id"])
+                    .collect();
+                let listed = out["unreachable"].as_array().expect("unreachable");
+                assert!(listed.iter().all(|u| ids.contains(&u)), "{repo} {id}");
+                unreachable_seen += listed.len();
+                let unreachable = listed.len();
+                let comments: usize = files
+                    .iter()
+                    .map(|(_, t)| {
+                        let t = t.to_lowercase();
+                        t.matches("out of the arm's reach").count()
+                            + t.matches("out of reach").count()
+                    })
+                    .sum();
+                assert_eq!(comments, unreachable, "{repo} {id} {format:?}");
+            }
+        }
+    }
+    assert_eq!(programs, 36, "the shared corpus's programs");
+    // The stand-in arm does not reach all of the corpus (README): the comments were exercised.
+    assert!(unreachable_seen > 0);
+}
+
+/// Targets taught with joints carry the configuration of those joints; the RAPID confdata of a
+/// target written for a known joint vector is that vector's (the controller's IK branch).
+#[tokio::test]
+async fn exported_configuration_is_the_taught_joints_branch() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("configured").await;
+    let program = app.create_program(cell, "Conf").await;
+    let robot =
+        nextpose::kinematics::load_robot(&nextpose::kinematics::bundled_robots_dir(), "abb_irb140")
+            .expect("robot");
+    // Two solutions of one pose: elbow up and elbow down, wrist flipped or not.
+    let q: [f64; 6] = [0.3, 0.2, 0.1, 0.4, -0.6, 0.2];
+    let tip = robot.fk(&q);
+    let r = app.create_routine(program).await;
+    let v = tip.values();
+    let pose =
+        json!({ "x": v.x, "y": v.y, "z": v.z, "qw": v.qw, "qx": v.qx, "qy": v.qy, "qz": v.qz });
+    for _ in 0..2 {
+        app.post_ok(
+            &format!("/v1/routines/{r}/waypoints"),
+            &json!({ "pose": pose, "joints": q, "name": "p1" }),
+            StatusCode::CREATED,
+        )
+        .await;
+    }
+    app.finish(r).await;
+    let out = app
+        .get_ok(&format!("/v1/programs/{program}/export?format=rapid"))
+        .await;
+    let text = out["files"][0]["text"].as_str().expect("text");
+    let conf = nextpose::kinematics::configuration(&robot, &q).expect("configuration");
+    let c = conf.rapid();
+    let written = format!("[{},{},{},{}]", c.cf1, c.cf4, c.cf6, c.cfx);
+    assert!(text.contains(&written), "{written} not in\n{text}");
+    assert_ne!(c.cfx, 0, "the joints chosen are not the default branch");
+    let bad = app
+        .get(&format!("/v1/programs/{program}/export?format=basic"))
+        .await;
+    expect_error(bad, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+    let missing = app.get("/v1/programs/999999/export?format=rapid").await;
+    expect_error(missing, StatusCode::NOT_FOUND, "not_found").await;
+}
