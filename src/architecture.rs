@@ -149,6 +149,7 @@ fn modules_use_only_what_their_layer_allows() {
             "app",
             &[
                 "engine",
+                "export",
                 "import",
                 "kinematics",
                 "program",

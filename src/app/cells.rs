@@ -13,6 +13,7 @@ impl App {
             id: row.id,
             name: row.name,
             created_at: row.created_at,
+            settings_changed_at: row.settings_changed_at,
         })
     }
 

@@ -273,20 +273,46 @@ impl App {
         .await
     }
 
-    pub async fn rename_cell(&self, id: i64, input: Rename) -> Result<Cell> {
-        check_name("cell name", &input.name)?;
-        self.cell_row(id).await?;
-        let row = self
-            .store
-            .rename_cell(id, input.name.trim())
-            .await
-            .map_err(|e| match AppError::from(e) {
-                AppError::Conflict(_) => {
-                    AppError::Exists(format!("a cell named {:?} exists", input.name.trim()))
+    /// Renames a cell and/or changes its settings (validated like a new cell's, before
+    /// anything changes). New settings advance the model version, and the model is learned
+    /// again with them from the stored routines.
+    pub async fn edit_cell(&self, id: i64, patch: CellPatch) -> Result<Cell> {
+        if let Some(n) = &patch.name {
+            check_name("cell name", n)?;
+        }
+        self.to_completion(move |app| async move {
+            app.cell_row(id).await?;
+            let locked = app.lock_cell_id(id).await?;
+            let row = app.cell_row(id).await?;
+            let json = match patch.settings {
+                None => None,
+                Some(change) => {
+                    let current = super::cell_model::parse_settings(&row)?;
+                    let settings = change.over(current.as_input()).resolve()?;
+                    app.robots.require(&settings.robot)?;
+                    Some(
+                        serde_json::to_string(&settings)
+                            .map_err(|e| AppError::Internal(format!("settings: {e}")))?,
+                    )
                 }
-                other => other,
-            })?;
-        self.cell(row)
+            };
+            let name = patch.name.as_deref().map(str::trim);
+            let updated = app
+                .store
+                .update_cell(id, name, json.as_deref())
+                .await
+                .map_err(|e| match AppError::from(e) {
+                    AppError::Conflict(_) => {
+                        AppError::Exists(format!("a cell named {:?} exists", name.unwrap_or("")))
+                    }
+                    other => other,
+                })?;
+            if json.is_some() {
+                app.rebuild_later(locked, id);
+            }
+            app.cell(updated)
+        })
+        .await
     }
 
     /// Deletes a cell with its programs, routines, predictions and feedback, and its model.

@@ -30,6 +30,21 @@ pub struct Cell {
     pub name: String,
     pub settings: CellSettings,
     pub created_at: String,
+    /// When the settings last changed (`null`: as created).
+    pub settings_changed_at: Option<String>,
+}
+
+/// Changes to a cell: its name, and settings given as at creation (only the fields given
+/// change; the rest keep their values, except that a new profile brings its own offer rule
+/// unless `offer_threshold` is given too). New settings are validated like a new cell's; the
+/// model is learned again with them and its version advances.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CellPatch {
+    /// Not blank; at most 200 characters; unique.
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: Option<String>,
+    pub settings: Option<CellSettingsInput>,
 }
 
 /// The learned model of a cell.

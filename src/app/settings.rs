@@ -151,7 +151,57 @@ impl CellSettingsInput {
     }
 }
 
+impl CellSettingsInput {
+    /// `self`'s fields over `base`'s: a partial change of settings. A new profile brings its
+    /// own engine values (δ, φ_min, horizon, σ, scale, offer threshold) for the fields not
+    /// given; the robot, frames, reach policy, noise, tolerance and export keep theirs.
+    pub fn over(self, base: CellSettingsInput) -> CellSettingsInput {
+        let new_profile = self.profile.is_some_and(|p| Some(p) != base.profile);
+        let keep = |v| if new_profile { None } else { v };
+        CellSettingsInput {
+            profile: self.profile.or(base.profile),
+            delta: self.delta.or(keep(base.delta)),
+            phi_min: self.phi_min.or(keep(base.phi_min)),
+            horizon: self
+                .horizon
+                .or(if new_profile { None } else { base.horizon }),
+            sigma_t_mm: self.sigma_t_mm.or(keep(base.sigma_t_mm)),
+            sigma_q: self.sigma_q.or(keep(base.sigma_q)),
+            scale: self.scale.or(if new_profile { None } else { base.scale }),
+            robot: self.robot.or(base.robot),
+            base: self.base.or(base.base),
+            tool: self.tool.or(base.tool),
+            reach_policy: self.reach_policy.or(base.reach_policy),
+            noise: self.noise.or(base.noise),
+            tolerance: self.tolerance.or(base.tolerance),
+            offer_threshold: self.offer_threshold.or(keep(base.offer_threshold)),
+            export: self.export.or(base.export),
+        }
+    }
+}
+
 impl CellSettings {
+    /// These settings as an input that gives every field (what a change is laid over).
+    pub fn as_input(&self) -> CellSettingsInput {
+        CellSettingsInput {
+            profile: Some(self.profile),
+            delta: Some(self.delta),
+            phi_min: Some(self.phi_min),
+            horizon: Some(self.horizon),
+            sigma_t_mm: Some(self.sigma_t_mm),
+            sigma_q: Some(self.sigma_q),
+            scale: Some(self.scale),
+            robot: Some(self.robot.clone()),
+            base: Some(self.base),
+            tool: Some(self.tool),
+            reach_policy: Some(self.reach_policy),
+            noise: Some(self.noise),
+            tolerance: Some(self.tolerance),
+            offer_threshold: self.offer_threshold,
+            export: Some(self.export.clone()),
+        }
+    }
+
     /// The engine configuration these settings describe.
     pub fn engine_config(&self) -> EngineConfig {
         let mut c = EngineConfig::profile(self.profile);

@@ -110,32 +110,42 @@ fn scale_out(s: ScaleSettings) -> pb::ScaleSettings {
 }
 
 pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
-    let s = r.settings.unwrap_or_default();
     Ok(CreateCell {
         name: r.name,
-        settings: CellSettingsInput {
-            profile: profile_in(s.profile)?,
-            delta: s.delta,
-            phi_min: s.phi_min,
-            horizon: s.horizon.map(|h| usize_from(h, "horizon")).transpose()?,
-            sigma_t_mm: s.sigma_t_mm,
-            sigma_q: s.sigma_q,
-            scale: s.scale.map(scale_in),
-            robot: s.robot,
-            base: s.base.map(PoseValues::from),
-            tool: s.tool.map(PoseValues::from),
-            reach_policy: reach_policy_in(s.reach_policy)?,
-            noise: s.noise.map(|n| Noise {
-                mm: n.mm,
-                rad: n.rad,
-            }),
-            tolerance: s.tolerance.map(|t| Tolerance {
-                mm: t.mm,
-                rad: t.rad,
-            }),
-            offer_threshold: s.offer_threshold,
-            export: s.export.map(export_settings_in),
-        },
+        settings: settings_input(r.settings.unwrap_or_default())?,
+    })
+}
+
+pub fn cell_patch(r: pb::UpdateCellRequest) -> In<CellPatch> {
+    Ok(CellPatch {
+        name: r.name,
+        settings: r.settings.map(settings_input).transpose()?,
+    })
+}
+
+fn settings_input(s: pb::CellSettingsInput) -> In<CellSettingsInput> {
+    Ok(CellSettingsInput {
+        profile: profile_in(s.profile)?,
+        delta: s.delta,
+        phi_min: s.phi_min,
+        horizon: s.horizon.map(|h| usize_from(h, "horizon")).transpose()?,
+        sigma_t_mm: s.sigma_t_mm,
+        sigma_q: s.sigma_q,
+        scale: s.scale.map(scale_in),
+        robot: s.robot,
+        base: s.base.map(PoseValues::from),
+        tool: s.tool.map(PoseValues::from),
+        reach_policy: reach_policy_in(s.reach_policy)?,
+        noise: s.noise.map(|n| Noise {
+            mm: n.mm,
+            rad: n.rad,
+        }),
+        tolerance: s.tolerance.map(|t| Tolerance {
+            mm: t.mm,
+            rad: t.rad,
+        }),
+        offer_threshold: s.offer_threshold,
+        export: s.export.map(export_settings_in),
     })
 }
 
@@ -206,6 +216,7 @@ impl From<Cell> for pb::Cell {
             name: c.name,
             settings: Some(settings_out(c.settings)),
             created_at: c.created_at,
+            settings_changed_at: c.settings_changed_at,
         }
     }
 }

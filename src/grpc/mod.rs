@@ -198,13 +198,11 @@ impl Nextpose for Service {
         Ok(Response::new(pb::DeleteProgramResponse {}))
     }
 
-    async fn rename_cell(&self, r: Request<pb::RenameCellRequest>) -> Reply<pb::Cell> {
+    async fn update_cell(&self, r: Request<pb::UpdateCellRequest>) -> Reply<pb::Cell> {
         let r = r.into_inner();
-        reply(
-            self.app
-                .rename_cell(r.cell_id, Rename { name: r.name })
-                .await,
-        )
+        let id = r.cell_id;
+        let patch = convert::cell_patch(r)?;
+        reply(self.app.edit_cell(id, patch).await)
     }
 
     async fn delete_cell(

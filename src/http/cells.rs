@@ -10,12 +10,12 @@ use utoipa_axum::routes;
 use super::error::extract::{Id, Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{Cell, CellStats, CreateCell, ModelInfo, Rename};
+use crate::app::resources::{Cell, CellPatch, CellStats, CreateCell, ModelInfo};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_cell, list_cells))
-        .routes(routes!(get_cell, rename_cell, delete_cell))
+        .routes(routes!(get_cell, edit_cell, delete_cell))
         .routes(routes!(cell_stats))
         .routes(routes!(rebuild_model))
 }
@@ -94,25 +94,28 @@ async fn rebuild_model(
     Ok(axum::Json(app.rebuild(cell_id).await?))
 }
 
-/// Rename a cell.
+/// Rename a cell and/or change its settings (engine overrides, tolerance and noise, robot,
+/// base and tool frames, reach policy, export): only the fields given change, validated like a
+/// new cell's. New settings advance the model version and the model is learned again with
+/// them; `settings_changed_at` says when.
 #[utoipa::path(patch, path = "/v1/cells/{cell_id}", tag = "cells",
     params(("cell_id" = i64, Path, description = "Cell id")),
-    request_body = Rename,
+    request_body = CellPatch,
     responses(
-        (status = 200, description = "Renamed", body = Cell),
+        (status = 200, description = "Changed", body = Cell),
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such cell", body = ErrorBody),
         (status = 409, description = "Name taken", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
-        (status = 422, description = "Invalid name or unknown fields", body = ErrorBody),
+        (status = 422, description = "Invalid name or settings, or unknown fields", body = ErrorBody),
     ))]
-async fn rename_cell(
+async fn edit_cell(
     State(app): State<Arc<App>>,
     Path(Id(cell_id)): Path<Id>,
-    Json(body): Json<Rename>,
+    Json(body): Json<CellPatch>,
 ) -> Result<axum::Json<Cell>, ApiError> {
-    Ok(axum::Json(app.rename_cell(cell_id, body).await?))
+    Ok(axum::Json(app.edit_cell(cell_id, body).await?))
 }
 
 /// Delete a cell with its programs, routines, predictions and feedback.

@@ -119,7 +119,7 @@ impl Store {
     pub async fn insert_cell(&self, name: &str, settings_json: &str) -> Result<CellRow> {
         sqlx::query_as::<_, CellRow>(
             "INSERT INTO cells (name, settings) VALUES (?, ?) \
-             RETURNING id, name, settings, created_at, model_version",
+             RETURNING id, name, settings, created_at, model_version, settings_changed_at",
         )
         .bind(name)
         .bind(settings_json)
@@ -130,7 +130,7 @@ impl Store {
 
     pub async fn cell(&self, id: i64) -> Result<Option<CellRow>> {
         Ok(sqlx::query_as::<_, CellRow>(
-            "SELECT id, name, settings, created_at, model_version FROM cells WHERE id = ?",
+            "SELECT id, name, settings, created_at, model_version, settings_changed_at FROM cells WHERE id = ?",
         )
         .bind(id)
         .fetch_optional(&self.pool)
@@ -139,7 +139,7 @@ impl Store {
 
     pub async fn cells(&self) -> Result<Vec<CellRow>> {
         Ok(sqlx::query_as::<_, CellRow>(
-            "SELECT id, name, settings, created_at, model_version FROM cells ORDER BY id",
+            "SELECT id, name, settings, created_at, model_version, settings_changed_at FROM cells ORDER BY id",
         )
         .fetch_all(&self.pool)
         .await?)
@@ -681,17 +681,32 @@ impl Store {
         Ok(version)
     }
 
-    pub async fn rename_cell(&self, id: i64, name: &str) -> Result<CellRow> {
-        sqlx::query_as::<_, CellRow>(
-            "UPDATE cells SET name = ? WHERE id = ? \
-             RETURNING id, name, settings, created_at, model_version",
+    /// Renames a cell and/or sets its settings (then `settings_changed_at` is now and the
+    /// model version advances, as the model is learned again with them).
+    pub async fn update_cell(
+        &self,
+        id: i64,
+        name: Option<&str>,
+        settings_json: Option<&str>,
+    ) -> Result<CellRow> {
+        let mut tx = self.pool.begin().await?;
+        let row = sqlx::query_as::<_, CellRow>(
+            "UPDATE cells SET name = COALESCE(?1, name), settings = COALESCE(?2, settings), \
+               settings_changed_at = CASE WHEN ?2 IS NULL THEN settings_changed_at \
+                 ELSE strftime('%Y-%m-%dT%H:%M:%fZ', 'now') END, \
+               model_version = model_version + CASE WHEN ?2 IS NULL THEN 0 ELSE 1 END \
+             WHERE id = ?3 \
+             RETURNING id, name, settings, created_at, model_version, settings_changed_at",
         )
         .bind(name)
+        .bind(settings_json)
         .bind(id)
-        .fetch_optional(&self.pool)
+        .fetch_optional(&mut *tx)
         .await
         .map_err(classify)?
-        .ok_or(StorageError::NotFound)
+        .ok_or(StorageError::NotFound)?;
+        tx.commit().await?;
+        Ok(row)
     }
 
     /// Deletes a cell with everything it holds.

@@ -21,8 +21,10 @@ pub struct CellRow {
     pub settings: String,
     pub created_at: String,
     /// Advanced each time the cell's learned model changes (a routine learned, an edit of a
-    /// learned routine).
+    /// learned routine, a change of settings).
     pub model_version: i64,
+    /// When the settings last changed (None: as created).
+    pub settings_changed_at: Option<String>,
 }
 
 #[derive(Debug, Clone, FromRow)]

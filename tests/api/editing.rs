@@ -382,3 +382,102 @@ async fn feedback_on_a_prediction_of_an_older_model_is_accepted() {
     let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
     assert_eq!(stats["feedback"]["accepted"], 1);
 }
+
+/// A seam taught a little unevenly (a few mm off, differently each time), so how strictly
+/// moves merge decides the model's states.
+fn uneven_seam(k: usize) -> Vec<Value> {
+    let mut seam = u_seam([400.0 + 30.0 * k as f64, 0.0, 300.0], 0.0);
+    for (i, p) in seam.iter_mut().enumerate() {
+        let off = 1.5 * (((i * 7 + k * 3) % 5) as f64 - 2.0);
+        p["x"] = json!(p["x"].as_f64().expect("x") + off);
+        p["y"] = json!(p["y"].as_f64().expect("y") - off);
+    }
+    seam
+}
+
+/// PATCH a cell's settings: only the fields given change, validated like a new cell's (a bad
+/// change is a 422 that changes nothing); new settings advance the model version, stamp
+/// `settings_changed_at`, and the model is the one a fresh cell with those settings learns.
+#[tokio::test]
+async fn a_cells_settings_change_and_its_model_is_learned_again_with_them() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("retuned").await;
+    let program = app.create_program(cell, "p").await;
+    for k in 0..3 {
+        app.teach_routine(program, &uneven_seam(k)).await;
+    }
+    let before = app.get_ok(&format!("/v1/cells/{cell}")).await;
+    assert_eq!(before["settings_changed_at"], Value::Null);
+    let old_model = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"].clone();
+    let version = old_model["version"].as_i64().expect("version");
+    for (bad, field) in [
+        (json!({ "offer_threshold": 1.5 }), "offer_threshold"),
+        (json!({ "robot": "no_such_arm" }), "no_such_arm"),
+        (
+            json!({ "profile": "seed", "offer_threshold": 0.5 }),
+            "offer_threshold",
+        ),
+        (json!({ "delta": 0.0 }), "delta"),
+        (json!({ "export": { "speed_mm_s": -1.0 } }), "export"),
+        (json!({ "sideways": true }), "sideways"),
+    ] {
+        let r = app
+            .patch(&format!("/v1/cells/{cell}"), &json!({ "settings": bad }))
+            .await;
+        let body = expect(r, StatusCode::UNPROCESSABLE_ENTITY).await;
+        let message = body["error"]["message"].as_str().expect("message");
+        assert!(message.contains(field), "{bad}: {message}");
+    }
+    assert_eq!(app.get_ok(&format!("/v1/cells/{cell}")).await, before);
+    let changed = expect(
+        app.patch(
+            &format!("/v1/cells/{cell}"),
+            &json!({ "settings": { "sigma_t_mm": 100.0, "offer_threshold": 0.8,
+                                   "export": { "speed_mm_s": 250.0, "zone_mm": 0.0,
+                                               "work_object": "wobj1", "tool": "tool1" } } }),
+        )
+        .await,
+        StatusCode::OK,
+    )
+    .await;
+    assert_eq!(changed["settings"]["sigma_t_mm"], 100.0);
+    assert_eq!(changed["settings"]["offer_threshold"], 0.8);
+    assert_eq!(changed["settings"]["robot"], before["settings"]["robot"]);
+    assert_eq!(changed["settings"]["export"]["speed_mm_s"], 250.0);
+    assert!(changed["settings_changed_at"].is_string());
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(stats["model"]["version"], version + 1);
+    // A fresh cell with these settings, taught the same routines, learns the same model.
+    let fresh = app
+        .create_cell_with(
+            "fresh σ 100",
+            json!({ "sigma_t_mm": 100.0, "offer_threshold": 0.8 }),
+        )
+        .await;
+    let copy = app.create_program(fresh, "p").await;
+    for k in 0..3 {
+        app.teach_routine(copy, &uneven_seam(k)).await;
+    }
+    let theirs = app.get_ok(&format!("/v1/cells/{fresh}/stats")).await;
+    assert_eq!(model_of(&stats), model_of(&theirs));
+    // Looser merging (σ_t 100 mm): fewer states than before, so the model was learned again.
+    assert!(
+        stats["model"]["states"].as_i64() < old_model["states"].as_i64(),
+        "{stats} {old_model}"
+    );
+    // A new profile brings its own engine values and offer rule.
+    let seed = expect(
+        app.patch(
+            &format!("/v1/cells/{cell}"),
+            &json!({ "name": "retuned (seed)", "settings": { "profile": "seed" } }),
+        )
+        .await,
+        StatusCode::OK,
+    )
+    .await;
+    assert_eq!(seed["name"], "retuned (seed)");
+    assert_eq!(seed["settings"]["offer_threshold"], Value::Null);
+    assert_eq!(seed["settings"]["export"]["speed_mm_s"], 250.0);
+    let after = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    assert_eq!(after["model"]["version"], version + 2);
+}
