@@ -32,6 +32,7 @@ pub mod reach;
 mod registry;
 mod replays;
 pub mod resources;
+mod retarget;
 mod routines;
 mod rows;
 pub mod settings;

@@ -1013,3 +1013,25 @@ impl From<RoutineEdit> for pb::RoutineEdit {
         }
     }
 }
+
+pub fn retarget(r: pb::RetargetRequest) -> Retarget {
+    let points = |v: Vec<pb::Point>| v.into_iter().map(|p| [p.x, p.y, p.z]).collect();
+    Retarget {
+        frame: r.frame.map(Into::into),
+        points: r.points.map(|p| FixturePoints {
+            old: points(p.old),
+            new: points(p.new),
+        }),
+        name: r.name,
+    }
+}
+
+impl From<Retargeted> for pb::Retargeted {
+    fn from(r: Retargeted) -> pb::Retargeted {
+        pb::Retargeted {
+            program: Some(r.program.into()),
+            routines: r.routines.into_iter().map(Into::into).collect(),
+            unreachable: r.unreachable as u64,
+        }
+    }
+}

@@ -242,6 +242,18 @@ impl Nextpose for Service {
         reply(self.app.delete_waypoint(r.into_inner().waypoint_id).await)
     }
 
+    async fn retarget_routine(&self, r: Request<pb::RetargetRequest>) -> Reply<pb::Retargeted> {
+        let r = r.into_inner();
+        let id = r.id;
+        reply(self.app.retarget_routine(id, convert::retarget(r)).await)
+    }
+
+    async fn retarget_program(&self, r: Request<pb::RetargetRequest>) -> Reply<pb::Retargeted> {
+        let r = r.into_inner();
+        let id = r.id;
+        reply(self.app.retarget_program(id, convert::retarget(r)).await)
+    }
+
     async fn finish_routine(&self, r: Request<pb::FinishRoutineRequest>) -> Reply<pb::Finished> {
         reply(self.app.finish_routine(r.into_inner().routine_id).await)
     }

@@ -10,13 +10,16 @@ use utoipa_axum::routes;
 use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{CreateProgram, ExportQuery, Program, ProgramExport, Rename};
+use crate::app::resources::{
+    CreateProgram, ExportQuery, Program, ProgramExport, Rename, Retarget, Retargeted,
+};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(create_program, list_programs))
         .routes(routes!(get_program, rename_program, delete_program))
         .routes(routes!(export_program))
+        .routes(routes!(retarget_program))
 }
 
 /// Create a program in a cell.
@@ -130,4 +133,30 @@ async fn export_program(
     Query(query): Query<ExportQuery>,
 ) -> Result<axum::Json<ProgramExport>, ApiError> {
     Ok(axum::Json(app.export_program(program_id, query).await?))
+}
+
+/// Re-target a program to a moved fixture: every waypoint moved with it (given the moved work
+/// object's `frame`, or three `points` measured on the fixture before and after), checked for
+/// reach, and stored as a new program (finished, not learned).
+#[utoipa::path(post, path = "/v1/programs/{program_id}/retarget", tag = "editing",
+    params(("program_id" = i64, Path, description = "Program id")),
+    request_body = Retarget,
+    responses(
+        (status = 201, description = "The moved copy", body = Retargeted),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 409, description = "The copy's name is taken in this cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Neither or both of frame and points, degenerate points, invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn retarget_program(
+    State(app): State<Arc<App>>,
+    Path(Id(program_id)): Path<Id>,
+    Json(body): Json<Retarget>,
+) -> Result<(StatusCode, axum::Json<Retargeted>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.retarget_program(program_id, body).await?),
+    ))
 }

@@ -14,8 +14,8 @@ use super::error::{ApiError, ErrorBody};
 use crate::app::App;
 use crate::app::resources::{
     CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, InsertWaypoint, NewWaypointDto,
-    PredictQuery, PredictionSet, Routine, RoutineDetail, RoutineEdit, RoutinePatch, Taught, Undone,
-    WaypointEdit, WaypointPatch,
+    PredictQuery, PredictionSet, Retarget, Retargeted, Routine, RoutineDetail, RoutineEdit,
+    RoutinePatch, Taught, Undone, WaypointEdit, WaypointPatch,
 };
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
@@ -24,6 +24,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         .routes(routes!(get_routine, edit_routine, delete_routine))
         .routes(routes!(modify_waypoint, delete_waypoint))
         .routes(routes!(insert_waypoint))
+        .routes(routes!(retarget_routine))
         .routes(routes!(append_waypoint))
         .routes(routes!(undo_waypoint))
         .routes(routes!(finish_routine))
@@ -282,5 +283,30 @@ async fn insert_waypoint(
     Ok((
         StatusCode::CREATED,
         axum::Json(app.insert_waypoint(waypoint_id, body).await?),
+    ))
+}
+
+/// Re-target a routine to a moved fixture: its waypoints moved with it (the moved work object's
+/// `frame`, or three `points` measured before and after), checked for reach, and stored as a new
+/// routine at the end of its program (finished, not learned).
+#[utoipa::path(post, path = "/v1/routines/{routine_id}/retarget", tag = "editing",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    request_body = Retarget,
+    responses(
+        (status = 201, description = "The moved copy", body = Retargeted),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Neither or both of frame and points, degenerate points, invalid name or unknown fields", body = ErrorBody),
+    ))]
+async fn retarget_routine(
+    State(app): State<Arc<App>>,
+    Path(Id(routine_id)): Path<Id>,
+    Json(body): Json<Retarget>,
+) -> Result<(StatusCode, axum::Json<Retargeted>), ApiError> {
+    Ok((
+        StatusCode::CREATED,
+        axum::Json(app.retarget_routine(routine_id, body).await?),
     ))
 }

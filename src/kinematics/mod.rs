@@ -29,6 +29,7 @@
 
 pub mod configuration;
 pub mod error;
+pub mod fixture;
 pub mod opw;
 pub mod placement;
 pub mod reach;

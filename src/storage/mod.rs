@@ -580,6 +580,55 @@ impl Store {
         Ok((row, version))
     }
 
+    /// Appends a finished routine that the model does not learn (a copy made by the service,
+    /// e.g. re-targeted to a moved fixture: it was not taught, like an import without learning)
+    /// to a program. Returns its id.
+    pub async fn insert_unlearned_routine(
+        &self,
+        program: &ProgramRow,
+        name: Option<&str>,
+        waypoints: &[WaypointValues],
+    ) -> Result<i64> {
+        let mut tx = self.pool.begin().await?;
+        let (id,): (i64,) = sqlx::query_as(
+            "INSERT INTO routines (program_id, cell_id, position, name, imported) \
+             VALUES (?1, ?2, (SELECT COALESCE(MAX(position), 0) + 1 FROM routines \
+                              WHERE program_id = ?1), ?3, 1) \
+             RETURNING id",
+        )
+        .bind(program.id)
+        .bind(program.cell_id)
+        .bind(name)
+        .fetch_one(&mut *tx)
+        .await
+        .map_err(classify)?;
+        for (i, v) in waypoints.iter().enumerate() {
+            let p = &v.pose;
+            sqlx::query(
+                "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
+                   name, reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(id)
+            .bind(i as i64 + 1)
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(&v.joints)
+            .bind(&v.motion)
+            .bind(&v.name)
+            .bind(v.reachable)
+            .execute(&mut *tx)
+            .await
+            .map_err(classify)?;
+        }
+        tx.commit().await?;
+        Ok(id)
+    }
+
     /// Renames a routine (None: no name).
     pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
         let done = sqlx::query("UPDATE routines SET name = ? WHERE id = ?")

@@ -1479,3 +1479,42 @@ async fn export_over_grpc_gives_the_files_rest_gives() {
         .expect_err("unknown format");
     assert_eq!(bad.code(), tonic::Code::InvalidArgument);
 }
+
+/// Re-targeting over gRPC stores the moved copy REST reads back; neither frame nor points is
+/// INVALID_ARGUMENT.
+#[tokio::test]
+async fn retarget_over_grpc_stores_the_moved_copy() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("moved over grpc").await;
+    let program = app.create_program(cell, "p").await;
+    let (r, _) = app
+        .teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let mut c = client(&app).await;
+    let copy = c
+        .retarget_routine(pb::RetargetRequest {
+            id: r,
+            frame: Some(pb_pose(&pose([0.0, 25.0, 0.0], [0.0; 3]))),
+            points: None,
+            name: Some("shifted".into()),
+        })
+        .await
+        .expect("retarget")
+        .into_inner();
+    let routine = &copy.routines[0];
+    let id = routine.routine.as_ref().expect("routine").id;
+    let rest = app.get_ok(&format!("/v1/routines/{id}")).await;
+    assert_eq!(rest["name"], "shifted");
+    let original = app.get_ok(&format!("/v1/routines/{r}")).await;
+    let dy = rest["waypoints"][0]["pose"]["y"].as_f64().expect("y")
+        - original["waypoints"][0]["pose"]["y"].as_f64().expect("y");
+    assert!((dy - 25.0).abs() < 1e-6, "{dy}");
+    let neither = c
+        .retarget_program(pb::RetargetRequest {
+            id: program,
+            ..Default::default()
+        })
+        .await
+        .expect_err("neither frame nor points");
+    assert_eq!(neither.code(), tonic::Code::InvalidArgument);
+}

@@ -11,5 +11,6 @@ mod helpers;
 mod import;
 mod openapi;
 mod reach;
+mod retarget;
 mod schemathesis;
 mod teaching;
