@@ -6,7 +6,7 @@ use super::registry::blocking;
 use super::resources::*;
 use super::rows::{pose_columns, program};
 use super::{App, MAX_NAME, Result, check_name};
-use crate::storage::{NewImportedRoutine, NewWaypoint};
+use crate::storage::{NewImportedRoutine, WaypointValues};
 
 /// The motion type of an imported instruction (`MoveL`, `ArcCStart`, `PTP`, `L`, `C`, ...).
 fn motion_of(instruction: &str) -> MotionType {
@@ -73,9 +73,7 @@ impl App {
                 for w in &r.waypoints {
                     let stored = PoseValues::from(&w.pose);
                     taught.push(stored.to_pose()?);
-                    waypoints.push(NewWaypoint {
-                        routine_id: 0,
-                        seq: 0,
+                    waypoints.push(WaypointValues {
                         pose: pose_columns(&stored),
                         joints: None,
                         motion: Some(motion_of(&w.motion).as_str().to_string()),

@@ -15,7 +15,7 @@ use super::rows::{pose_columns, program, routine, waypoint};
 use super::{App, Result, check_name};
 use crate::kinematics::Joints;
 use crate::kinematics::fixture::{fixture_move, moved_pose};
-use crate::storage::{NewImportedRoutine, NewWaypoint, ProgramRow, WaypointRow, WaypointValues};
+use crate::storage::{NewImportedRoutine, ProgramRow, WaypointRow, WaypointValues};
 
 /// The rigid move a request describes, checked.
 fn the_move(input: &Retarget) -> Result<Isometry3<f64>> {
@@ -148,19 +148,7 @@ impl App {
                     .name
                     .clone()
                     .unwrap_or_else(|| format!("routine {}", r.position)),
-                waypoints: values
-                    .into_iter()
-                    .enumerate()
-                    .map(|(i, v)| NewWaypoint {
-                        routine_id: 0,
-                        seq: i as i64 + 1,
-                        pose: v.pose,
-                        joints: v.joints,
-                        motion: v.motion,
-                        name: v.name,
-                        reachable: v.reachable,
-                    })
-                    .collect(),
+                waypoints: values,
             });
         }
         let name = input

@@ -317,30 +317,7 @@ impl Store {
                 .fetch_one(&mut *tx)
                 .await
                 .map_err(classify)?;
-                for (i, w) in r.waypoints.iter().enumerate() {
-                    let p = &w.pose;
-                    sqlx::query(
-                        "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, \
-                           joints, motion, name, reachable) \
-                         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    )
-                    .bind(id)
-                    .bind(i as i64 + 1)
-                    .bind(p.x)
-                    .bind(p.y)
-                    .bind(p.z)
-                    .bind(p.qw)
-                    .bind(p.qx)
-                    .bind(p.qy)
-                    .bind(p.qz)
-                    .bind(&w.joints)
-                    .bind(&w.motion)
-                    .bind(&w.name)
-                    .bind(w.reachable)
-                    .execute(&mut *tx)
-                    .await
-                    .map_err(classify)?;
-                }
+                insert_waypoints(&mut tx, id, &r.waypoints).await?;
                 ids.push(id);
             }
             if learn {
@@ -602,29 +579,7 @@ impl Store {
         .fetch_one(&mut *tx)
         .await
         .map_err(classify)?;
-        for (i, v) in waypoints.iter().enumerate() {
-            let p = &v.pose;
-            sqlx::query(
-                "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
-                   name, reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            )
-            .bind(id)
-            .bind(i as i64 + 1)
-            .bind(p.x)
-            .bind(p.y)
-            .bind(p.z)
-            .bind(p.qw)
-            .bind(p.qx)
-            .bind(p.qy)
-            .bind(p.qz)
-            .bind(&v.joints)
-            .bind(&v.motion)
-            .bind(&v.name)
-            .bind(v.reachable)
-            .execute(&mut *tx)
-            .await
-            .map_err(classify)?;
-        }
+        insert_waypoints(&mut tx, id, waypoints).await?;
         tx.commit().await?;
         Ok(id)
     }
@@ -899,6 +854,38 @@ async fn advance_model_version(
     .await?
     .ok_or(StorageError::NotFound)?;
     Ok(v)
+}
+
+/// Stores a new routine's waypoints, numbered 1, 2, … in order.
+async fn insert_waypoints(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    routine_id: i64,
+    waypoints: &[WaypointValues],
+) -> Result<()> {
+    for (i, v) in waypoints.iter().enumerate() {
+        let p = &v.pose;
+        sqlx::query(
+            "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
+               name, reachable) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(routine_id)
+        .bind(i as i64 + 1)
+        .bind(p.x)
+        .bind(p.y)
+        .bind(p.z)
+        .bind(p.qw)
+        .bind(p.qx)
+        .bind(p.qy)
+        .bind(p.qz)
+        .bind(&v.joints)
+        .bind(&v.motion)
+        .bind(&v.name)
+        .bind(v.reachable)
+        .execute(&mut **tx)
+        .await
+        .map_err(classify)?;
+    }
+    Ok(())
 }
 
 /// Closes the gap a routine left at `position` of its program.

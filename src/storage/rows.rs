@@ -67,7 +67,7 @@ impl RoutineRow {
 #[derive(Debug, Clone)]
 pub struct NewImportedRoutine {
     pub name: String,
-    pub waypoints: Vec<NewWaypoint>,
+    pub waypoints: Vec<WaypointValues>,
 }
 
 #[derive(Debug, Clone, FromRow)]
