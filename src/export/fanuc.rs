@@ -38,8 +38,8 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use super::names::{self, Namespace, name_routines};
 use super::{
     ExportError, ExportProgram, ExportRoutine, ExportSettings, ExportWarning, ExportWaypoint,
-    ExportedFile, FANUC_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_number,
-    position_text, steps,
+    ExportedFile, FANUC_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_index,
+    position_text, steps, unreachable_targets,
 };
 
 const MAX_USER_FRAME: u32 = 9;
@@ -150,17 +150,8 @@ pub(crate) fn write(
     settings: &ExportSettings,
     warnings: &mut Vec<ExportWarning>,
 ) -> Result<Vec<ExportedFile>, ExportError> {
-    let number = |what, name: &str, max| {
-        frame_number(name)
-            .filter(|n| *n <= max)
-            .ok_or(ExportError::FrameNumber {
-                what,
-                name: name.to_string(),
-                max,
-            })
-    };
-    let uf = number("work object", &settings.work_object, MAX_USER_FRAME)?;
-    let ut = number("tool", &settings.tool, MAX_USER_TOOL)?;
+    let uf = frame_index("work object", &settings.work_object, MAX_USER_FRAME)?;
+    let ut = frame_index("tool", &settings.tool, MAX_USER_TOOL)?;
     let folder = folder_name(&program.name);
     if folder != program.name {
         warnings.push(ExportWarning::RenamedProgram {
@@ -207,19 +198,9 @@ pub(crate) fn write(
                 .or_insert_with(|| position(w, uf, ut));
         }
         for step in steps(routine, warnings) {
-            let indices = match step {
-                Step::Single { index, .. } => vec![index],
-                Step::Circle { via, to } => vec![via, to],
-            };
-            for &i in &indices {
-                if routine.waypoints.get(i).and_then(|w| w.reachable) == Some(false) {
-                    mn.push(format!("!P[{}] OUT OF REACH ;", number(i)));
-                    warnings.push(ExportWarning::Unreachable {
-                        routine: name.to_string(),
-                        index: i,
-                        target: format!("P[{}]", number(i)),
-                    });
-                }
+            let position = |i| format!("P[{}]", number(i));
+            for t in unreachable_targets(routine, name, &step, position, warnings) {
+                mn.push(format!("!{t} OUT OF REACH ;"));
             }
             match step {
                 Step::Single { index, motion } => {

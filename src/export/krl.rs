@@ -41,7 +41,8 @@
 use super::names::{self, Namespace, name_routines, name_targets};
 use super::{
     ExportError, ExportProgram, ExportSettings, ExportWarning, ExportWaypoint, ExportedFile,
-    KRL_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_number, position_text, steps,
+    KRL_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_index, position_text, steps,
+    unreachable_targets,
 };
 
 /// `BASE_DATA` has 32 entries and `TOOL_DATA` 16 on a KRC.
@@ -61,18 +62,9 @@ fn e6pos(w: &ExportWaypoint) -> String {
 
 /// The frame numbers the settings name, checked against the KRC's tables.
 pub(crate) fn frames(settings: &ExportSettings) -> Result<(u32, u32), ExportError> {
-    let number = |what, name: &str, max| {
-        frame_number(name)
-            .filter(|n| *n <= max)
-            .ok_or(ExportError::FrameNumber {
-                what,
-                name: name.to_string(),
-                max,
-            })
-    };
     Ok((
-        number("work object", &settings.work_object, MAX_BASE)?,
-        number("tool", &settings.tool, MAX_TOOL)?,
+        frame_index("work object", &settings.work_object, MAX_BASE)?,
+        frame_index("tool", &settings.tool, MAX_TOOL)?,
     ))
 }
 
@@ -161,19 +153,9 @@ pub(crate) fn write(
                 .map_or("", |(n, _)| n.as_str())
         };
         for step in steps(routine, warnings) {
-            let indices = match step {
-                Step::Single { index, .. } => vec![index],
-                Step::Circle { via, to } => vec![via, to],
-            };
-            for &i in &indices {
-                if routine.waypoints.get(i).and_then(|w| w.reachable) == Some(false) {
-                    src.push_str(&format!("  ; {}: out of the arm's reach\n", target(i)));
-                    warnings.push(ExportWarning::Unreachable {
-                        routine: name.to_string(),
-                        index: i,
-                        target: target(i).to_string(),
-                    });
-                }
+            for t in unreachable_targets(routine, name, &step, |i| target(i).to_string(), warnings)
+            {
+                src.push_str(&format!("  ; {t}: out of the arm's reach\n"));
             }
             let (line, flag) = match step {
                 Step::Single {

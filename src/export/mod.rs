@@ -473,6 +473,46 @@ pub(crate) fn euler_zyx_deg(rotation: &UnitQuaternion<f64>) -> [f64; 3] {
     })
 }
 
+/// The number a frame name ends in, as a controller table index at most `max` (KRL base and
+/// tool, FANUC user frame and tool); `what` names the setting in the error.
+pub(crate) fn frame_index(what: &'static str, name: &str, max: u32) -> Result<u32, ExportError> {
+    frame_number(name)
+        .filter(|n| *n <= max)
+        .ok_or(ExportError::FrameNumber {
+            what,
+            name: name.to_string(),
+            max,
+        })
+}
+
+/// The waypoints of a move that the arm does not reach, as `(index, target)`, each with its
+/// [`ExportWarning::Unreachable`]; the writer puts its language's comment before the move.
+pub(crate) fn unreachable_targets(
+    routine: &ExportRoutine,
+    name: &str,
+    step: &Step,
+    target: impl Fn(usize) -> String,
+    warnings: &mut Vec<ExportWarning>,
+) -> Vec<String> {
+    let indices = match *step {
+        Step::Single { index, .. } => vec![index],
+        Step::Circle { via, to } => vec![via, to],
+    };
+    let mut out = Vec::new();
+    for i in indices {
+        if routine.waypoints.get(i).and_then(|w| w.reachable) == Some(false) {
+            let t = target(i);
+            warnings.push(ExportWarning::Unreachable {
+                routine: name.to_string(),
+                index: i,
+                target: t.clone(),
+            });
+            out.push(t);
+        }
+    }
+    out
+}
+
 /// The number a frame name ends in (`wobj0` → 0, `tool12` → 12), if any.
 pub(crate) fn frame_number(name: &str) -> Option<u32> {
     let digits: String = name

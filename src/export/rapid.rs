@@ -25,7 +25,7 @@
 use super::names::{self, Namespace, name_routines, name_targets};
 use super::{
     ExportProgram, ExportSettings, ExportWarning, ExportWaypoint, ExportedFile, Motion,
-    QUATERNION_DECIMALS, Step, fixed, position_text, steps,
+    QUATERNION_DECIMALS, Step, fixed, position_text, steps, unreachable_targets,
 };
 
 /// Standard `speeddata` TCP speeds, mm/s.
@@ -142,22 +142,9 @@ pub(crate) fn write(
                 .map_or("", |(n, _)| n.as_str())
         };
         for step in steps(routine, warnings) {
-            let indices = match step {
-                Step::Single { index, .. } => vec![index],
-                Step::Circle { via, to } => vec![via, to],
-            };
-            for &i in &indices {
-                if routine.waypoints.get(i).and_then(|w| w.reachable) == Some(false) {
-                    out.push_str(&format!(
-                        "        ! {}: out of the arm's reach\n",
-                        target(i)
-                    ));
-                    warnings.push(ExportWarning::Unreachable {
-                        routine: name.to_string(),
-                        index: i,
-                        target: target(i).to_string(),
-                    });
-                }
+            for t in unreachable_targets(routine, name, &step, |i| target(i).to_string(), warnings)
+            {
+                out.push_str(&format!("        ! {t}: out of the arm's reach\n"));
             }
             let line = match step {
                 Step::Single { index, motion } => {
