@@ -52,15 +52,6 @@ fn uploads() -> Vec<(String, Vec<Value>)> {
         .collect()
 }
 
-fn pose_of(v: &Value) -> nextpose::engine::Pose {
-    let f = |k: &str| v[k].as_f64().expect(k);
-    nextpose::engine::Pose::new(
-        [f("x"), f("y"), f("z")],
-        [f("qw"), f("qx"), f("qy"), f("qz")],
-    )
-    .expect("pose")
-}
-
 #[tokio::test]
 async fn every_corpus_program_survives_import_store_export_import_in_all_three_formats() {
     let app = spawn_app().await;

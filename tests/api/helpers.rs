@@ -293,6 +293,16 @@ pub fn u_seam(origin: [f64; 3], yaw: f64) -> Vec<Value> {
         .collect()
 }
 
+/// A pose as the API writes it (`{x, y, z, qw, qx, qy, qz}`), as the engine's type.
+pub fn pose_of(v: &Value) -> nextpose::engine::Pose {
+    let f = |k: &str| v[k].as_f64().expect(k);
+    nextpose::engine::Pose::new(
+        [f("x"), f("y"), f("z")],
+        [f("qw"), f("qx"), f("qy"), f("qz")],
+    )
+    .expect("pose")
+}
+
 pub fn distance(a: &Value, b: &Value) -> f64 {
     let d = |k: &str| a[k].as_f64().expect(k) - b[k].as_f64().expect(k);
     (d("x").powi(2) + d("y").powi(2) + d("z").powi(2)).sqrt()

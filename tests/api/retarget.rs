@@ -9,15 +9,6 @@ use serde_json::{Value, json};
 use crate::helpers::*;
 use crate::import::upload;
 
-fn pose_of(v: &Value) -> nextpose::engine::Pose {
-    let f = |k: &str| v[k].as_f64().expect(k);
-    nextpose::engine::Pose::new(
-        [f("x"), f("y"), f("z")],
-        [f("qw"), f("qx"), f("qy"), f("qz")],
-    )
-    .expect("pose")
-}
-
 fn waypoints(detail: &Value) -> Vec<Value> {
     detail["waypoints"].as_array().expect("waypoints").clone()
 }
