@@ -102,17 +102,17 @@ fn effective_motions(r: &ExportRoutine) -> Vec<Motion> {
 fn announced(program: &ExportProgram, exported: &Exported) -> Vec<(String, Vec<String>)> {
     let mut routine_names: Vec<String> = program.routines.iter().map(|r| r.name.clone()).collect();
     for w in &exported.warnings {
-        if let ExportWarning::RenamedRoutine { index, to, .. } = w {
-            routine_names[*index] = to.clone();
+        if let ExportWarning::RenamedRoutine { position, to, .. } = w {
+            routine_names[*position - 1] = to.clone();
         }
     }
     let mut targets: HashMap<(&str, usize), &str> = HashMap::new();
     for w in &exported.warnings {
         if let ExportWarning::RenamedTarget {
-            routine, index, to, ..
+            routine, seq, to, ..
         } = w
         {
-            targets.insert((routine.as_str(), *index), to.as_str());
+            targets.insert((routine.as_str(), *seq), to.as_str());
         }
     }
     program
@@ -124,7 +124,7 @@ fn announced(program: &ExportProgram, exported: &Exported) -> Vec<(String, Vec<S
                 .waypoints
                 .iter()
                 .enumerate()
-                .map(|(i, w)| match targets.get(&(name.as_str(), i)) {
+                .map(|(i, w)| match targets.get(&(name.as_str(), i + 1)) {
                     Some(to) => to.to_string(),
                     None => w
                         .name
@@ -283,7 +283,7 @@ fn valid_names_are_kept_and_others_announced() {
     assert!(
         out.warnings.contains(&ExportWarning::UnpairedCircular {
             routine: "main".into(),
-            index: 7
+            seq: 8
         }),
         "{:?}",
         out.warnings
@@ -329,11 +329,11 @@ fn unreachable_waypoints_get_a_comment_and_a_warning() {
             .warnings
             .iter()
             .filter_map(|w| match w {
-                ExportWarning::Unreachable { index, .. } => Some(*index),
+                ExportWarning::Unreachable { seq, .. } => Some(*seq),
                 _ => None,
             })
             .collect();
-        assert_eq!(unreachable, [2], "{format}");
+        assert_eq!(unreachable, [3], "{format}");
         check(&program, format);
     }
 }

@@ -134,7 +134,7 @@ fn numbers(
         if w.name.as_deref() != Some(written.as_str()) {
             warnings.push(ExportWarning::RenamedTarget {
                 routine: name.to_string(),
-                index,
+                seq: index + 1,
                 from: w.name.clone(),
                 to: written,
             });

@@ -105,8 +105,8 @@ pub(crate) fn write(
         let mut all = vec![program.routines[0].name.clone()];
         all.extend(name_routines(&mut ns, &rest, &mut renamed));
         warnings.extend(renamed.into_iter().map(|w| match w {
-            ExportWarning::RenamedRoutine { index, from, to } => ExportWarning::RenamedRoutine {
-                index: index + 1,
+            ExportWarning::RenamedRoutine { position, from, to } => ExportWarning::RenamedRoutine {
+                position: position + 1,
                 from,
                 to,
             },

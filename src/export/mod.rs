@@ -265,19 +265,22 @@ pub enum ExportWarning {
     /// The waypoint is out of the arm's reach; the file says so in a comment before the move.
     Unreachable {
         routine: String,
-        index: usize,
+        /// The waypoint's place in its routine, from 1 (its `seq`).
+        seq: usize,
         target: String,
     },
     /// The waypoint's name was not a valid (or free) name of the language.
     RenamedTarget {
         routine: String,
-        index: usize,
+        /// The waypoint's place in its routine, from 1 (its `seq`).
+        seq: usize,
         from: Option<String>,
         to: String,
     },
     /// The routine's name was not a valid (or free) name of the language.
     RenamedRoutine {
-        index: usize,
+        /// The routine's place in its program, from 1 (its `position`).
+        position: usize,
         from: String,
         to: String,
     },
@@ -285,7 +288,11 @@ pub enum ExportWarning {
     RenamedProgram { from: String, to: String },
     /// A circular waypoint without a partner (circular moves pair as via, end): moved to
     /// linearly instead.
-    UnpairedCircular { routine: String, index: usize },
+    UnpairedCircular {
+        routine: String,
+        /// The waypoint's place in its routine, from 1 (its `seq`).
+        seq: usize,
+    },
     /// Waypoints without a configuration got the default one.
     UnknownConfiguration { count: usize },
     /// A setting the format cannot express exactly was rounded or clamped (FANUC speeds are
@@ -302,30 +309,30 @@ impl fmt::Display for ExportWarning {
         match self {
             ExportWarning::Unreachable {
                 routine,
-                index,
+                seq,
                 target,
             } => write!(
                 f,
-                "{routine}: waypoint {index} ({target}) is out of the arm's reach"
+                "{routine}: waypoint {seq} ({target}) is out of the arm's reach"
             ),
             ExportWarning::RenamedTarget {
                 routine,
-                index,
+                seq,
                 from,
                 to,
             } => match from {
-                Some(from) => write!(f, "{routine}: waypoint {index} {from:?} renamed {to}"),
-                None => write!(f, "{routine}: waypoint {index} has no name: named {to}"),
+                Some(from) => write!(f, "{routine}: waypoint {seq} {from:?} renamed {to}"),
+                None => write!(f, "{routine}: waypoint {seq} has no name: named {to}"),
             },
-            ExportWarning::RenamedRoutine { index, from, to } => {
-                write!(f, "routine {index} {from:?} renamed {to}")
+            ExportWarning::RenamedRoutine { position, from, to } => {
+                write!(f, "routine {position} {from:?} renamed {to}")
             }
             ExportWarning::RenamedProgram { from, to } => {
                 write!(f, "program {from:?} renamed {to}")
             }
-            ExportWarning::UnpairedCircular { routine, index } => write!(
+            ExportWarning::UnpairedCircular { routine, seq } => write!(
                 f,
-                "{routine}: circular waypoint {index} has no partner: moved to linearly"
+                "{routine}: circular waypoint {seq} has no partner: moved to linearly"
             ),
             ExportWarning::UnknownConfiguration { count } => write!(
                 f,
@@ -353,8 +360,8 @@ pub enum ExportError {
         name: String,
         max: u32,
     },
-    #[error("{routine}: waypoint {index} has a coordinate beyond ±{MAX_COORDINATE_MM} mm")]
-    PoseOutOfRange { routine: String, index: usize },
+    #[error("{routine}: waypoint {seq} has a coordinate beyond ±{MAX_COORDINATE_MM} mm")]
+    PoseOutOfRange { routine: String, seq: usize },
     #[error("unknown export format {0:?} (rapid, krl or fanuc)")]
     UnknownFormat(String),
 }
@@ -379,7 +386,7 @@ pub fn export(
             {
                 return Err(ExportError::PoseOutOfRange {
                     routine: r.name.clone(),
-                    index,
+                    seq: index + 1,
                 });
             }
         }
@@ -425,7 +432,7 @@ pub(crate) fn steps(routine: &ExportRoutine, warnings: &mut Vec<ExportWarning>) 
             }
             warnings.push(ExportWarning::UnpairedCircular {
                 routine: routine.name.clone(),
-                index: i,
+                seq: i + 1,
             });
             out.push(Step::Single {
                 index: i,
@@ -504,7 +511,7 @@ pub(crate) fn unreachable_targets(
             let t = target(i);
             warnings.push(ExportWarning::Unreachable {
                 routine: name.to_string(),
-                index: i,
+                seq: i + 1,
                 target: t.clone(),
             });
             out.push(t);

@@ -367,7 +367,7 @@ pub(crate) fn name_targets(
             if w.name.as_deref() != Some(name.as_str()) {
                 warnings.push(ExportWarning::RenamedTarget {
                     routine: routine_name.clone(),
-                    index,
+                    seq: index + 1,
                     from: w.name.clone(),
                     to: name.clone(),
                 });
@@ -393,7 +393,7 @@ pub(crate) fn name_routines(
             let name = ns.claim(&r.name);
             if name != r.name {
                 warnings.push(ExportWarning::RenamedRoutine {
-                    index,
+                    position: index + 1,
                     from: r.name.clone(),
                     to: name.clone(),
                 });

@@ -3,8 +3,7 @@
 //! deleted. After any edits the cell's model must be the model of a fresh cell taught the
 //! edited routines, and its predictions the same.
 
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
+use proptest::prelude::*;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
@@ -63,131 +62,262 @@ fn model_of(stats: &Value) -> Value {
     ])
 }
 
-fn jitter(rng: &mut StdRng, p: &Value) -> Value {
+/// One edit of a property-test sequence. Indices pick a routine and a waypoint modulo what
+/// the program holds when the edit is applied, so every generated sequence is applicable.
+#[derive(Debug, Clone)]
+enum Edit {
+    /// Modify a waypoint's pose by an offset (mm).
+    Modify {
+        routine: usize,
+        waypoint: usize,
+        by: [f64; 3],
+    },
+    /// Insert a waypoint before or after one, at its pose plus an offset.
+    Insert {
+        routine: usize,
+        waypoint: usize,
+        after: bool,
+        by: [f64; 3],
+    },
+    /// Delete a waypoint (skipped when its routine would keep fewer than three).
+    Delete { routine: usize, waypoint: usize },
+    /// Move a routine to another place in its program (does not change the model).
+    Move { routine: usize, to: usize },
+    /// Delete a finished routine (skipped when it is the last finished one).
+    DeleteRoutine { routine: usize },
+    /// Append a waypoint to the open routine.
+    Append { by: [f64; 3] },
+}
+
+fn offset() -> impl Strategy<Value = [f64; 3]> {
+    [-40.0..40.0f64, -40.0..40.0f64, -40.0..40.0f64]
+}
+
+fn edit() -> impl Strategy<Value = Edit> {
+    let at = (0..16usize, 0..16usize);
+    prop_oneof![
+        3 => (at.clone(), offset()).prop_map(|((routine, waypoint), by)| Edit::Modify { routine, waypoint, by }),
+        2 => (at.clone(), any::<bool>(), offset())
+            .prop_map(|((routine, waypoint), after, by)| Edit::Insert { routine, waypoint, after, by }),
+        2 => at.prop_map(|(routine, waypoint)| Edit::Delete { routine, waypoint }),
+        1 => (0..16usize, 0..16usize).prop_map(|(routine, to)| Edit::Move { routine, to }),
+        1 => (0..16usize).prop_map(|routine| Edit::DeleteRoutine { routine }),
+        1 => offset().prop_map(|by| Edit::Append { by }),
+    ]
+}
+
+fn moved(p: &Value, by: [f64; 3]) -> Value {
     let mut q = p.clone();
-    for k in ["x", "y", "z"] {
-        let v = q[k].as_f64().expect("coordinate") + rng.random_range(-40.0..40.0);
-        q[k] = json!(v);
+    for (k, d) in ["x", "y", "z"].into_iter().zip(by) {
+        q[k] = json!(q[k].as_f64().expect("coordinate") + d);
     }
     q
 }
 
-/// Random edits of finished and open routines, several sequences: after each sequence the
-/// cell's model equals that of a fresh cell taught the edited routines, its prediction for the
-/// open routine is the fresh cell's, and a rebuild from the database changes nothing.
-#[tokio::test]
-async fn any_edits_leave_the_model_of_a_fresh_cell_taught_the_edited_routines() {
-    let app = spawn_app().await;
-    for seed in 0..4u64 {
-        let mut rng = StdRng::seed_from_u64(seed);
-        let cell = app.create_cell(&format!("edited-{seed}")).await;
-        let program = app.create_program(cell, "seams").await;
-        for k in 0..3 {
-            app.teach_routine(program, &u_seam([400.0 + 30.0 * k as f64, 0.0, 300.0], 0.0))
-                .await;
-        }
-        let open = app.create_routine(program).await;
-        for p in &u_seam([500.0, 100.0, 300.0], 0.2)[..5] {
-            app.append(open, p).await;
-        }
-        let mut version = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"]["version"]
-            .as_i64()
-            .expect("version");
-        for _ in 0..8 {
-            let routines = stored_routines(&app, program).await;
-            let (rid, finished, poses) = &routines[rng.random_range(0..routines.len())];
-            let detail = app.get_ok(&format!("/v1/routines/{rid}")).await;
-            let w = &detail["waypoints"][rng.random_range(0..poses.len())];
-            let wid = w["id"].as_i64().expect("waypoint id");
-            let edit = match rng.random_range(0..3) {
-                0 => {
-                    let body = json!({ "pose": jitter(&mut rng, &w["pose"]) });
-                    let e = expect(
-                        app.patch(&format!("/v1/waypoints/{wid}"), &body).await,
-                        StatusCode::OK,
-                    )
-                    .await;
-                    assert_eq!(e["previous"]["pose"], w["pose"]);
-                    assert_eq!(e["waypoint"]["pose"], body["pose"]);
-                    e
-                }
-                1 => {
-                    let side = if rng.random_bool(0.5) {
-                        "before"
-                    } else {
-                        "after"
-                    };
-                    let body = json!({ "side": side,
-                        "waypoint": { "pose": jitter(&mut rng, &w["pose"]), "name": "inserted" } });
-                    let e = expect(
-                        app.post(&format!("/v1/waypoints/{wid}/insert"), &body)
-                            .await,
-                        StatusCode::CREATED,
-                    )
-                    .await;
-                    let at = w["seq"].as_i64().expect("seq") + i64::from(side == "after");
-                    assert_eq!(e["waypoint"]["seq"], at);
-                    e
-                }
-                _ if poses.len() > 3 => {
-                    let e = expect(
-                        app.delete(&format!("/v1/waypoints/{wid}")).await,
-                        StatusCode::OK,
-                    )
-                    .await;
-                    assert_eq!(e["previous"]["id"], wid);
-                    e
-                }
-                _ => continue,
-            };
-            let now = edit["model_version"].as_i64().expect("model_version");
-            // Edits of a learned routine advance the model version; of the open one, not.
-            assert_eq!(now, version + i64::from(finished.is_some()), "{edit}");
-            version = now;
-        }
-        // Places stay 1, 2, … in every routine.
-        for (rid, _, _) in stored_routines(&app, program).await {
-            let d = app.get_ok(&format!("/v1/routines/{rid}")).await;
-            let seqs: Vec<i64> = d["waypoints"]
-                .as_array()
-                .expect("waypoints")
-                .iter()
-                .map(|w| w["seq"].as_i64().expect("seq"))
-                .collect();
-            assert_eq!(seqs, (1..=seqs.len() as i64).collect::<Vec<_>>());
-        }
-        let edited = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
-        assert_eq!(edited["model"]["version"], version);
-        let (fresh, fresh_open) = fresh_copy(&app, program, &format!("fresh-{seed}")).await;
-        let copy = app.get_ok(&format!("/v1/cells/{fresh}/stats")).await;
-        assert_eq!(model_of(&edited), model_of(&copy), "seed {seed}");
-        let ours = app.get_ok(&format!("/v1/routines/{open}/prediction")).await;
-        let theirs = app
-            .get_ok(&format!(
-                "/v1/routines/{}/prediction",
-                fresh_open.expect("open routine")
-            ))
-            .await;
-        for k in ["pose", "p_useful", "expert", "withheld", "offered"] {
-            assert_eq!(
-                ours["predictions"][0][k], theirs["predictions"][0][k],
-                "seed {seed}: {k}"
-            );
-        }
-        let rebuilt = app
-            .post_ok(
-                &format!("/v1/cells/{cell}/rebuild"),
-                &json!({}),
+/// Applies one edit through the API and checks its answer; returns whether it advanced the
+/// model version (an edit of a learned routine does; of the open one, or a move, not), or
+/// `None` when the edit did not apply to the program as it is.
+async fn apply(app: &TestApp, program: i64, edit: &Edit) -> Option<bool> {
+    let routines = stored_routines(app, program).await;
+    let pick = |i: usize| &routines[i % routines.len()];
+    let waypoint = |rid: i64, i: usize| async move {
+        let detail = app.get_ok(&format!("/v1/routines/{rid}")).await;
+        let all = detail["waypoints"].as_array().expect("waypoints").clone();
+        all[i % all.len()].clone()
+    };
+    match *edit {
+        Edit::Modify {
+            routine,
+            waypoint: i,
+            by,
+        } => {
+            let (rid, seq, _) = pick(routine);
+            let w = waypoint(*rid, i).await;
+            let body = json!({ "pose": moved(&w["pose"], by) });
+            let e = expect(
+                app.patch(&format!("/v1/waypoints/{}", w["id"]), &body)
+                    .await,
                 StatusCode::OK,
             )
             .await;
-        assert_eq!(rebuilt["version"], version);
+            assert_eq!(e["previous"]["pose"], w["pose"]);
+            assert_eq!(e["waypoint"]["pose"], body["pose"]);
+            Some(seq.is_some())
+        }
+        Edit::Insert {
+            routine,
+            waypoint: i,
+            after,
+            by,
+        } => {
+            let (rid, seq, _) = pick(routine);
+            let w = waypoint(*rid, i).await;
+            let side = if after { "after" } else { "before" };
+            let body = json!({ "side": side,
+                "waypoint": { "pose": moved(&w["pose"], by), "name": "inserted" } });
+            let e = expect(
+                app.post(&format!("/v1/waypoints/{}/insert", w["id"]), &body)
+                    .await,
+                StatusCode::CREATED,
+            )
+            .await;
+            let at = w["seq"].as_i64().expect("seq") + i64::from(after);
+            assert_eq!(e["waypoint"]["seq"], at);
+            Some(seq.is_some())
+        }
+        Edit::Delete {
+            routine,
+            waypoint: i,
+        } => {
+            let (rid, seq, poses) = pick(routine);
+            if poses.len() <= 3 {
+                return None;
+            }
+            let w = waypoint(*rid, i).await;
+            let e = expect(
+                app.delete(&format!("/v1/waypoints/{}", w["id"])).await,
+                StatusCode::OK,
+            )
+            .await;
+            assert_eq!(e["previous"]["id"], w["id"]);
+            Some(seq.is_some())
+        }
+        Edit::Move { routine, to } => {
+            let (rid, _, _) = pick(routine);
+            let position = 1 + to % routines.len();
+            let e = expect(
+                app.patch(
+                    &format!("/v1/routines/{rid}"),
+                    &json!({ "position": position }),
+                )
+                .await,
+                StatusCode::OK,
+            )
+            .await;
+            assert_eq!(e["routine"]["position"], position, "{e}");
+            Some(false)
+        }
+        Edit::DeleteRoutine { routine } => {
+            let finished: Vec<_> = routines.iter().filter(|r| r.1.is_some()).collect();
+            if finished.len() <= 1 {
+                return None;
+            }
+            let (rid, _, _) = finished[routine % finished.len()];
+            let r = app.delete(&format!("/v1/routines/{rid}")).await;
+            assert_eq!(r.status(), StatusCode::NO_CONTENT);
+            Some(true)
+        }
+        Edit::Append { by } => {
+            let (rid, _, poses) = routines
+                .iter()
+                .find(|r| r.1.is_none())
+                .expect("open routine");
+            let last = poses.last().expect("open routine has waypoints");
+            app.append(*rid, &moved(last, by)).await;
+            Some(false)
+        }
     }
-    let metrics = app.get("/metrics").await.text().await.expect("metrics");
+}
+
+/// A property test: any sequence of edits of finished and open routines leaves the cell's
+/// model equal to that of a fresh cell taught the edited routines, its prediction for the
+/// open routine is the fresh cell's, and a rebuild from the database changes nothing. Each
+/// case is a new cell on one server; proptest shrinks a failing sequence.
+#[test]
+fn any_edits_leave_the_model_of_a_fresh_cell_taught_the_edited_routines() {
+    let rt = tokio::runtime::Runtime::new().expect("runtime");
+    let app = rt.block_on(spawn_app());
+    let case = std::sync::atomic::AtomicUsize::new(0);
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 48,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
+    let result = runner.run(&proptest::collection::vec(edit(), 1..10), |edits| {
+        let n = case.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        rt.block_on(edits_equal_a_fresh_cell(&app, n, &edits));
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let metrics = rt.block_on(async { app.get("/metrics").await.text().await.expect("metrics") });
     assert_eq!(
         sample(&metrics, "nextpose_model_divergences_total"),
         Some(0.0)
     );
+}
+
+async fn edits_equal_a_fresh_cell(app: &TestApp, n: usize, edits: &[Edit]) {
+    let cell = app.create_cell(&format!("edited-{n}")).await;
+    let program = app.create_program(cell, "seams").await;
+    for k in 0..3 {
+        app.teach_routine(program, &u_seam([400.0 + 30.0 * k as f64, 0.0, 300.0], 0.0))
+            .await;
+    }
+    let open = app.create_routine(program).await;
+    for p in &u_seam([500.0, 100.0, 300.0], 0.2)[..5] {
+        app.append(open, p).await;
+    }
+    let stats = |cell: i64| async move { app.get_ok(&format!("/v1/cells/{cell}/stats")).await };
+    let mut version = stats(cell).await["model"]["version"]
+        .as_i64()
+        .expect("version");
+    for edit in edits {
+        if let Some(learned) = apply(app, program, edit).await {
+            let now = stats(cell).await["model"]["version"]
+                .as_i64()
+                .expect("version");
+            assert_eq!(now, version + i64::from(learned), "{edit:?}");
+            version = now;
+        }
+    }
+    // Places stay 1, 2, … in every routine, and routines 1, 2, … in the program.
+    let routines = app
+        .get_ok(&format!("/v1/programs/{program}/routines"))
+        .await;
+    let positions: Vec<i64> = routines
+        .as_array()
+        .expect("routines")
+        .iter()
+        .map(|r| r["position"].as_i64().expect("position"))
+        .collect();
+    assert_eq!(positions, (1..=positions.len() as i64).collect::<Vec<_>>());
+    for (rid, _, _) in stored_routines(app, program).await {
+        let d = app.get_ok(&format!("/v1/routines/{rid}")).await;
+        let seqs: Vec<i64> = d["waypoints"]
+            .as_array()
+            .expect("waypoints")
+            .iter()
+            .map(|w| w["seq"].as_i64().expect("seq"))
+            .collect();
+        assert_eq!(seqs, (1..=seqs.len() as i64).collect::<Vec<_>>());
+    }
+    let edited = stats(cell).await;
+    let (fresh, fresh_open) = fresh_copy(app, program, &format!("fresh-{n}")).await;
+    let copy = stats(fresh).await;
+    assert_eq!(model_of(&edited), model_of(&copy), "{edits:?}");
+    let ours = app.get_ok(&format!("/v1/routines/{open}/prediction")).await;
+    let theirs = app
+        .get_ok(&format!(
+            "/v1/routines/{}/prediction",
+            fresh_open.expect("open routine")
+        ))
+        .await;
+    for k in ["pose", "p_useful", "expert", "withheld", "offered"] {
+        assert_eq!(
+            ours["predictions"][0][k], theirs["predictions"][0][k],
+            "{k} after {edits:?}"
+        );
+    }
+    let rebuilt = app
+        .post_ok(
+            &format!("/v1/cells/{cell}/rebuild"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(rebuilt["version"], version);
 }
 
 /// Bad edits are refused with a 4xx that names the problem, and change nothing.
