@@ -13,7 +13,7 @@ use axum::serve::ListenerExt;
 use tokio::net::TcpListener;
 
 use crate::app::App;
-use crate::app::reach::Robots;
+use crate::app::robots::Robots;
 use crate::grpc;
 use crate::http;
 use crate::storage::{Durability, Store};
@@ -73,6 +73,12 @@ impl Application {
         };
         let robots = Robots::load(&settings.robots)
             .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
+        robots.add_stored(
+            &store
+                .robots()
+                .await
+                .context("reading the uploaded robot models")?,
+        );
         let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
         // REST and gRPC on one port: gRPC calls are told apart by their content type.
         let router = grpc::beside(

@@ -2,8 +2,9 @@
 //! kept in step with every write.
 
 use super::error::AppError;
-use super::reach::{CellArm, Robots};
+use super::reach::CellArm;
 use super::resources::ModelInfo;
+use super::robots::Robots;
 use super::settings::CellSettings;
 use crate::engine::{Pose, Teacher};
 use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};

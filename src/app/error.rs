@@ -3,6 +3,7 @@
 
 use crate::engine::{ConfigError, PoseError};
 use crate::import::ImportError;
+use crate::kinematics::KinematicsError;
 use crate::storage::StorageError;
 
 #[derive(Debug, thiserror::Error)]
@@ -33,6 +34,10 @@ pub enum AppError {
     /// programs of one name), with the file and place.
     #[error("cannot import: {0}")]
     Import(#[from] ImportError),
+    /// An uploaded arm model that cannot be used (not six revolute joints, limits or
+    /// velocities missing, no closed-form solver fits it), with what is wrong.
+    #[error("unusable robot model: {0}")]
+    Robot(#[from] KinematicsError),
     /// The database failed. The storage error is kept as the source, so the edge logs the
     /// whole chain (down to sqlx's) once.
     #[error("the database failed")]
@@ -51,6 +56,7 @@ impl AppError {
             AppError::Invalid(_) | AppError::Import(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) => "invalid_settings",
+            AppError::Robot(_) => "invalid_robot",
             AppError::Storage(_) | AppError::Internal(_) => "internal",
         }
     }

@@ -33,6 +33,7 @@ mod registry;
 mod replays;
 pub mod resources;
 mod retarget;
+pub mod robots;
 mod routines;
 mod rows;
 pub mod settings;
@@ -43,13 +44,12 @@ use std::sync::{Arc, Mutex};
 
 use tokio_util::task::TaskTracker;
 
-use crate::kinematics::RobotModel;
 use crate::storage::Store;
 use crate::telemetry::Metrics;
 pub use error::AppError;
-use reach::Robots;
 use registry::Slot;
 pub(crate) use registry::blocking;
+use robots::Robots;
 
 /// Longest open-loop completion a request may ask for.
 pub const MAX_COMPLETION: usize = 100;
@@ -101,21 +101,6 @@ impl App {
             routine_cells: Arc::default(),
             tasks: TaskTracker::new(),
         }
-    }
-
-    /// The robot models cells can use.
-    pub fn robots(&self) -> Vec<RobotModel> {
-        self.robots.models()
-    }
-
-    pub fn robot(&self, name: &str) -> Result<RobotModel> {
-        self.robots
-            .get(name)
-            .map(|r| r.model())
-            .ok_or_else(|| AppError::NotFoundName {
-                what: "robot",
-                name: name.to_string(),
-            })
     }
 
     pub fn store(&self) -> &Store {

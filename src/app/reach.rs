@@ -2,8 +2,6 @@
 //! against the robot model, and the joints of the taught waypoints are followed so a
 //! prediction's solution is the one nearest where the arm is.
 
-use std::collections::BTreeMap;
-use std::path::Path;
 use std::sync::Arc;
 
 use super::error::AppError;
@@ -11,45 +9,8 @@ use super::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
 use super::settings::CellSettings;
 use crate::engine::Pose;
 use crate::kinematics::{
-    self, Joints, KinematicsError, Mounting, ReachConfig, ReachPolicy, Reachability, Robot,
-    RobotModel, Unreachable, check_reach,
+    self, Joints, Mounting, ReachConfig, ReachPolicy, Reachability, Robot, Unreachable, check_reach,
 };
-
-/// The robot models the service knows, loaded once at start-up.
-#[derive(Debug, Default)]
-pub struct Robots {
-    by_name: BTreeMap<String, Arc<Robot>>,
-}
-
-impl Robots {
-    /// Loads every `*.urdf` of `dir`.
-    pub fn load(dir: &Path) -> Result<Robots, KinematicsError> {
-        let by_name = kinematics::load_robots(dir)?
-            .into_iter()
-            .map(|r| (r.name().to_string(), Arc::new(r)))
-            .collect();
-        Ok(Robots { by_name })
-    }
-
-    pub fn get(&self, name: &str) -> Option<Arc<Robot>> {
-        self.by_name.get(name).cloned()
-    }
-
-    pub fn models(&self) -> Vec<RobotModel> {
-        self.by_name.values().map(|r| r.model()).collect()
-    }
-
-    /// The robot a cell names, or a 422 listing the known ones.
-    pub fn require(&self, name: &str) -> Result<Arc<Robot>, AppError> {
-        self.get(name).ok_or_else(|| {
-            let known: Vec<&str> = self.by_name.keys().map(String::as_str).collect();
-            AppError::Invalid(format!(
-                "unknown robot {name:?}; known robots: {}",
-                known.join(", ")
-            ))
-        })
-    }
-}
 
 pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
     let (reason, message) = match why {

@@ -7,12 +7,13 @@ use tonic::Status;
 use super::pb;
 use crate::app::resources::*;
 use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
+use crate::app::robots::{RobotInfo, RobotSource, RobotUpload};
 use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
 use crate::engine::Profile;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::export::ExportSettings;
-use crate::kinematics::{ReachPolicy, RobotModel, SolverKind};
+use crate::kinematics::{ReachPolicy, SolverKind};
 use crate::replay::metrics::Scores;
 use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 use crate::replay::report::{MethodMetrics, OracleSection, Report};
@@ -495,10 +496,22 @@ impl From<FeedbackRecorded> for pb::FeedbackRecorded {
 
 // ---- robots -------------------------------------------------------------------------------------
 
-impl From<RobotModel> for pb::Robot {
-    fn from(r: RobotModel) -> pb::Robot {
+impl From<RobotInfo> for pb::Robot {
+    fn from(info: RobotInfo) -> pb::Robot {
+        let r = info.model;
+        let sheet = info.datasheet;
         pb::Robot {
             name: r.name,
+            source: match info.source {
+                RobotSource::Bundled => "bundled",
+                RobotSource::Uploaded => "uploaded",
+            }
+            .to_string(),
+            maker: sheet.maker,
+            product: sheet.product,
+            payload_kg: sheet.payload_kg,
+            reach_mm: sheet.reach_mm,
+            languages: sheet.languages,
             solver: match r.solver {
                 SolverKind::Opw => "opw",
                 SolverKind::Ur => "ur",
@@ -1032,6 +1045,18 @@ impl From<Retargeted> for pb::Retargeted {
             program: Some(r.program.into()),
             routines: r.routines.into_iter().map(Into::into).collect(),
             unreachable: r.unreachable as u64,
+        }
+    }
+}
+
+impl From<pb::UploadRobotRequest> for RobotUpload {
+    fn from(r: pb::UploadRobotRequest) -> RobotUpload {
+        RobotUpload {
+            name: r.name,
+            urdf: r.urdf,
+            maker: r.maker,
+            product: r.product,
+            payload_kg: r.payload_kg,
         }
     }
 }

@@ -337,6 +337,21 @@ impl Nextpose for Service {
         reply(self.app.robot(&r.into_inner().name))
     }
 
+    async fn upload_robot(&self, r: Request<pb::UploadRobotRequest>) -> Reply<pb::Robot> {
+        reply(self.app.upload_robot(r.into_inner().into()).await)
+    }
+
+    async fn delete_robot(
+        &self,
+        r: Request<pb::DeleteRobotRequest>,
+    ) -> Reply<pb::DeleteRobotResponse> {
+        self.app
+            .delete_robot(&r.into_inner().name)
+            .await
+            .map_err(status::status)?;
+        Ok(Response::new(pb::DeleteRobotResponse {}))
+    }
+
     async fn import_programs(
         &self,
         r: Request<pb::ImportProgramsRequest>,

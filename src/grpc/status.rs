@@ -15,9 +15,11 @@ pub fn code(e: &AppError) -> Code {
         AppError::NotFound { .. } | AppError::NotFoundName { .. } => Code::NotFound,
         AppError::Exists(_) => Code::AlreadyExists,
         AppError::Conflict(_) => Code::FailedPrecondition,
-        AppError::Invalid(_) | AppError::Import(_) | AppError::Pose(_) | AppError::Config(_) => {
-            Code::InvalidArgument
-        }
+        AppError::Invalid(_)
+        | AppError::Import(_)
+        | AppError::Pose(_)
+        | AppError::Config(_)
+        | AppError::Robot(_) => Code::InvalidArgument,
         AppError::Storage(_) | AppError::Internal(_) => Code::Internal,
     }
 }

@@ -70,7 +70,8 @@ impl From<AppError> for ApiError {
             AppError::Invalid(_)
             | AppError::Import(_)
             | AppError::Pose(_)
-            | AppError::Config(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            | AppError::Config(_)
+            | AppError::Robot(_) => StatusCode::UNPROCESSABLE_ENTITY,
             AppError::Storage(_) | AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };
         if status.is_server_error() {

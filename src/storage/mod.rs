@@ -19,7 +19,7 @@ use sqlx::sqlite::{
 
 pub use rows::{
     CellRow, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction, NewWaypoint,
-    PoseColumns, PredictionRow, ProgramRow, RoutineRow, WaypointRow, WaypointValues,
+    PoseColumns, PredictionRow, ProgramRow, RobotRow, RoutineRow, WaypointRow, WaypointValues,
 };
 
 /// How hard commits try to reach the disk.
@@ -717,6 +717,52 @@ impl Store {
     pub async fn delete_cell(&self, id: i64) -> Result<()> {
         let done = sqlx::query("DELETE FROM cells WHERE id = ?")
             .bind(id)
+            .execute(&self.pool)
+            .await?;
+        if done.rows_affected() == 0 {
+            return Err(StorageError::NotFound);
+        }
+        Ok(())
+    }
+
+    // ---- uploaded robots --------------------------------------------------------------------
+
+    /// Stores an uploaded arm model; a name already taken is a [`StorageError::Conflict`].
+    pub async fn insert_robot(
+        &self,
+        name: &str,
+        urdf: &str,
+        maker: Option<&str>,
+        product: Option<&str>,
+        payload_kg: Option<f64>,
+    ) -> Result<RobotRow> {
+        sqlx::query_as::<_, RobotRow>(
+            "INSERT INTO robots (name, urdf, maker, product, payload_kg) VALUES (?, ?, ?, ?, ?) \
+             RETURNING name, urdf, maker, product, payload_kg, created_at",
+        )
+        .bind(name)
+        .bind(urdf)
+        .bind(maker)
+        .bind(product)
+        .bind(payload_kg)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(classify)
+    }
+
+    /// The uploaded arm models, by name.
+    pub async fn robots(&self) -> Result<Vec<RobotRow>> {
+        Ok(sqlx::query_as::<_, RobotRow>(
+            "SELECT name, urdf, maker, product, payload_kg, created_at FROM robots ORDER BY name",
+        )
+        .fetch_all(&self.pool)
+        .await?)
+    }
+
+    /// Deletes an uploaded arm model.
+    pub async fn delete_robot(&self, name: &str) -> Result<()> {
+        let done = sqlx::query("DELETE FROM robots WHERE name = ?")
+            .bind(name)
             .execute(&self.pool)
             .await?;
         if done.rows_affected() == 0 {

@@ -14,6 +14,17 @@ pub struct PoseColumns {
     pub qz: f64,
 }
 
+/// An arm model uploaded through the API.
+#[derive(Debug, Clone, PartialEq, FromRow)]
+pub struct RobotRow {
+    pub name: String,
+    pub urdf: String,
+    pub maker: Option<String>,
+    pub product: Option<String>,
+    pub payload_kg: Option<f64>,
+    pub created_at: String,
+}
+
 #[derive(Debug, Clone, FromRow)]
 pub struct CellRow {
     pub id: i64,

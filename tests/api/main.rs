@@ -12,5 +12,6 @@ mod import;
 mod openapi;
 mod reach;
 mod retarget;
+mod robots;
 mod schemathesis;
 mod teaching;

@@ -1,0 +1,299 @@
+//! The arm models cells can name: the bundled ones (`robots/*.urdf`) and those uploaded through
+//! the API, which are stored in the database and loaded again at start-up. Every model is
+//! loaded through the same path (`kinematics::Robot::from_urdf_str`): six revolute joints with
+//! limits and velocities, a closed-form solver derived from the chain and checked against it.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::{Arc, RwLock};
+
+use serde::{Deserialize, Serialize};
+use tokio::sync::Mutex as AsyncMutex;
+use utoipa::ToSchema;
+
+use super::cell_model::parse_settings;
+use super::error::AppError;
+use super::{App, Result, check_name};
+use crate::kinematics::{self, KinematicsError, Robot, RobotModel};
+use crate::storage::RobotRow;
+
+/// Longest robot name (letters, digits, `_` and `-`).
+pub const MAX_ROBOT_NAME: usize = 64;
+/// Largest URDF text accepted (a plain six-joint URDF is a few kB; meshes are not read).
+pub const MAX_URDF_BYTES: usize = 256 * 1024;
+
+/// Where a model comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RobotSource {
+    /// Shipped with the service (`robots/`).
+    Bundled,
+    /// Uploaded through the API (`POST /v1/robots`), kept in the database.
+    Uploaded,
+}
+
+/// What a data sheet says about an arm, where it is known.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Datasheet {
+    pub maker: Option<String>,
+    /// The maker's designation (`IRB 2600-12/1.65`).
+    pub product: Option<String>,
+    pub payload_kg: Option<f64>,
+    /// The data sheet's reach, mm.
+    pub reach_mm: Option<f64>,
+    /// Program languages of the arm's controller (`rapid`, `krl`, `fanuc`, `urscript`).
+    pub languages: Vec<String>,
+}
+
+/// A model as the service lists it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RobotInfo {
+    pub model: RobotModel,
+    pub source: RobotSource,
+    pub datasheet: Datasheet,
+}
+
+/// An arm model to upload.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RobotUpload {
+    /// The name cells will use: letters, digits, `_` and `-`, at most 64 characters, not one
+    /// the service already has.
+    pub name: String,
+    /// The URDF text: a serial chain of six revolute joints from the root link to `tool0`
+    /// (or the only leaf), each with `<limit lower upper velocity>`; lengths in metres.
+    pub urdf: String,
+    #[serde(default)]
+    pub maker: Option<String>,
+    #[serde(default)]
+    pub product: Option<String>,
+    #[serde(default)]
+    pub payload_kg: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct Entry {
+    robot: Arc<Robot>,
+    source: RobotSource,
+    datasheet: Datasheet,
+}
+
+impl Entry {
+    fn info(&self) -> RobotInfo {
+        RobotInfo {
+            model: self.robot.model(),
+            source: self.source,
+            datasheet: self.datasheet.clone(),
+        }
+    }
+}
+
+/// The models the service knows. Reads are many and short (a cell's model load, a listing);
+/// uploads and deletes are serialised by `changes`, so a check and the write that follows it
+/// see the same registry.
+#[derive(Debug, Default)]
+pub struct Robots {
+    by_name: RwLock<BTreeMap<String, Entry>>,
+    changes: AsyncMutex<()>,
+}
+
+impl Robots {
+    /// Loads every `*.urdf` of `dir` as a bundled model.
+    pub fn load(dir: &Path) -> std::result::Result<Robots, KinematicsError> {
+        let by_name = kinematics::load_robots(dir)?
+            .into_iter()
+            .map(|r| {
+                let entry = Entry {
+                    robot: Arc::new(r),
+                    source: RobotSource::Bundled,
+                    datasheet: Datasheet::default(),
+                };
+                (entry.robot.name().to_string(), entry)
+            })
+            .collect();
+        Ok(Robots {
+            by_name: RwLock::new(by_name),
+            changes: AsyncMutex::new(()),
+        })
+    }
+
+    fn read(&self) -> std::sync::RwLockReadGuard<'_, BTreeMap<String, Entry>> {
+        // Every write is a single insert or remove: a poisoned lock still holds a whole map.
+        self.by_name.read().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn write(&self) -> std::sync::RwLockWriteGuard<'_, BTreeMap<String, Entry>> {
+        self.by_name.write().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Adds the stored uploads at start-up. A stored model that no longer loads (a later
+    /// version checks more) is logged and left out: the cells naming it work on without a
+    /// reachability check, as with a missing bundled model.
+    pub fn add_stored(&self, rows: &[RobotRow]) {
+        for row in rows {
+            match Robot::from_urdf_str(&row.name, &row.urdf) {
+                Ok(robot) => {
+                    self.write().insert(row.name.clone(), uploaded(robot, row));
+                }
+                Err(e) => {
+                    tracing::warn!(robot = %row.name, error = %e, "stored robot model does not load; left out");
+                }
+            }
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<Arc<Robot>> {
+        self.read().get(name).map(|e| e.robot.clone())
+    }
+
+    pub fn info(&self, name: &str) -> Option<RobotInfo> {
+        self.read().get(name).map(Entry::info)
+    }
+
+    pub fn infos(&self) -> Vec<RobotInfo> {
+        self.read().values().map(Entry::info).collect()
+    }
+
+    pub fn models(&self) -> Vec<RobotModel> {
+        self.read().values().map(|e| e.robot.model()).collect()
+    }
+
+    /// The robot a cell names, or a 422 listing the known ones.
+    pub fn require(&self, name: &str) -> Result<Arc<Robot>> {
+        let map = self.read();
+        map.get(name).map(|e| e.robot.clone()).ok_or_else(|| {
+            let known: Vec<&str> = map.keys().map(String::as_str).collect();
+            AppError::Invalid(format!(
+                "unknown robot {name:?}; known robots: {}",
+                known.join(", ")
+            ))
+        })
+    }
+}
+
+fn uploaded(robot: Robot, row: &RobotRow) -> Entry {
+    Entry {
+        robot: Arc::new(robot),
+        source: RobotSource::Uploaded,
+        datasheet: Datasheet {
+            maker: row.maker.clone(),
+            product: row.product.clone(),
+            payload_kg: row.payload_kg,
+            reach_mm: None,
+            languages: Vec::new(),
+        },
+    }
+}
+
+fn check_robot_name(name: &str) -> Result<()> {
+    let valid = !name.is_empty()
+        && name.len() <= MAX_ROBOT_NAME
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if valid {
+        Ok(())
+    } else {
+        Err(AppError::Invalid(format!(
+            "robot name {name:?} must be 1–{MAX_ROBOT_NAME} letters, digits, '_' or '-'"
+        )))
+    }
+}
+
+impl App {
+    /// The robot models cells can use.
+    pub fn robots(&self) -> Vec<RobotInfo> {
+        self.robots.infos()
+    }
+
+    pub fn robot(&self, name: &str) -> Result<RobotInfo> {
+        self.robots
+            .info(name)
+            .ok_or_else(|| AppError::NotFoundName {
+                what: "robot",
+                name: name.to_string(),
+            })
+    }
+
+    /// Uploads an arm model: checked like a bundled one (a 422 says what is wrong), stored, and
+    /// from then on a cell may name it.
+    pub async fn upload_robot(&self, upload: RobotUpload) -> Result<RobotInfo> {
+        check_robot_name(&upload.name)?;
+        for (what, v) in [("maker", &upload.maker), ("product", &upload.product)] {
+            if let Some(v) = v {
+                check_name(what, v)?;
+            }
+        }
+        if let Some(p) = upload.payload_kg
+            && !(p.is_finite() && p > 0.0)
+        {
+            return Err(AppError::Invalid(format!(
+                "payload_kg must be a positive number, not {p}"
+            )));
+        }
+        if upload.urdf.len() > MAX_URDF_BYTES {
+            return Err(AppError::Invalid(format!(
+                "the URDF is {} bytes; at most {MAX_URDF_BYTES} are accepted",
+                upload.urdf.len()
+            )));
+        }
+        let _changing = self.robots.changes.lock().await;
+        if self.robots.get(&upload.name).is_some() {
+            return Err(AppError::Exists(format!(
+                "robot {:?} already exists",
+                upload.name
+            )));
+        }
+        let (name, urdf) = (upload.name.clone(), upload.urdf.clone());
+        let robot = super::blocking(move || Robot::from_urdf_str(&name, &urdf)).await??;
+        let row = self
+            .store
+            .insert_robot(
+                &upload.name,
+                &upload.urdf,
+                upload.maker.as_deref(),
+                upload.product.as_deref(),
+                upload.payload_kg,
+            )
+            .await?;
+        let entry = uploaded(robot, &row);
+        let info = entry.info();
+        self.robots.write().insert(row.name.clone(), entry);
+        Ok(info)
+    }
+
+    /// Deletes an uploaded model that no cell names. Bundled models stay.
+    pub async fn delete_robot(&self, name: &str) -> Result<()> {
+        let _changing = self.robots.changes.lock().await;
+        let source = self.robots.info(name).map(|i| i.source);
+        match source {
+            None => {
+                return Err(AppError::NotFoundName {
+                    what: "robot",
+                    name: name.to_string(),
+                });
+            }
+            Some(RobotSource::Bundled) => {
+                return Err(AppError::Conflict(format!(
+                    "robot {name:?} is bundled with the service and cannot be deleted"
+                )));
+            }
+            Some(RobotSource::Uploaded) => {}
+        }
+        let mut users = Vec::new();
+        for cell in self.store.cells().await? {
+            if parse_settings(&cell)?.robot == name {
+                users.push(cell.name);
+            }
+        }
+        if !users.is_empty() {
+            return Err(AppError::Conflict(format!(
+                "robot {name:?} is the arm of cell(s) {}; change their robot first",
+                users.join(", ")
+            )));
+        }
+        self.store.delete_robot(name).await?;
+        self.robots.write().remove(name);
+        Ok(())
+    }
+}
