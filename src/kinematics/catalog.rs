@@ -20,10 +20,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::Robot;
 use super::error::KinematicsError;
 use super::units::MM_PER_M;
 use super::urdf::DOF;
-use super::{Robot, SolverKind};
 
 /// The file name of the catalogue in a robot directory.
 pub const CATALOG_FILE: &str = "catalog.json";
@@ -70,13 +70,13 @@ pub fn load_catalog(dir: &Path) -> Result<Vec<ArmFacts>, KinematicsError> {
 /// The arm's reach computed from its kinematics, mm, as the data sheets define it (module
 /// documentation): to the wrist centre for OPW arms, to the flange at zero for UR arms.
 pub fn computed_reach_mm(robot: &Robot) -> f64 {
-    match (robot.solver_kind(), robot.opw()) {
-        (SolverKind::Opw, Some(opw)) => {
+    match robot.opw() {
+        Some(opw) => {
             let p = opw.parameters();
             let stretch = p.a1.abs() + p.c2.abs() + p.c3.hypot(p.a2);
             stretch.hypot(p.b) * MM_PER_M
         }
-        _ => {
+        None => {
             let (axes, tip) = robot.chain().axes_at(&[0.0; DOF]);
             let (w1, o1) = axes[0];
             (tip.translation.vector - o1).cross(&w1).norm() * MM_PER_M
