@@ -296,6 +296,20 @@ fn rs_opw_presets_agree_with_our_urdfs() {
     }
 }
 
+/// FANUC raw J3 (controller J3 + J2) stays between the folds of the forearm onto the upper arm
+/// (−90° and +270°), so no pose has two J3 values (robots/README.md, FANUC J3).
+#[test]
+fn fanuc_raw_j3_stays_within_one_turn() {
+    for (name, _) in ARMS.iter().filter(|(n, _)| n.starts_with("fanuc_")) {
+        let r = robot(name);
+        let j3 = &r.joints()[2];
+        assert!(
+            j3.lower >= -FRAC_PI_2 - 1e-9 && j3.upper <= 3.0 * FRAC_PI_2 + 1e-9,
+            "{name}: {j3:?}"
+        );
+    }
+}
+
 /// Spot checks of the published geometry at poses that are easy to picture.
 #[test]
 fn zero_poses_match_the_published_geometry() {
