@@ -419,6 +419,9 @@ mod tests {
             }
             checked += 1;
         }
-        assert_eq!(checked, 2, "the IRB 140 and the KR 16 are checked");
+        assert!(
+            checked >= 2,
+            "every bundled OPW arm is checked, the IRB 140 and the KR 16 at least"
+        );
     }
 }

@@ -46,6 +46,8 @@ pub enum KinematicsError {
     NonFiniteJoints,
     #[error("unknown robot {0:?}")]
     UnknownRobot(String),
+    #[error("malformed robot catalogue {path}: {message}")]
+    Catalog { path: String, message: String },
 }
 
 impl KinematicsError {

@@ -27,6 +27,7 @@
 //! robot.ik(&flange) / robot.fk(&q)                 all solutions / tool0 pose, base frame, mm
 //! ```
 
+pub mod catalog;
 pub mod configuration;
 pub mod error;
 pub mod fixture;
@@ -45,6 +46,7 @@ use serde::Serialize;
 
 use crate::engine::Pose;
 
+pub use catalog::{ArmFacts, computed_reach_mm, load_catalog};
 pub use configuration::{
     ArmConfiguration, ConfigurationError, Elbow, KrlStatusTurn, RapidConfdata, Shoulder, Wrist,
     configuration, pick_solution,

@@ -224,7 +224,7 @@ pub fn placement(program: &Program) -> Result<(String, Mounting), SimError> {
         // The replay's IRB 140 setup for ABB programs.
         "rapid" => ("abb_irb140", [450.0, 0.0, 350.0]),
         // A KR 16 (1.6 m reach) for KUKA programs, and as a stand-in for FANUC arms of its
-        // class (no FANUC model is bundled).
+        // class (the bundled FANUC models are not used here yet).
         _ => ("kuka_kr16_2", [900.0, 0.0, 500.0]),
     };
     let check = ReachCheck::new(ReachSetup {
