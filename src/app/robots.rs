@@ -14,6 +14,7 @@ use utoipa::ToSchema;
 use super::cell_model::parse_settings;
 use super::error::AppError;
 use super::{App, Result, check_name};
+use crate::kinematics::catalog::{computed_reach_mm, load_catalog};
 use crate::kinematics::{self, KinematicsError, Robot, RobotModel};
 use crate::storage::RobotRow;
 
@@ -33,7 +34,7 @@ pub enum RobotSource {
 }
 
 /// What a data sheet says about an arm, where it is known.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Datasheet {
     pub maker: Option<String>,
     /// The maker's designation (`IRB 2600-12/1.65`).
@@ -41,6 +42,9 @@ pub struct Datasheet {
     pub payload_kg: Option<f64>,
     /// The data sheet's reach, mm.
     pub reach_mm: Option<f64>,
+    /// The reach computed from the kinematics (axis-1 line to the wrist centre at full
+    /// stretch; UR arms: to the flange), mm: known for every model.
+    pub computed_reach_mm: f64,
     /// Program languages of the arm's controller (`rapid`, `krl`, `fanuc`, `urscript`).
     pub languages: Vec<String>,
 }
@@ -98,15 +102,26 @@ pub struct Robots {
 }
 
 impl Robots {
-    /// Loads every `*.urdf` of `dir` as a bundled model.
+    /// Loads every `*.urdf` of `dir` as a bundled model, with its data sheet from the
+    /// directory's `catalog.json` where it has one.
     pub fn load(dir: &Path) -> std::result::Result<Robots, KinematicsError> {
+        let catalog = load_catalog(dir)?;
         let by_name = kinematics::load_robots(dir)?
             .into_iter()
             .map(|r| {
+                let facts = catalog.iter().find(|f| f.name == r.name());
+                let datasheet = Datasheet {
+                    maker: facts.map(|f| f.maker.clone()),
+                    product: facts.map(|f| f.model.clone()),
+                    payload_kg: facts.map(|f| f.payload_kg),
+                    reach_mm: facts.map(|f| f.reach_mm),
+                    computed_reach_mm: computed_reach_mm(&r),
+                    languages: facts.map(|f| f.languages.clone()).unwrap_or_default(),
+                };
                 let entry = Entry {
                     robot: Arc::new(r),
                     source: RobotSource::Bundled,
-                    datasheet: Datasheet::default(),
+                    datasheet,
                 };
                 (entry.robot.name().to_string(), entry)
             })
@@ -172,16 +187,18 @@ impl Robots {
 }
 
 fn uploaded(robot: Robot, row: &RobotRow) -> Entry {
+    let datasheet = Datasheet {
+        maker: row.maker.clone(),
+        product: row.product.clone(),
+        payload_kg: row.payload_kg,
+        reach_mm: None,
+        computed_reach_mm: computed_reach_mm(&robot),
+        languages: Vec::new(),
+    };
     Entry {
         robot: Arc::new(robot),
         source: RobotSource::Uploaded,
-        datasheet: Datasheet {
-            maker: row.maker.clone(),
-            product: row.product.clone(),
-            payload_kg: row.payload_kg,
-            reach_mm: None,
-            languages: Vec::new(),
-        },
+        datasheet,
     }
 }
 

@@ -511,6 +511,7 @@ impl From<RobotInfo> for pb::Robot {
             product: sheet.product,
             payload_kg: sheet.payload_kg,
             reach_mm: sheet.reach_mm,
+            computed_reach_mm: sheet.computed_reach_mm,
             languages: sheet.languages,
             solver: match r.solver {
                 SolverKind::Opw => "opw",

@@ -42,6 +42,9 @@ pub struct RobotDto {
     pub payload_kg: Option<f64>,
     /// Reach (mm): the data sheet's, when known.
     pub reach_mm: Option<f64>,
+    /// Reach (mm) computed from the kinematics: from the axis-1 line to the wrist centre at
+    /// full stretch (UR arms: to the flange).
+    pub computed_reach_mm: f64,
     /// Program languages of the arm's controller (`rapid`, `krl`, `fanuc`, `urscript`).
     pub languages: Vec<String>,
     /// Inverse-kinematics solver: `opw` (spherical wrist) or `ur`.
@@ -62,6 +65,7 @@ fn dto(info: RobotInfo) -> RobotDto {
         product: sheet.product,
         payload_kg: sheet.payload_kg,
         reach_mm: sheet.reach_mm,
+        computed_reach_mm: sheet.computed_reach_mm,
         languages: sheet.languages,
         solver: serde_json::to_value(m.solver)
             .ok()

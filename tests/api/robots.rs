@@ -255,3 +255,41 @@ async fn uploads_through_grpc_match_rest() {
     )
     .await;
 }
+
+/// `GET /v1/robots` lists the bundled library with each arm's data sheet: maker, product,
+/// payload and reach, and the reach computed from its kinematics close to the data sheet's.
+#[tokio::test]
+async fn the_library_is_listed_with_reach_and_payload() {
+    let app = spawn_app().await;
+    let list = app.get_ok("/v1/robots").await;
+    let all = list.as_array().expect("robots");
+    assert!(all.len() >= 18, "{} robots", all.len());
+    for want in [
+        "abb_irb1200",
+        "abb_irb2600",
+        "abb_irb6700",
+        "kuka_kr210_r2700",
+        "fanuc_r2000ic",
+        "ur16e",
+    ] {
+        assert!(all.iter().any(|r| r["name"] == want), "{want} missing");
+    }
+    for r in all {
+        assert_eq!(r["source"], "bundled", "{r}");
+        let payload = r["payload_kg"].as_f64().expect("payload_kg");
+        let reach = r["reach_mm"].as_f64().expect("reach_mm");
+        let computed = r["computed_reach_mm"].as_f64().expect("computed_reach_mm");
+        assert!(payload > 0.0 && reach > 300.0, "{r}");
+        // Within 7 %: the UR10e's data sheet counts its wrist turned outward (robots/README.md).
+        assert!(
+            (computed - reach).abs() <= 0.07 * reach,
+            "{}: computed {computed} vs {reach}",
+            r["name"]
+        );
+        assert!(r["maker"].is_string() && r["product"].is_string(), "{r}");
+        assert!(
+            !r["languages"].as_array().expect("languages").is_empty(),
+            "{r}"
+        );
+    }
+}
