@@ -31,9 +31,10 @@
 //! targets at a comfortable point in front of the base), the caller's
 //! [`LayoutOptions::extra_seeds`], a grid of bases around the median facing it, and random bases
 //! facing random targets (seeded, so results are deterministic); (2) Nelder–Mead (`argmin`)
-//! from the best distinct seeds; (3) every refined and seeded candidate evaluated on all
-//! targets, a last Nelder–Mead polish of the best one on all targets, and the best distinct
-//! [`LayoutOptions::keep`] returned. The heuristic and the extra seeds are always among the
+//! from the heuristic, the extra seeds and the best distinct seeds (`keep + 5` of them);
+//! (3) every refined candidate, the heuristic, the extra seeds and the best `4 · keep` distinct
+//! seeds evaluated on all targets, a last Nelder–Mead polish on all targets of the best `keep`
+//! distinct ones, and the best distinct [`LayoutOptions::keep`] returned. The heuristic and the extra seeds are always among the
 //! candidates scored on all targets, so the best placement never reaches fewer targets than
 //! they do.
 
@@ -76,8 +77,8 @@ pub struct LayoutOptions {
     /// Placement evaluations on the target subsample for seeding and refinement (default 1200;
     /// 40 % seeding, 60 % Nelder–Mead). At least 20.
     pub evaluations: usize,
-    /// Evaluations of the final Nelder–Mead polish of the best candidate on all targets
-    /// (default 60; 0 skips it). Only used when there are more targets than
+    /// Evaluations of the final Nelder–Mead polish on all targets, for each of the best
+    /// [`LayoutOptions::keep`] distinct candidates (default 60; 0 skips it). Only used when there are more targets than
     /// [`LayoutOptions::sample_targets`].
     pub polish_evaluations: usize,
     /// How many targets the seeding and refinement stages look at (default 64): half evenly
