@@ -31,6 +31,7 @@ pub mod catalog;
 pub mod configuration;
 pub mod error;
 pub mod fixture;
+pub mod layout;
 pub mod opw;
 pub mod placement;
 pub mod reach;
@@ -52,6 +53,9 @@ pub use configuration::{
     configuration, pick_solution,
 };
 pub use error::KinematicsError;
+pub use layout::{
+    BaseMounting, LayoutError, LayoutOptions, Placement, evaluate_placement, search_layout,
+};
 pub use opw::OpwSolver;
 pub use reach::{
     JointMargin, Mounting, Offer, ReachConfig, ReachPolicy, Reachability, Unreachable, check_reach,
