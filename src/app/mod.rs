@@ -26,6 +26,7 @@ pub mod error;
 mod exports;
 mod feedback;
 mod imports;
+mod layout;
 mod offer;
 mod programs;
 pub mod reach;

@@ -641,3 +641,55 @@ pub struct ReachabilityDto {
     pub manipulability: Option<f64>,
     pub limiting_joint: Option<JointMarginDto>,
 }
+
+/// A layout search: where to stand an arm so that it reaches a program's waypoints. The
+/// targets are one of `program_id` (its routines' waypoints), `cell_id` (every program of the
+/// cell) or `targets` (poses in the work frame, mm).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlacementSearch {
+    pub program_id: Option<i64>,
+    pub cell_id: Option<i64>,
+    pub targets: Option<Vec<PoseValues>>,
+    /// `floor` (default) or `ceiling`.
+    #[serde(default)]
+    pub mounting: crate::kinematics::BaseMounting,
+    /// TCP in the flange frame; default: the cell's tool when the targets are stored, else
+    /// the flange.
+    pub tool: Option<PoseValues>,
+    /// How many distinct placements to return, best first (1–10, default 3).
+    #[schema(minimum = 1, maximum = 10)]
+    pub keep: Option<usize>,
+    /// Seed of the search's random stage (the same request gives the same answer).
+    pub seed: Option<u64>,
+    /// Search effort: placement evaluations (100–20000, default 1200).
+    #[schema(minimum = 100, maximum = 20000)]
+    pub evaluations: Option<usize>,
+}
+
+/// One robot base placement and how well the arm reaches the targets from it.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct PlacementDto {
+    /// Robot base frame in the work frame, mm.
+    pub base: PoseValues,
+    pub reached: usize,
+    pub total: usize,
+    /// Places (from 0) in the target list of the targets not reached.
+    pub unreached: Vec<usize>,
+    /// The stored waypoints not reached, when the targets are stored waypoints.
+    pub unreached_waypoints: Option<Vec<i64>>,
+    /// Smallest distance to a joint limit over the reached targets (degrees).
+    pub min_joint_margin_deg: Option<f64>,
+    /// Smallest Jacobian singular value over the reached targets (the singularity margin).
+    pub min_sigma: Option<f64>,
+    /// Reached count plus a margin term in [0, 1): higher is better.
+    pub score: f64,
+}
+
+/// The placements found, best first.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct Placements {
+    pub robot: String,
+    pub targets: usize,
+    pub placements: Vec<PlacementDto>,
+}

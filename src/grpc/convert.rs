@@ -7,13 +7,14 @@ use tonic::Status;
 use super::pb;
 use crate::app::resources::*;
 use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
+use crate::app::resources::{PlacementSearch, Placements};
 use crate::app::robots::{RobotInfo, RobotSource, RobotUpload};
 use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
 use crate::engine::Profile;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::export::ExportSettings;
-use crate::kinematics::{ReachPolicy, SolverKind};
+use crate::kinematics::{BaseMounting, ReachPolicy, SolverKind};
 use crate::replay::metrics::Scores;
 use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 use crate::replay::report::{MethodMetrics, OracleSection, Report};
@@ -1058,6 +1059,56 @@ impl From<pb::UploadRobotRequest> for RobotUpload {
             maker: r.maker,
             product: r.product,
             payload_kg: r.payload_kg,
+        }
+    }
+}
+
+// ---- layout -------------------------------------------------------------------------------------
+
+/// The request's search (its robot name is taken apart by the caller). No `targets` means the
+/// targets are stored (`program_id` or `cell_id`).
+pub fn placement_search(r: pb::SearchPlacementsRequest) -> In<PlacementSearch> {
+    let mounting = match r.mounting.as_str() {
+        "" | "floor" => BaseMounting::Floor,
+        "ceiling" => BaseMounting::Ceiling,
+        other => {
+            return Err(Status::invalid_argument(format!(
+                "unknown mounting {other:?} (floor or ceiling)"
+            )));
+        }
+    };
+    let small = |v: Option<u32>, what: &str| v.map(|v| usize_from(u64::from(v), what)).transpose();
+    Ok(PlacementSearch {
+        program_id: r.program_id,
+        cell_id: r.cell_id,
+        targets: (!r.targets.is_empty()).then(|| r.targets.into_iter().map(Into::into).collect()),
+        mounting,
+        tool: r.tool.map(Into::into),
+        keep: small(r.keep, "keep")?,
+        seed: r.seed,
+        evaluations: small(r.evaluations, "evaluations")?,
+    })
+}
+
+impl From<Placements> for pb::Placements {
+    fn from(p: Placements) -> pb::Placements {
+        pb::Placements {
+            robot: p.robot,
+            targets: p.targets as u64,
+            placements: p
+                .placements
+                .into_iter()
+                .map(|p| pb::Placement {
+                    base: Some(p.base.into()),
+                    reached: p.reached as u64,
+                    total: p.total as u64,
+                    unreached: p.unreached.into_iter().map(|i| i as u64).collect(),
+                    unreached_waypoints: p.unreached_waypoints.unwrap_or_default(),
+                    min_joint_margin_deg: p.min_joint_margin_deg,
+                    min_sigma: p.min_sigma,
+                    score: p.score,
+                })
+                .collect(),
         }
     }
 }

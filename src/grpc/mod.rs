@@ -341,6 +341,16 @@ impl Nextpose for Service {
         reply(self.app.upload_robot(r.into_inner().into()).await)
     }
 
+    async fn search_placements(
+        &self,
+        r: Request<pb::SearchPlacementsRequest>,
+    ) -> Reply<pb::Placements> {
+        let r = r.into_inner();
+        let robot = r.robot.clone();
+        let search = convert::placement_search(r)?;
+        reply(self.app.search_placements(&robot, search).await)
+    }
+
     async fn delete_robot(
         &self,
         r: Request<pb::DeleteRobotRequest>,

@@ -12,12 +12,14 @@ use utoipa_axum::routes;
 use super::error::extract::{Json, Path};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
+use crate::app::resources::{PlacementSearch, Placements};
 use crate::app::robots::{RobotInfo, RobotSource, RobotUpload};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(list_robots, upload_robot))
         .routes(routes!(get_robot, delete_robot))
+        .routes(routes!(search_placements))
 }
 
 /// One joint: limits (rad) and velocity limit (rad/s).
@@ -142,4 +144,25 @@ async fn delete_robot(
 ) -> Result<StatusCode, ApiError> {
     app.delete_robot(&name).await?;
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// Search robot base placements that reach a program's waypoints (or a cell's, or given
+/// poses), with margins from joint limits and singularities: best first.
+#[utoipa::path(post, path = "/v1/robots/{name}/placements", tag = "robots",
+    params(("name" = String, Path, description = "Robot model name")),
+    request_body = PlacementSearch,
+    responses(
+        (status = 200, description = "The placements found, best first", body = Placements),
+        (status = 400, description = "Malformed JSON", body = ErrorBody),
+        (status = 404, description = "No such robot, program or cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Not exactly one source of targets, no targets, a bad pose or option", body = ErrorBody),
+    ))]
+async fn search_placements(
+    State(app): State<Arc<App>>,
+    Path(name): Path<String>,
+    Json(body): Json<PlacementSearch>,
+) -> Result<axum::Json<Placements>, ApiError> {
+    Ok(axum::Json(app.search_placements(&name, body).await?))
 }

@@ -52,7 +52,8 @@ use super::{MM_PER_M, Mounting, ReachConfig, Robot, Unreachable, check_reach, wr
 use crate::engine::{Pose, PoseValues};
 
 /// How the robot base is mounted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+// The schema derive describes the wire form for the API's description; it does no I/O.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum BaseMounting {
     /// On the floor: base z along the work frame's z (up).

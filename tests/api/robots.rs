@@ -293,3 +293,161 @@ async fn the_library_is_listed_with_reach_and_payload() {
         );
     }
 }
+
+/// A layout search for a program the cell's arm cannot reach from where it stands: the best
+/// placement reaches every waypoint, and a cell whose base is put there reaches them all when
+/// they are taught; the same search through gRPC gives the same placements; bad requests are
+/// refused with what is wrong.
+#[tokio::test]
+async fn a_placement_found_for_a_program_reaches_it_when_the_base_is_put_there() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("far").await;
+    let program = app.create_program(cell, "seams").await;
+    let seam = u_seam([1500.0, 800.0, 300.0], 0.4);
+    let routine = app.create_routine(program).await;
+    for p in &seam {
+        let t = app.append(routine, p).await;
+        assert_eq!(
+            t["waypoint"]["reachable"], false,
+            "the arm at the origin: {t}"
+        );
+    }
+    app.finish(routine).await;
+
+    let body = json!({"program_id": program, "keep": 2});
+    let found = app
+        .post_ok("/v1/robots/abb_irb140/placements", &body, StatusCode::OK)
+        .await;
+    assert_eq!(found["targets"], seam.len());
+    let best = &found["placements"][0];
+    assert_eq!(best["reached"], seam.len(), "{found}");
+    assert_eq!(best["unreached_waypoints"], json!([]));
+    assert!(best["min_joint_margin_deg"].as_f64().expect("margin") > 0.0);
+    let scores: Vec<f64> = found["placements"]
+        .as_array()
+        .expect("placements")
+        .iter()
+        .map(|p| p["score"].as_f64().expect("score"))
+        .collect();
+    assert!(scores.windows(2).all(|w| w[0] >= w[1]), "{scores:?}");
+
+    // Stand the arm there: every waypoint of the program is reachable.
+    let placed = app
+        .create_cell_with("placed", json!({"base": best["base"]}))
+        .await;
+    let copy = app.create_program(placed, "seams").await;
+    let routine = app.create_routine(copy).await;
+    for p in &seam {
+        let t = app.append(routine, p).await;
+        assert_eq!(t["waypoint"]["reachable"], true, "placed there: {t}");
+    }
+
+    // Given poses instead of a program: the same search.
+    let by_poses = app
+        .post_ok(
+            "/v1/robots/abb_irb140/placements",
+            &json!({"targets": seam, "keep": 2}),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(by_poses["placements"][0]["reached"], seam.len());
+    assert_eq!(
+        by_poses["placements"][0]["unreached_waypoints"],
+        Value::Null
+    );
+
+    // gRPC: the same placements for the same request.
+    let mut c = NextposeClient::connect(app.base.clone())
+        .await
+        .expect("connect");
+    let g = c
+        .search_placements(pb::SearchPlacementsRequest {
+            robot: "abb_irb140".into(),
+            program_id: Some(program),
+            keep: Some(2),
+            ..Default::default()
+        })
+        .await
+        .expect("search")
+        .into_inner();
+    assert_eq!(
+        g.placements.len(),
+        found["placements"].as_array().expect("p").len()
+    );
+    let gb = g.placements[0].base.expect("base");
+    assert!((gb.x - best["base"]["x"].as_f64().expect("x")).abs() < 1e-9);
+    assert_eq!(g.placements[0].reached, seam.len() as u64);
+    let bad = c
+        .search_placements(pb::SearchPlacementsRequest {
+            robot: "abb_irb140".into(),
+            program_id: Some(program),
+            mounting: "wall".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(bad.code(), Code::InvalidArgument);
+
+    let refused: Vec<(&str, Value, StatusCode, &str)> = vec![
+        (
+            "abb_irb140",
+            json!({}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "exactly one",
+        ),
+        (
+            "abb_irb140",
+            json!({"program_id": program, "cell_id": cell}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "exactly one",
+        ),
+        (
+            "abb_irb140",
+            json!({"targets": []}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no waypoints",
+        ),
+        (
+            "abb_irb140",
+            json!({"program_id": program, "keep": 0}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "keep",
+        ),
+        (
+            "abb_irb140",
+            json!({"program_id": program, "evaluations": 5}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "evaluations",
+        ),
+        (
+            "abb_irb140",
+            json!({"targets": [{"x": 0, "y": 0, "z": 0, "qw": 0, "qx": 0, "qy": 0, "qz": 0}]}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "quaternion",
+        ),
+        (
+            "abb_irb140",
+            json!({"program_id": 999_999}),
+            StatusCode::NOT_FOUND,
+            "program",
+        ),
+        (
+            "nope",
+            json!({"program_id": program}),
+            StatusCode::NOT_FOUND,
+            "robot",
+        ),
+    ];
+    for (robot, body, status, says) in refused {
+        let r = app
+            .post(&format!("/v1/robots/{robot}/placements"), &body)
+            .await;
+        assert_eq!(r.status(), status, "{body}");
+        let e: Value = r.json().await.expect("error body");
+        let message = e["error"]["message"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string();
+        assert!(message.contains(says), "{body}: {e}");
+    }
+}
