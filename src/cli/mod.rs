@@ -7,6 +7,7 @@
 //! - `import` ([`import`]): offline program files into a cell of a running server.
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
 //! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
+//! - `layout` ([`layout`]): robot base placements for program files.
 //! - `openapi`: the REST API's description.
 //!
 //! Engine settings ([`engine_args`]) start from a named profile; each flag overrides one
@@ -17,6 +18,7 @@ mod engine_args;
 mod export;
 mod import;
 mod lab;
+mod layout;
 mod replay;
 mod serve;
 mod simulate;
@@ -33,6 +35,7 @@ pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
 pub use export::ExportArgs;
 pub use import::ImportArgs;
 pub use lab::LabArgs;
+pub use layout::{LayoutArgs, MountingArg};
 pub use replay::{ReplayArgs, SweepArgs};
 pub use serve::ServeArgs;
 pub use simulate::{HistoryArg, OperatorArg, ReachPolicyArg, SimulateArgs, TransportArg};
@@ -65,6 +68,8 @@ pub enum Command {
     /// Simulated operators teach corpus programs against the service; print the
     /// programming-time table (the shape of the seed's Table 4.1).
     Simulate(SimulateArgs),
+    /// Search robot base placements that reach the waypoints of program files (locally).
+    Layout(LayoutArgs),
     /// Write the seed's online lab (4 tasks, 3 users, 44 programs, joystick error) as corpus
     /// JSON files, for `simulate --history repository`.
     Lab(LabArgs),
@@ -85,6 +90,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Export(args) => export::run_export(args),
         Command::Simulate(args) => simulate::run_simulate(&args),
         Command::Lab(args) => lab::run_lab(&args),
+        Command::Layout(args) => layout::run_layout(&args),
         Command::Openapi => {
             let yaml = crate::http::openapi()
                 .to_yaml()
