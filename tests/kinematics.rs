@@ -9,26 +9,17 @@ use nextpose::kinematics::{
     Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
     pose_to_metres,
 };
+mod common;
+
+use common::{random_joints, robot};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-
-fn robot(name: &str) -> Robot {
-    load_robot(&bundled_robots_dir(), name).expect("bundled robot loads")
-}
 
 fn assert_position_mm(pose: &Pose, expected: [f64; 3]) {
     let p = pose.position();
     for (i, e) in expected.iter().enumerate() {
         assert!((p[i] - e).abs() < 1e-9, "axis {i}: {} vs {e}", p[i]);
     }
-}
-
-fn random_joints(robot: &Robot, rng: &mut StdRng) -> Joints {
-    let mut q = [0.0; DOF];
-    for (v, j) in q.iter_mut().zip(robot.joints()) {
-        *v = rng.random_range(j.lower..=j.upper);
-    }
-    q
 }
 
 #[test]
@@ -147,66 +138,6 @@ fn analytic_models_equal_the_urdf_chain() {
         }
         assert!(worst < 1e-12, "{name}: {worst:e}");
     }
-}
-
-/// Every solution reproduces the pose within 1e-6 mm / 1e-9 rad and lies within limits, and
-/// the generating joints are among the solutions.
-fn round_trip(name: &str, seed: u64, n: usize) {
-    let r = robot(name);
-    let mut rng = StdRng::seed_from_u64(seed);
-    let (mut total, mut max_solutions, mut worst_mm, mut worst_rad) =
-        (0usize, 0usize, 0.0f64, 0.0f64);
-    for _ in 0..n {
-        let q = random_joints(&r, &mut rng);
-        let target = r.fk(&q);
-        let solutions = r.ik(&target);
-        assert!(!solutions.is_empty(), "{name}: no solution for {q:?}");
-        total += solutions.len();
-        max_solutions = max_solutions.max(solutions.len());
-        let mut nearest = f64::INFINITY;
-        for s in &solutions {
-            assert!(s.iter().all(|v| v.is_finite()));
-            assert!(r.within_limits(s), "{name}: {s:?} outside limits");
-            let got = r.fk(s);
-            let mm = got.distance_to(&target);
-            let rad = got.angle_to(&target);
-            worst_mm = worst_mm.max(mm);
-            worst_rad = worst_rad.max(rad);
-            assert!(
-                mm <= 1e-6 && rad <= 1e-9,
-                "{name}: {s:?} misses by {mm:e} mm, {rad:e} rad"
-            );
-            let d = s
-                .iter()
-                .zip(&q)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            nearest = nearest.min(d);
-        }
-        assert!(
-            nearest < 1e-6,
-            "{name}: generating {q:?} not among {solutions:?}"
-        );
-    }
-    eprintln!(
-        "{name}: {n} poses, {:.1} solutions on average (max {max_solutions}), worst {worst_mm:.1e} mm / {worst_rad:.1e} rad",
-        total as f64 / n as f64
-    );
-}
-
-#[test]
-fn ik_round_trip_irb140() {
-    round_trip("abb_irb140", 1, 10_000);
-}
-
-#[test]
-fn ik_round_trip_kr16() {
-    round_trip("kuka_kr16_2", 2, 10_000);
-}
-
-#[test]
-fn ik_round_trip_ur5e() {
-    round_trip("ur5e", 3, 10_000);
 }
 
 #[test]

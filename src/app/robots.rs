@@ -169,10 +169,6 @@ impl Robots {
         self.read().values().map(Entry::info).collect()
     }
 
-    pub fn models(&self) -> Vec<RobotModel> {
-        self.read().values().map(|e| e.robot.model()).collect()
-    }
-
     /// The robot a cell names, or a 422 listing the known ones.
     pub fn require(&self, name: &str) -> Result<Arc<Robot>> {
         let map = self.read();
