@@ -5,7 +5,7 @@ use super::error::AppError;
 use super::reach::CellArm;
 use super::resources::ModelInfo;
 use super::robots::Robots;
-use super::settings::CellSettings;
+use super::settings::{CellSettings, parse_settings};
 use crate::engine::{Pose, Teacher};
 use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
 
@@ -43,11 +43,6 @@ pub(crate) fn stored_joints(w: &WaypointRow) -> Result<Option<Vec<f64>>, AppErro
         .map(serde_json::from_str)
         .transpose()
         .map_err(|e| AppError::Internal(format!("stored joints of waypoint {}: {e}", w.id)))
-}
-
-pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
-    serde_json::from_str(&cell.settings)
-        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
 }
 
 impl CellModel {

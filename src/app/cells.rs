@@ -1,8 +1,9 @@
 //! Cells: create, list, read, statistics, and rebuilding a cell's model from the database.
 
-use super::cell_model::{CellModel, parse_settings};
+use super::cell_model::CellModel;
 use super::error::AppError;
 use super::resources::*;
+use super::settings::parse_settings;
 use super::{App, Result, check_name};
 use crate::storage::CellRow;
 

@@ -287,7 +287,7 @@ impl App {
             let json = match patch.settings {
                 None => None,
                 Some(change) => {
-                    let current = super::cell_model::parse_settings(&row)?;
+                    let current = super::settings::parse_settings(&row)?;
                     let settings = change.over(current.as_input()).resolve()?;
                     app.robots.require(&settings.robot)?;
                     Some(

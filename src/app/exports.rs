@@ -6,11 +6,12 @@
 
 use std::str::FromStr;
 
-use super::cell_model::{parse_settings, stored_joints, stored_pose};
+use super::cell_model::{stored_joints, stored_pose};
 use super::error::AppError;
 use super::reach::CellArm;
 use super::registry::blocking;
 use super::resources::*;
+use super::settings::parse_settings;
 use super::{App, Result};
 use crate::export::{self, ExportProgram, ExportRoutine, ExportWaypoint, Format, Motion};
 use crate::kinematics::{self, Joints};

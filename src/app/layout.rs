@@ -2,9 +2,10 @@
 //! cell's, or given) waypoints, by [`crate::kinematics::layout::search_layout`] on a blocking
 //! thread.
 
-use super::cell_model::{parse_settings, stored_pose};
+use super::cell_model::stored_pose;
 use super::error::AppError;
 use super::resources::{PlacementDto, PlacementSearch, Placements};
+use super::settings::parse_settings;
 use super::{App, Result};
 use crate::engine::{Pose, PoseValues};
 use crate::kinematics::layout::{LayoutOptions, Placement, search_layout};

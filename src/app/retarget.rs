@@ -7,11 +7,12 @@
 
 use nalgebra::Isometry3;
 
-use super::cell_model::{parse_settings, stored_pose};
+use super::cell_model::stored_pose;
 use super::error::AppError;
 use super::reach::CellArm;
 use super::resources::*;
 use super::rows::{pose_columns, program, routine, waypoint};
+use super::settings::parse_settings;
 use super::{App, Result, check_name};
 use crate::kinematics::Joints;
 use crate::kinematics::fixture::{fixture_move, moved_pose};

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::Mutex as AsyncMutex;
 use utoipa::ToSchema;
 
-use super::cell_model::parse_settings;
 use super::error::AppError;
+use super::settings::parse_settings;
 use super::{App, Result, check_name};
 use crate::kinematics::catalog::{computed_reach_mm, load_catalog};
 use crate::kinematics::{self, KinematicsError, Robot, RobotModel};

@@ -11,6 +11,7 @@ use crate::engine::noise::Noise;
 use crate::engine::{EngineConfig, Pose, Profile};
 use crate::export::ExportSettings;
 use crate::kinematics::ReachPolicy;
+use crate::storage::CellRow;
 
 /// Robot model a new cell uses when none is named.
 pub const DEFAULT_ROBOT: &str = "abb_irb140";
@@ -346,4 +347,10 @@ mod tests {
             assert!(input.resolve().is_err());
         }
     }
+}
+
+/// The settings stored with a cell.
+pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
+    serde_json::from_str(&cell.settings)
+        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
 }
