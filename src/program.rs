@@ -18,7 +18,20 @@ pub struct Program {
     /// The repository the program comes from, when its file says so (corpus JSON
     /// `source.repo`, e.g. `owner/name`); `None` for other readers.
     pub repo: Option<String>,
+    /// The arm the program's sources name, when they name one (`kinematics::designation`):
+    /// read by the corpus loader from the program file, its repository's other files and the
+    /// corpus notes; `None` for other readers.
+    pub arm: Option<NamedArm>,
     pub routines: Vec<Routine>,
+}
+
+/// An arm model designation found in a program's sources, and where.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NamedArm {
+    /// In the maker's spelling (`IRB 6700-205/2.80`).
+    pub designation: String,
+    /// Where it was found (`raw/…/FOUNDRY.mod:10`, `MANIFEST.tsv notes`, `repository name`).
+    pub found_in: String,
 }
 
 /// One routine (RAPID `PROC`, KRL `DEF`, a FANUC TP file): waypoints in the order visited.
@@ -37,6 +50,7 @@ impl Program {
             source: PathBuf::from(format!("{name}.json")),
             language: "rapid".into(),
             repo: None,
+            arm: None,
             routines: routines
                 .into_iter()
                 .enumerate()

@@ -26,9 +26,11 @@ use crate::client::Client;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::engine::{Pose, Profile};
-use crate::kinematics::{ReachPolicy, bundled_robots_dir, load_robot};
+use crate::kinematics::placement::{PlacedArm, ProgramArm};
+use crate::kinematics::{ReachPolicy, bundled_robots_dir};
 use crate::replay::Program;
-use crate::sim::plan::{RoutineResult, placement, repository, waypoint_rng};
+pub use crate::sim::plan::placements;
+use crate::sim::plan::{RoutineResult, repository, waypoint_rng};
 use crate::sim::{
     Arm, Condition, ConditionSummary, Decision, Feedback, History, Operator, Plan, Suggestion,
     Time, summarise,
@@ -55,6 +57,8 @@ pub struct Session {
     pub seed: u64,
     pub warmup: Warmup,
     pub reach_policy: ReachPolicy,
+    /// The program's arm and where it stands ([`placements`]).
+    pub arm: PlacedArm,
     /// Unique within the server (cells are named).
     pub cell_name: String,
 }
@@ -220,9 +224,9 @@ pub async fn run_session(
     session: &Session,
 ) -> Result<SessionOutcome> {
     let program = &session.program;
-    let (robot_name, frames) = placement(program)?;
-    let robot = load_robot(&bundled_robots_dir(), &robot_name)?;
-    let setup = CellSetup::new(plan, session, &robot_name, &frames);
+    let robot = session.arm.robot.clone();
+    let frames = session.arm.cell;
+    let setup = CellSetup::new(plan, session, robot.name(), &frames);
     let cell = client
         .create_cell(&setup.create_cell(&session.cell_name))
         .await?;
@@ -366,16 +370,20 @@ pub async fn run_session(
 pub struct Experiment {
     pub plan: Plan,
     pub programs: Vec<String>,
+    /// Each program's arm, where it stands and how many taught waypoints it reaches, in
+    /// program order.
+    pub arms: Vec<ProgramArm>,
     pub summary: Vec<ConditionSummary>,
     pub routines: Vec<RoutineResult>,
 }
 
-/// The sessions of a plan, in a fixed order (condition, seed, program).
-pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
+/// The sessions of a plan, in a fixed order (condition, seed, program); `arms` are the
+/// programs' arms ([`placements`]), in program order.
+pub fn sessions(plan: &Plan, programs: &[Program], arms: &[PlacedArm], run: &str) -> Vec<Session> {
     let mut out = Vec::new();
     for c in &plan.conditions {
         for &seed in &plan.seeds {
-            for (i, p) in programs.iter().enumerate() {
+            for (i, (p, arm)) in programs.iter().zip(arms).enumerate() {
                 let warmup = match plan.history {
                     History::None => Warmup::None,
                     History::Repository | History::RepositoryOnline => {
@@ -403,6 +411,7 @@ pub fn sessions(plan: &Plan, programs: &[Program], run: &str) -> Vec<Session> {
                     seed,
                     warmup,
                     reach_policy: plan.reach_policy,
+                    arm: arm.clone(),
                     cell_name: format!("sim {run} {} seed {seed} program {i}", c.key),
                 });
             }
@@ -429,7 +438,14 @@ pub async fn run_experiment(
             .map(|d| d.as_nanos())
             .unwrap_or(0)
     );
-    let all = sessions(plan, programs, &run);
+    // The layout searches are CPU work: off the async workers.
+    let arms = {
+        let programs = programs.to_vec();
+        tokio::task::spawn_blocking(move || placements(&programs))
+            .await
+            .context("the placement search panicked")??
+    };
+    let all = sessions(plan, programs, &arms, &run);
     let total = all.len();
     let plan_arc = Arc::new(plan.clone());
     let mut queue = all.into_iter().enumerate();
@@ -462,6 +478,7 @@ pub async fn run_experiment(
     Ok(Experiment {
         plan: plan.clone(),
         programs: programs.iter().map(|p| p.name.clone()).collect(),
+        arms: arms.into_iter().map(|a| a.arm).collect(),
         summary,
         routines,
     })

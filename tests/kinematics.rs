@@ -456,6 +456,7 @@ fn malformed_urdf_gives_typed_errors() {
 #[test]
 fn replay_report_gains_reachability_figures() {
     use nextpose::engine::EngineConfig;
+    use nextpose::kinematics::placement::{HeuristicSetup, ReachSetup};
     use nextpose::replay::baselines::RepeatLast;
     use nextpose::replay::report::RunConfig;
     use nextpose::replay::{Method, Program, Routine, replay_all};
@@ -479,20 +480,22 @@ fn replay_report_gains_reachability_figures() {
         source: "square.json".into(),
         language: language.into(),
         repo: None,
+        arm: None,
         routines: vec![Routine {
             name: "main".into(),
             waypoints: waypoints.clone(),
         }],
     };
     let mut methods: Vec<Box<dyn Method>> = vec![Box::new(RepeatLast::new())];
-    let report = replay_all(
-        &[program("rapid"), program("fanuc")],
-        &mut methods,
-        RunConfig::new("default", EngineConfig::default(), 1.0),
-    )
-    .expect("the bundled arm loads");
+    // Before the library: an IRB 140 for RAPID programs, at the median heuristic.
+    let mut config = RunConfig::new("default", EngineConfig::default(), 1.0);
+    config.reachability = Some(ReachSetup::Heuristic(HeuristicSetup::default()));
+    let report = replay_all(&[program("rapid"), program("fanuc")], &mut methods, config)
+        .expect("the bundled arm loads");
     let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["config"]["reachability"]["placement"], "heuristic");
     assert_eq!(json["config"]["reachability"]["robot"], "abb_irb140");
+    assert_eq!(json["programs"][0]["arm"]["robot"], "abb_irb140");
     let rapid = &json["programs"][0]["methods"]["repeat_last"];
     // Guesses with n ≥ 2: after points 2, 3, 4 (in reach) and 5 (moves on to 0,−100: in reach).
     assert_eq!(rapid["reachable_pct"], 100.0);
@@ -501,8 +504,33 @@ fn replay_report_gains_reachability_figures() {
     // No arm stands for FANUC programs here.
     let fanuc = &json["programs"][1]["methods"]["repeat_last"];
     assert!(fanuc["reachable_pct"].is_null() && fanuc["taught_reachable_pct"].is_null());
+    assert!(json["programs"][1]["arm"].is_null());
     // Existing keys are untouched.
     assert!(rapid["offered_pct"].is_number() && rapid["us_per_waypoint"].is_number());
+
+    // The default: each program gets the smallest arm of its maker that reaches all of it,
+    // where the layout search stands it, so the outlier is in reach too.
+    let report = replay_all(
+        &[program("rapid"), program("fanuc")],
+        &mut methods,
+        RunConfig::new("default", EngineConfig::default(), 1.0),
+    )
+    .expect("the library loads");
+    let json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["config"]["reachability"]["placement"], "fitted");
+    for (p, maker) in [(0, "abb_"), (1, "fanuc_")] {
+        let arm = &json["programs"][p]["arm"];
+        assert!(arm["robot"].as_str().unwrap().starts_with(maker), "{arm}");
+        assert_eq!(arm["chosen"], "fitted", "{arm}");
+        assert_eq!(
+            (arm["reached"].clone(), arm["waypoints"].clone()),
+            (6.into(), 6.into())
+        );
+        let m = &json["programs"][p]["methods"]["repeat_last"];
+        assert_eq!(m["taught_reachable_pct"], 100.0);
+    }
+    // The IRB 140 and IRB 1200 are too small for a 2 m span: a larger arm was needed.
+    assert_ne!(json["programs"][0]["arm"]["robot"], "abb_irb140");
 }
 
 #[test]

@@ -14,7 +14,7 @@ use nextpose::replay::load_paths;
 use nextpose::sim::lab::{self, LAB_REPO, LabConfig, Task, mean_spacing_mm};
 use nextpose::sim::plan::repository;
 use nextpose::sim::{History, JogLimits, OperatorModel, Plan, table_4_1_conditions};
-use nextpose::simulate::{LocalServer, Warmup, run_experiment, sessions};
+use nextpose::simulate::{LocalServer, Warmup, placements, run_experiment, sessions};
 
 const SEED: u64 = 3;
 
@@ -161,6 +161,11 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
             assert!(a.distance_to(b) < 1e-9 && a.angle_to(b) < 1e-9);
         }
         assert_eq!(l.waypoint_count(), g.waypoint_count());
+        // The file names the seed's arm, so the simulation stands an IRB 140 for it.
+        assert_eq!(
+            l.arm.as_ref().map(|a| a.designation.as_str()),
+            Some("IRB 140")
+        );
     }
 
     // `source.repo` names the repository: one for the lab, although the file names
@@ -179,11 +184,13 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
     assert_eq!(by_name.len(), loaded.len());
 
     // So `--history repository` gives program k the k programs before it.
+    let arms = placements(&loaded).expect("an arm for every lab program");
+    assert!(arms.iter().all(|a| a.arm.robot == "abb_irb140"));
     let exact = Plan {
         history: History::Repository,
         ..plan(2)
     };
-    for (k, s) in sessions(&exact, &loaded, "t").iter().enumerate() {
+    for (k, s) in sessions(&exact, &loaded, &arms, "t").iter().enumerate() {
         let warm = match &s.warmup {
             Warmup::None => 0,
             Warmup::Programs(p) => {
@@ -201,7 +208,7 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
         history: History::RepositoryOnline,
         ..plan(2)
     };
-    let all = sessions(&online, &loaded, "t");
+    let all = sessions(&online, &loaded, &arms, "t");
     let history = |s: &nextpose::simulate::Session| match &s.warmup {
         Warmup::Programs(p) => p.clone(),
         _ => Vec::new(),

@@ -3,19 +3,22 @@
 //! reachability, feedback, stats and rebuild, over REST and over gRPC. Times are simulated, never measured; nothing
 //! sleeps. The corpus is read from `../shared/corpus` and never written.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use nextpose::app::resources::{
     CreateProgram, CreateRoutine, NewWaypointDto, PredictQuery, PredictionDto,
 };
 use nextpose::client::{Client, RestClient, Transport};
 use nextpose::kinematics::ReachPolicy;
+use nextpose::kinematics::placement::{HeuristicSetup, PlacedArm, ReachCheck, ReachSetup};
 use nextpose::replay::{Program, load_paths};
 use nextpose::sim::{
     Condition, Decision, History, JogLimits, OperatorModel, Plan, RoutineResult,
     table_4_1_conditions,
 };
-use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, run_session};
+use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, placements, run_session};
 
 const TEMPLATE: &str =
     "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20023_Module.mod.json";
@@ -58,9 +61,23 @@ fn condition(key: &str) -> Condition {
         .expect("condition")
 }
 
+/// The program's arm and placement, searched once per program (`simulate::placements`).
+fn arm(program: &Program) -> PlacedArm {
+    static ARMS: Mutex<BTreeMap<String, PlacedArm>> = Mutex::new(BTreeMap::new());
+    let mut arms = ARMS.lock().unwrap_or_else(|e| e.into_inner());
+    arms.entry(program.name.clone())
+        .or_insert_with(|| {
+            placements(std::slice::from_ref(program))
+                .expect("a placement")
+                .remove(0)
+        })
+        .clone()
+}
+
 /// A session in its own, uniquely named cell.
 fn session(plan: &Plan, key: &str, program: &Program, seed: u64, cell: &str) -> Session {
     Session {
+        arm: arm(program),
         condition: condition(key),
         program: program.clone(),
         program_index: 0,
@@ -124,6 +141,12 @@ async fn three_corpus_programs_end_to_end() {
             "{name}: an offered suggestion is not reachable"
         );
         assert_eq!(total(&o, |r| r.offered_unreachable), 0);
+        // The arm fitted to the program (`simulate::placements`) reaches all of it.
+        assert_eq!(
+            total(&o, |r| r.unreachable_waypoints),
+            0,
+            "{name}: taught waypoints out of the fitted arm's reach"
+        );
 
         // The cell's statistics count exactly what the operator did.
         let f = &o.stats.feedback;
@@ -188,14 +211,23 @@ async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
     let withhold = plan(precise(), ReachPolicy::Withhold);
     let flag = plan(precise(), ReachPolicy::Flag);
     let key = "seed_phi05_h2";
-    let w = run_session(
-        &driver,
-        &withhold,
-        &session(&withhold, key, &p, 1, "withhold"),
-    )
-    .await
-    .expect("session");
-    let f = run_session(&driver, &flag, &session(&flag, key, &p, 1, "flag"))
+    // An arm too small for the program, so that some suggestions fall out of its reach: the
+    // IRB 140 at the median heuristic (what the simulation used before the arm library), which
+    // reaches 71 of the 82 taught waypoints.
+    let small = ReachCheck::new(ReachSetup::Heuristic(HeuristicSetup::default()))
+        .expect("the IRB 140 loads")
+        .place("rapid", None, &p.poses().copied().collect::<Vec<_>>())
+        .expect("placed")
+        .expect("an arm for RAPID");
+    assert!(small.arm.reached < small.arm.waypoints);
+    let in_small = |plan: &Plan, cell: &str| Session {
+        arm: small.clone(),
+        ..session(plan, key, &p, 1, cell)
+    };
+    let w = run_session(&driver, &withhold, &in_small(&withhold, "withhold"))
+        .await
+        .expect("session");
+    let f = run_session(&driver, &flag, &in_small(&flag, "flag"))
         .await
         .expect("session");
     // A flagged suggestion is rejected after a look, so the operator teaches the same poses

@@ -5,7 +5,7 @@ use super::error::AppError;
 use super::reach::CellArm;
 use super::resources::ModelInfo;
 use super::robots::Robots;
-use super::settings::{CellSettings, parse_settings};
+use super::settings::parse_settings;
 use crate::engine::{Pose, Teacher};
 use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
 

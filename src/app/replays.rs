@@ -67,6 +67,7 @@ impl App {
                         source: std::path::PathBuf::from(format!("cell {cell}")),
                         language: "stored".into(),
                         repo: None,
+                        arm: None,
                         routines,
                     });
                 }

@@ -283,6 +283,12 @@ impl CellSettings {
     }
 }
 
+/// The settings stored with a cell.
+pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
+    serde_json::from_str(&cell.settings)
+        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -347,10 +353,4 @@ mod tests {
             assert!(input.resolve().is_err());
         }
     }
-}
-
-/// The settings stored with a cell.
-pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
-    serde_json::from_str(&cell.settings)
-        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
 }

@@ -107,6 +107,7 @@ fn corpus_json(p: &LabProgram, config: &LabConfig, seed: u64) -> Value {
             "repo": LAB_REPO,
             "path": format!("user{}/{}", p.user + 1, p.program.source.display()),
             "generator": format!("nextpose lab --seed {seed} --programs {}", config.programs),
+            "arm": p.program.arm.as_ref().map(|a| a.designation.clone()),
         },
         "language": p.program.language,
         "units": { "position": "mm", "orientation": "quaternion wxyz" },

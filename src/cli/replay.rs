@@ -79,6 +79,9 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
     let mut out = std::io::stdout().lock();
     if !args.quiet {
         writeln!(out, "{}", report.program_table("engine"))?;
+        if let Some(arms) = report.arm_table() {
+            writeln!(out, "{arms}")?;
+        }
     }
     write!(out, "{}", report.totals_table())?;
     if let Some(path) = &args.json {

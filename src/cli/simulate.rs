@@ -191,6 +191,8 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
             .map(|r| r.offered_unreachable)
             .sum::<usize>()
     ));
+    text.push_str("\nThe arms, where they stand, and the taught waypoints they reach:\n\n");
+    text.push_str(&sim::arms_markdown(&experiment.programs, &experiment.arms));
     text.push_str("\nMean time per routine by component:\n\n");
     text.push_str(&sim::breakdown_markdown(&experiment.summary));
     print!("{text}");

@@ -267,6 +267,7 @@ impl ImportedProgram {
             source: PathBuf::from(&self.source),
             language: self.language.as_str().to_string(),
             repo: None,
+            arm: None,
             routines: self
                 .routines
                 .iter()

@@ -29,6 +29,7 @@
 
 pub mod catalog;
 pub mod configuration;
+pub mod designation;
 pub mod error;
 pub mod fixture;
 pub mod layout;

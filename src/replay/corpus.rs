@@ -22,6 +22,8 @@ use thiserror::Error;
 
 use crate::engine::{Pose, PoseError};
 use crate::import::{self, ImportError, Language};
+use crate::kinematics::designation::find_designation;
+use crate::program::NamedArm;
 
 pub use crate::program::{Program, Routine};
 
@@ -71,7 +73,8 @@ pub enum CorpusError {
 /// The corpus file format, as far as replay needs it (unknown fields are ignored).
 #[derive(Deserialize)]
 struct RawProgram {
-    /// Where the program came from; only `repo` is read (the simulation groups programs by it).
+    /// Where the program came from: the simulation groups programs by `repo`, and the paths
+    /// lead to the raw files that may name the arm ([`named_arm`]).
     #[serde(default)]
     source: Option<RawSource>,
     language: String,
@@ -82,6 +85,15 @@ struct RawProgram {
 struct RawSource {
     #[serde(default)]
     repo: Option<String>,
+    /// The program's file in its repository, and the KRL `.dat` beside it.
+    #[serde(default)]
+    path: Option<String>,
+    #[serde(default)]
+    dat_path: Option<String>,
+    /// The arm the program was written for, as its maker designates it (`IRB 140`), when the
+    /// file says so (`nextpose lab` writes it).
+    #[serde(default)]
+    arm: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -198,7 +210,18 @@ pub fn load_raw(paths: &[PathBuf]) -> Result<Vec<Program>, CorpusError> {
         .iter()
         .map(|(n, t)| (n.as_str(), t.as_str()))
         .collect();
-    Ok(import::parse_files(&refs)?.to_replay())
+    let mut programs = import::parse_files(&refs)?.to_replay();
+    // One upload is one cell's files: an arm named in any of them is the arm of all.
+    let arm = files.iter().zip(paths).find_map(|((_, text), path)| {
+        find_designation(text).map(|f| NamedArm {
+            designation: f.designation,
+            found_in: format!("{}:{}", path.display(), f.line),
+        })
+    });
+    for p in &mut programs {
+        p.arm = arm.clone();
+    }
+    Ok(programs)
 }
 
 /// The name a raw file has in its upload: its path, with `__` in the file name read as `/`.
@@ -229,7 +252,88 @@ pub fn load_file(path: &Path) -> Result<Program, CorpusError> {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_program(path, &text)
+    let mut program = parse_program(path, &text)?;
+    program.arm = named_arm(path, &text);
+    Ok(program)
+}
+
+/// The arm a corpus program's sources name ([`find_designation`]), looked for in the shared
+/// corpus's layout (`<corpus>/json/<file>.json`, `<corpus>/raw/<owner>__<repo>/…`,
+/// `<corpus>/MANIFEST.tsv`), in this order: the file's own `source.arm`, the program's raw files (`source.path`,
+/// `source.dat_path`), the corpus notes on its repository (its own row first), the repository's
+/// other raw files (a repository of the corpus is one cell's programs), the repository's name.
+/// `None` when none names one, or the file is not laid out so.
+pub fn named_arm(path: &Path, text: &str) -> Option<NamedArm> {
+    #[derive(Deserialize)]
+    struct Header {
+        source: Option<RawSource>,
+    }
+    let source = serde_json::from_str::<Header>(text).ok()?.source?;
+    if let Some(designation) = source.arm.as_deref().and_then(find_designation) {
+        return Some(NamedArm {
+            designation: designation.designation,
+            found_in: "source.arm".into(),
+        });
+    }
+    let repo = source.repo.filter(|r| !r.is_empty())?;
+    let json_dir = path.parent()?;
+    let corpus = json_dir.parent().filter(|_| json_dir.ends_with("json"))?;
+    let raw_dir = corpus.join("raw").join(repo.replace('/', "__"));
+    let found = |text: &str, place: &dyn Fn(usize) -> String| {
+        find_designation(text).map(|f| NamedArm {
+            designation: f.designation,
+            found_in: place(f.line),
+        })
+    };
+    let in_file = |file: &Path| {
+        let bytes = fs::read(file).ok()?;
+        let shown = file
+            .strip_prefix(corpus)
+            .unwrap_or(file)
+            .display()
+            .to_string();
+        found(&import::decode_text(&bytes), &|line| {
+            format!("{shown}:{line}")
+        })
+    };
+    let own: Vec<PathBuf> = [&source.path, &source.dat_path]
+        .into_iter()
+        .flatten()
+        .map(|p| raw_dir.join(p.replace('/', "__")))
+        .collect();
+    if let Some(arm) = own.iter().find_map(|f| in_file(f)) {
+        return Some(arm);
+    }
+    if let Ok(manifest) = fs::read_to_string(corpus.join("MANIFEST.tsv")) {
+        // repo, path, commit, licence, language, targets, routines, notes
+        let rows: Vec<Vec<&str>> = manifest
+            .lines()
+            .map(|l| l.split('\t').collect::<Vec<_>>())
+            .filter(|r| r.len() >= 8 && r[0] == repo)
+            .collect();
+        let own_row = |r: &&Vec<&str>| source.path.as_deref() == Some(r[1]);
+        let ordered = rows
+            .iter()
+            .filter(own_row)
+            .chain(rows.iter().filter(|r| !own_row(r)));
+        for r in ordered {
+            let place = |_| format!("MANIFEST.tsv notes on {}", r[1]);
+            if let Some(arm) = found(r[7], &place) {
+                return Some(arm);
+            }
+        }
+    }
+    let mut others: Vec<PathBuf> = fs::read_dir(&raw_dir)
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file() && !own.contains(p))
+        .collect();
+    others.sort();
+    others
+        .iter()
+        .find_map(|f| in_file(f))
+        .or_else(|| found(&repo, &|_| "repository name".to_string()))
 }
 
 /// Parses the text of a corpus file; `path` names the program and appears in errors.
@@ -267,6 +371,7 @@ pub fn parse_program(path: &Path, text: &str) -> Result<Program, CorpusError> {
         source: path.to_path_buf(),
         language: raw.language,
         repo: raw.source.and_then(|s| s.repo),
+        arm: None,
         routines,
     })
 }

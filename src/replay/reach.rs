@@ -7,8 +7,7 @@
 //! figure.
 
 use crate::engine::Pose;
-use crate::kinematics::Mounting;
-use crate::kinematics::placement::ReachCheck;
+use crate::kinematics::placement::{PlacedArm, ReachCheck};
 
 use super::method::{Guess, Method, ModelSummary, Proposal};
 
@@ -45,14 +44,15 @@ impl<'a> ReachRecorder<'a> {
         }
     }
 
-    /// Reachability of everything seen, for the arm in `cell`.
-    pub fn check(&self, check: &ReachCheck, cell: &Mounting) -> Vec<ReachRecord> {
+    /// Reachability of everything seen, for the program's arm where it stands.
+    pub fn check(&self, check: &ReachCheck, arm: &PlacedArm) -> Vec<ReachRecord> {
+        let reaches = |p: &Pose| check.reaches(&arm.robot, &arm.cell, p);
         self.seen
             .iter()
             .map(|s| ReachRecord {
                 predecessors: s.predecessors,
-                guess: s.guess.map(|g| check.reachable(cell, &g)),
-                taught: s.taught.map(|t| check.reachable(cell, &t)),
+                guess: s.guess.as_ref().map(reaches),
+                taught: s.taught.as_ref().map(reaches),
             })
             .collect()
     }

@@ -54,7 +54,9 @@ use super::metrics::{
 use super::oracle::{ORACLES, is_oracle, oracle_records};
 use super::reach::{ReachRecord, ReachRecorder, reach_figures};
 use super::reliability::Calibration;
-use crate::kinematics::placement::{ReachCheck, ReachSetup};
+use crate::engine::Pose;
+use crate::kinematics::LayoutError;
+use crate::kinematics::placement::{PlacedArm, ProgramArm, ReachCheck, ReachSetup};
 
 /// The settings a report was produced with.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -109,6 +111,9 @@ impl Serialize for MethodMetrics {
 pub struct ProgramReport {
     pub program: String,
     pub language: String,
+    /// The arm of the reach figures, where it stands and how many taught waypoints it reaches
+    /// (`null`: no arm for the program, or reach not checked).
+    pub arm: Option<ProgramArm>,
     pub methods: MethodMetrics,
 }
 
@@ -158,8 +163,17 @@ impl Serialize for Calibrations {
 pub enum ScoreboardError {
     #[error("invalid engine settings: {0}")]
     Settings(#[from] ConfigError),
-    #[error("loading the arm of the reachability figures: {0}")]
+    #[error(transparent)]
+    Arm(#[from] ReachError),
+}
+
+/// Why the reach figures of a replay could not be computed.
+#[derive(Debug, Error)]
+pub enum ReachError {
+    #[error("loading the arms of the reachability figures: {0}")]
     Arm(#[from] KinematicsError),
+    #[error("placing the arm of program {0}: {1}")]
+    Layout(String, LayoutError),
 }
 
 /// The scoreboard of `nextpose replay` and of the service's replay (`POST /v1/replays`, the
@@ -223,32 +237,37 @@ pub fn replay_all(
     programs: &[Program],
     methods: &mut [Box<dyn Method>],
     config: RunConfig,
-) -> Result<Report, crate::kinematics::KinematicsError> {
+) -> Result<Report, ReachError> {
     let check = config
         .reachability
         .clone()
         .map(ReachCheck::new)
         .transpose()?;
-    let cells: Vec<_> = programs
-        .iter()
-        .map(|p| {
-            check
-                .as_ref()
-                .and_then(|c| c.cell_for(&p.language, p.poses()))
-        })
-        .collect();
+    let arms: Vec<Option<PlacedArm>> = match &check {
+        None => vec![None; programs.len()],
+        Some(check) => programs
+            .iter()
+            .map(|p| {
+                let poses: Vec<Pose> = p.poses().copied().collect();
+                let named = p.arm.as_ref().map(|a| a.designation.as_str());
+                check
+                    .place(&p.language, named, &poses)
+                    .map_err(|e| ReachError::Layout(p.name.clone(), e))
+            })
+            .collect::<Result<_, _>>()?,
+    };
     // records[m][p], reach[m][p]: method m on program p.
     let (records, reach): (Vec<Vec<ProgramRecord>>, Vec<Vec<Vec<ReachRecord>>>) = methods
         .iter_mut()
         .map(|m| {
             programs
                 .iter()
-                .zip(&cells)
-                .map(|(p, cell)| match (&check, cell) {
-                    (Some(check), Some(cell)) => {
+                .zip(&arms)
+                .map(|(p, arm)| match (&check, arm) {
+                    (Some(check), Some(arm)) => {
                         let mut recorder = ReachRecorder::new(m.as_mut());
                         let record = replay_program(p, &mut recorder);
-                        let reach = recorder.check(check, cell);
+                        let reach = recorder.check(check, arm);
                         (record, reach)
                     }
                     _ => (replay_program(p, m.as_mut()), Vec::new()),
@@ -287,6 +306,7 @@ pub fn replay_all(
         .map(|(p, program)| ProgramReport {
             program: program.name.clone(),
             language: program.language.clone(),
+            arm: arms[p].as_ref().map(|a| a.arm.clone()),
             methods: MethodMetrics(
                 names
                     .iter()
@@ -392,6 +412,59 @@ impl Report {
             ]);
         }
         format!("{method}, per program:\n{}", t.render())
+    }
+
+    /// The arm of each program's reach figures: which, how it was chosen, where it stands and
+    /// how many taught waypoints it reaches (`None` when reach was not checked).
+    pub fn arm_table(&self) -> Option<String> {
+        let setup = self.config.reachability.as_ref()?;
+        let mut t = Table::new(&[
+            "program",
+            "arm",
+            "chosen",
+            "named",
+            "base x, y, z mm",
+            "waypoints",
+            "reached",
+            "unreached %",
+        ]);
+        let (mut total, mut reached) = (0, 0);
+        for p in &self.programs {
+            let Some(a) = &p.arm else {
+                t.row(vec![p.program.clone(), "-".into()]);
+                continue;
+            };
+            total += a.waypoints;
+            reached += a.reached;
+            let [x, y, z] = [a.base.x, a.base.y, a.base.z];
+            t.row(vec![
+                p.program.clone(),
+                a.model.clone().unwrap_or_else(|| a.robot.clone()),
+                serde_json::to_value(a.chosen)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default(),
+                a.named.clone().unwrap_or_else(|| "-".into()),
+                format!("{x:.0}, {y:.0}, {z:.0}"),
+                a.waypoints.to_string(),
+                a.reached.to_string(),
+                fmt(pct(a.waypoints - a.reached, a.waypoints), 1),
+            ]);
+        }
+        let how = match setup {
+            ReachSetup::Fitted(_) => {
+                "the program's own arm, else the smallest library arm for its language that \
+                 reaches every taught waypoint (else the one reaching most), placed by the layout \
+                 search"
+            }
+            ReachSetup::Heuristic(_) => "one arm, placed by the median heuristic",
+        };
+        Some(format!(
+            "Arms of the reach figures ({how}); {} of {total} taught waypoints out of reach ({} %):\n{}",
+            total - reached,
+            fmt(pct(total - reached, total), 1),
+            t.render()
+        ))
     }
 
     /// Totals, one row per method.
@@ -550,6 +623,10 @@ impl Table {
     }
 }
 
+fn pct(part: usize, whole: usize) -> Option<f64> {
+    (whole > 0).then(|| 100.0 * part as f64 / whole as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -569,12 +646,13 @@ mod tests {
     /// An arm that does not load is an error, not a report without reach figures.
     #[test]
     fn a_missing_arm_is_an_error() {
+        use crate::kinematics::placement::HeuristicSetup;
         let config = crate::engine::EngineConfig::default();
         let mut run = RunConfig::new("default", config, 0.0);
-        run.reachability = Some(ReachSetup {
+        run.reachability = Some(ReachSetup::Heuristic(HeuristicSetup {
             robot: "no_such_robot".into(),
-            ..ReachSetup::default()
-        });
+            ..HeuristicSetup::default()
+        }));
         let mut methods: Vec<Box<dyn Method>> = Vec::new();
         assert!(replay_all(&[], &mut methods, run.clone()).is_err());
         run.reachability = Some(ReachSetup::default());

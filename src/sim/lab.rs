@@ -57,7 +57,7 @@ use rand_chacha::ChaCha8Rng;
 use super::arm::JogLimits;
 use super::operator::{OperatorModel, SEED_SPACING_MM, normal};
 use crate::engine::Pose;
-use crate::program::{Program, Routine};
+use crate::program::{NamedArm, Program, Routine};
 
 /// The repository every lab program names (`source.repo`): one for the whole lab, so that
 /// `--history repository` gives each program the earlier programs of all users, the other
@@ -67,6 +67,8 @@ pub const LAB_REPO: &str = "seed-lab/online-study";
 /// The language the programs are recorded in: the seed's lab arm was an ABB IRB 140 (§4.5,
 /// Figure 4.18), and `rapid` makes the simulation stand the bundled IRB 140 at them.
 pub const LAB_LANGUAGE: &str = "rapid";
+/// The arm of the seed's lab, which its programs name.
+pub const LAB_ARM: &str = "IRB 140";
 
 /// Height of a weld's approach and retract points above the seam's first and last points, mm.
 pub const WELD_CLEARANCE_MM: f64 = 375.0;
@@ -344,6 +346,10 @@ pub fn generate(config: &LabConfig, seed: u64) -> Vec<LabProgram> {
                     name,
                     language: LAB_LANGUAGE.into(),
                     repo: Some(LAB_REPO.into()),
+                    arm: Some(NamedArm {
+                        designation: LAB_ARM.into(),
+                        found_in: "the seed's online lab (§4.5)".into(),
+                    }),
                     routines: vec![Routine {
                         name: task.name().into(),
                         waypoints,
@@ -411,14 +417,20 @@ mod tests {
 
     #[test]
     fn the_seeds_irb_140_reaches_nearly_every_waypoint_as_the_simulation_places_it() {
-        use crate::kinematics::placement::{ReachCheck, ReachSetup};
+        use crate::kinematics::placement::{ArmChoice, ReachCheck, ReachSetup};
         let check = ReachCheck::new(ReachSetup::default()).unwrap();
         let lab = generate(&LabConfig::default(), 1);
         let mut missed = Vec::new();
         for p in &lab {
-            let cell = check.cell_for(LAB_LANGUAGE, p.program.poses()).unwrap();
-            for (i, w) in p.program.poses().enumerate() {
-                if !check.reachable(&cell, w) {
+            let poses: Vec<Pose> = p.program.poses().copied().collect();
+            let named = p.program.arm.as_ref().map(|a| a.designation.as_str());
+            let arm = check.place(LAB_LANGUAGE, named, &poses).unwrap().unwrap();
+            assert_eq!(
+                (arm.arm.robot.as_str(), arm.arm.chosen),
+                ("abb_irb140", ArmChoice::Named)
+            );
+            for (i, w) in poses.iter().enumerate() {
+                if !check.reaches(&arm.robot, &arm.cell, w) {
                     missed.push(format!("{} #{i}", p.program.name));
                 }
             }

@@ -31,7 +31,9 @@ pub use arm::{Arm, Jog, JogLimits};
 pub use operator::{Decision, Feedback, Operator, OperatorModel, Step, Suggestion, Time};
 pub use plan::{Condition, History, Plan, RoutineResult, table_4_1_conditions};
 pub use stats::{RankSum, StatsError, rank_sum};
-pub use table::{ConditionSummary, breakdown_markdown, change_chart_svg, markdown, summarise};
+pub use table::{
+    ConditionSummary, arms_markdown, breakdown_markdown, change_chart_svg, markdown, summarise,
+};
 
 /// Why a simulation cannot be set up or summarised.
 #[derive(Debug, Error)]
@@ -40,8 +42,10 @@ pub enum SimError {
     Kinematics(#[from] crate::kinematics::KinematicsError),
     #[error(transparent)]
     Stats(#[from] StatsError),
-    #[error("program {0:?} has no waypoints to place the arm by")]
+    #[error("program {0:?} has no waypoints, or no library arm for its language, to place")]
     NoPlacement(String),
+    #[error("placing the arm of program {0:?}: {1}")]
+    Layout(String, crate::kinematics::LayoutError),
     #[error("the plan has no conditions")]
     EmptyPlan,
     #[error("no results for condition {0:?}")]

@@ -11,8 +11,8 @@ use super::operator::{OperatorModel, Time};
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::engine::{Pose, Profile};
-use crate::kinematics::placement::{ReachCheck, ReachSetup};
-use crate::kinematics::{Mounting, ReachPolicy};
+use crate::kinematics::ReachPolicy;
+use crate::kinematics::placement::{PlacedArm, ReachCheck, ReachSetup};
 use crate::program::Program;
 
 /// One row of the seed's Table 4.1.
@@ -216,26 +216,23 @@ impl Plan {
     }
 }
 
-/// Where the arm stands for a program: a bundled robot for the program's language, placed
-/// like the replay's reachability check (the program's median waypoint at a comfortable
-/// point in front of the base; `kinematics::placement`).
-pub fn placement(program: &Program) -> Result<(String, Mounting), SimError> {
-    let (robot, centroid) = match program.language.as_str() {
-        // The replay's IRB 140 setup for ABB programs.
-        "rapid" => ("abb_irb140", [450.0, 0.0, 350.0]),
-        // A KR 16 (1.6 m reach) for KUKA programs, and as a stand-in for FANUC arms of its
-        // class (the bundled FANUC models are not used here yet).
-        _ => ("kuka_kr16_2", [900.0, 0.0, 500.0]),
-    };
-    let check = ReachCheck::new(ReachSetup {
-        robot: robot.to_string(),
-        languages: vec![program.language.clone()],
-        centroid_in_base_mm: centroid,
-    })?;
-    let cell = check
-        .cell_for(&program.language, program.poses())
-        .ok_or_else(|| SimError::NoPlacement(program.name.clone()))?;
-    Ok((robot.to_string(), cell))
+/// The arm of each program and where it stands, as the replay's reach figures choose them
+/// ([`ReachSetup::default`]: the arm the program names, else the smallest library arm for its
+/// language that reaches every taught waypoint, placed by the layout search). Searched once
+/// per program; every session of the program uses it.
+pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
+    let check = ReachCheck::new(ReachSetup::default())?;
+    programs
+        .iter()
+        .map(|p| {
+            let poses: Vec<Pose> = p.poses().copied().collect();
+            let named = p.arm.as_ref().map(|a| a.designation.as_str());
+            check
+                .place(&p.language, named, &poses)
+                .map_err(|e| SimError::Layout(p.name.clone(), e))?
+                .ok_or_else(|| SimError::NoPlacement(p.name.clone()))
+        })
+        .collect()
 }
 
 /// The repository a corpus program comes from: its file's `source.repo` when it names one,
@@ -373,6 +370,7 @@ mod tests {
             source: "x".into(),
             language: "rapid".into(),
             repo: None,
+            arm: None,
             routines: vec![],
         };
         assert_eq!(repository(&p), "zwj12__AddInPackages");

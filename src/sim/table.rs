@@ -10,6 +10,7 @@ use super::SimError;
 use super::operator::Time;
 use super::plan::{Condition, RoutineResult, SeedFigure};
 use super::stats::{RankSum, mean, rank_sum, std_dev};
+use crate::kinematics::placement::ProgramArm;
 
 /// One row of the table.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -118,6 +119,42 @@ fn p_value(p: f64) -> String {
 }
 
 /// The table as Markdown: our figures, then the seed's for the same row.
+/// The programs' arms as a Markdown table: which arm, how it was chosen, where it stands and how
+/// many of the taught waypoints it reaches, with the total.
+pub fn arms_markdown(programs: &[String], arms: &[ProgramArm]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| program | arm | chosen | named in the sources | base x, y, z mm | waypoints | reached | out of reach |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|--:|--:|--:|");
+    let (mut total, mut reached) = (0, 0);
+    for (name, a) in programs.iter().zip(arms) {
+        total += a.waypoints;
+        reached += a.reached;
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {:?} | {} | {:.0}, {:.0}, {:.0} | {} | {} | {:.1} % |",
+            a.model.as_deref().unwrap_or(&a.robot),
+            a.chosen,
+            a.named.as_deref().unwrap_or("-"),
+            a.base.x,
+            a.base.y,
+            a.base.z,
+            a.waypoints,
+            a.reached,
+            100.0 * (a.waypoints - a.reached) as f64 / a.waypoints.max(1) as f64,
+        );
+    }
+    let _ = writeln!(
+        s,
+        "| all | | | | | {total} | {reached} | {:.1} % |",
+        100.0 * (total - reached) as f64 / total.max(1) as f64
+    );
+    s
+}
+
+/// The conditions' summaries as a Markdown table.
 pub fn markdown(rows: &[ConditionSummary]) -> String {
     let mut s = String::new();
     let _ = writeln!(
