@@ -266,3 +266,45 @@ fn the_arms_the_corpus_names_are_found() {
         .collect::<Vec<_>>();
     assert!(others.is_empty(), "{others:?}");
 }
+
+/// `nextpose layout`: the search over program files, locally; best first, as JSON; an arm
+/// that is not in the library is refused by name.
+#[test]
+fn the_layout_command_places_an_arm_for_program_files() {
+    let file = corpus_dir()
+        .join("json")
+        .join("panin-anan__abb_SAMXL_Grinding_RAPID__RAPID__TASK1__PROGMOD__Training.mod.json");
+    let run = |robot: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+            .arg("layout")
+            .arg(&file)
+            .args(["--robot", robot, "--keep", "2", "--json"])
+            .output()
+            .expect("nextpose runs")
+    };
+    let out = run("abb_irb1200");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let placements: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let placements = placements.as_array().expect("a list of placements");
+    assert!((1..=2).contains(&placements.len()));
+    // The replay's fitted IRB 1200 reaches all 20 waypoints of this program (first test).
+    assert_eq!(placements[0]["total"], 20);
+    assert_eq!(placements[0]["reached"], 20);
+    let scores: Vec<f64> = placements
+        .iter()
+        .map(|p| p["score"].as_f64().unwrap())
+        .collect();
+    assert!(
+        scores.windows(2).all(|w| w[0] >= w[1]),
+        "best first: {scores:?}"
+    );
+
+    let out = run("abb_irb9999");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("abb_irb9999"), "{stderr}");
+}

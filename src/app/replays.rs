@@ -45,7 +45,7 @@ impl App {
                     .iter()
                     .map(|f| (f.name.as_str(), f.content.as_str()))
                     .collect();
-                crate::import::parse_files(&files)?.to_replay()
+                crate::replay::corpus::import_upload(&files)?
             }
             (None, Some(cell)) => {
                 self.cell_row(cell).await?;

@@ -94,7 +94,7 @@ pub enum ArmChoice {
     /// The smallest library arm for the language that reaches every waypoint.
     Fitted,
     /// No library arm for the language reaches every waypoint: the one that reaches the most.
-    Largest,
+    Partial,
     /// [`ReachSetup::Heuristic`]'s arm.
     Heuristic,
 }
@@ -256,7 +256,7 @@ impl ReachCheck {
             let chosen = match (own.is_some(), all) {
                 (true, _) => ArmChoice::Named,
                 (false, true) => ArmChoice::Fitted,
-                (false, false) => ArmChoice::Largest,
+                (false, false) => ArmChoice::Partial,
             };
             let placed = PlacedArm {
                 arm: ProgramArm {

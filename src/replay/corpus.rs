@@ -210,12 +210,18 @@ pub fn load_raw(paths: &[PathBuf]) -> Result<Vec<Program>, CorpusError> {
         .iter()
         .map(|(n, t)| (n.as_str(), t.as_str()))
         .collect();
-    let mut programs = import::parse_files(&refs)?.to_replay();
-    // One upload is one cell's files: an arm named in any of them is the arm of all.
-    let arm = files.iter().zip(paths).find_map(|((_, text), path)| {
+    Ok(import_upload(&refs)?)
+}
+
+/// Imports the files `(name, text)` of one upload ([`import::parse_files`]) as replay programs.
+/// One upload is one cell's files: an arm designation in any of them (the first, in file order;
+/// [`find_designation`]) is the named arm of all its programs.
+pub fn import_upload(files: &[(&str, &str)]) -> Result<Vec<Program>, ImportError> {
+    let mut programs = import::parse_files(files)?.to_replay();
+    let arm = files.iter().find_map(|(name, text)| {
         find_designation(text).map(|f| NamedArm {
             designation: f.designation,
-            found_in: format!("{}:{}", path.display(), f.line),
+            found_in: format!("{name}:{}", f.line),
         })
     });
     for p in &mut programs {
@@ -496,5 +502,57 @@ mod tests {
         let err = load_paths(&[&a, &b]).unwrap_err();
         assert!(matches!(err, CorpusError::Import(_)), "{err}");
         assert!(err.to_string().contains("B.mod:2:"), "{err}");
+    }
+
+    #[test]
+    fn an_arm_named_in_any_file_of_an_upload_is_the_arm_of_its_programs() {
+        let a = "MODULE A\n PROC r()\n  MoveL p1, v1, z1, tool0;\n  MoveL Offs(p1,0,0,10), v1, z1, tool0;\n ENDPROC\nENDMODULE\n";
+        let b = "MODULE B\n ! cell: IRB 4600-60/2.05 on a riser\n CONST robtarget p1:=[[1,2,3],[1,0,0,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];\nENDMODULE\n";
+        let programs = import_upload(&[("A.mod", a), ("B.mod", b)]).unwrap();
+        assert_eq!(programs.len(), 1);
+        assert_eq!(
+            programs[0].arm,
+            Some(NamedArm {
+                designation: "IRB 4600-60/2.05".into(),
+                found_in: "B.mod:2".into(),
+            })
+        );
+        let unnamed = b.replace("IRB 4600-60/2.05", "the big arm");
+        let programs = import_upload(&[("A.mod", a), ("B.mod", &unnamed)]).unwrap();
+        assert_eq!(programs[0].arm, None);
+    }
+
+    /// In the corpus layout a JSON program's arm is looked for in its raw file, the MANIFEST
+    /// notes, the repository's other raw files and its name, in that order.
+    #[test]
+    fn the_corpus_layout_is_searched_for_the_named_arm() {
+        let dir = tempfile::tempdir().unwrap();
+        let json = dir.path().join("json");
+        let raw = dir.path().join("raw").join("o__r");
+        fs::create_dir_all(&json).unwrap();
+        fs::create_dir_all(&raw).unwrap();
+        let program = json.join("o__r__a__p.mod.json");
+        let text = ONE.replace(r#"{"repo": "r"}"#, r#"{"repo": "o/r", "path": "a/p.mod"}"#);
+        fs::write(&program, &text).unwrap();
+        assert_eq!(load_file(&program).unwrap().arm, None);
+        // Another file of the repository names it …
+        fs::write(raw.join("a__other.mod"), "! Robot Ser# 1600-123456\n").unwrap();
+        let arm = load_file(&program).unwrap().arm.unwrap();
+        assert_eq!(arm.designation, "IRB 1600");
+        assert_eq!(arm.found_in, "raw/o__r/a__other.mod:1");
+        // … the notes come first …
+        let manifest = "repo\tpath\tcommit\tlicense\tlanguage\tcartesian_targets\troutines\tnotes\n\
+                        o/r\ta/p.mod\tc\tunknown\trapid\t2\t1\twelding (IRB 2600)\n";
+        fs::write(dir.path().join("MANIFEST.tsv"), manifest).unwrap();
+        let arm = load_file(&program).unwrap().arm.unwrap();
+        assert_eq!(arm.designation, "IRB 2600");
+        assert_eq!(arm.found_in, "MANIFEST.tsv notes on a/p.mod");
+        // … and the program's own file before them.
+        fs::write(raw.join("a__p.mod"), "MODULE p\n! IRB 140\nENDMODULE\n").unwrap();
+        let arm = load_file(&program).unwrap().arm.unwrap();
+        assert_eq!(
+            (arm.designation.as_str(), arm.found_in.as_str()),
+            ("IRB 140", "raw/o__r/a__p.mod:2")
+        );
     }
 }
