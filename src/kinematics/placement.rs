@@ -158,10 +158,6 @@ impl ReachCheck {
         })
     }
 
-    pub fn setup(&self) -> &ReachSetup {
-        &self.setup
-    }
-
     /// The arm of a program in `language` taught at `poses`, naming the arm `named` (a
     /// designation, see [`super::designation`]) if it does, and where it stands; `None` when
     /// no arm of the setup is for that language and the program names none the library has, or
@@ -242,7 +238,7 @@ impl ReachCheck {
         // not searched while a larger candidate is left.
         let span = span_mm(poses);
         let last = candidates.len().saturating_sub(1);
-        let mut best: Option<(usize, PlacedArm)> = None;
+        let mut best: Option<PlacedArm> = None;
         for (i, (facts, robot)) in candidates.iter().enumerate() {
             let reach = facts.as_ref().map_or(f64::INFINITY, |f| f.reach_mm);
             if i < last && span > TOO_SMALL_SPAN_PER_REACH * reach {
@@ -271,14 +267,14 @@ impl ReachCheck {
                 robot: robot.clone(),
                 cell: Mounting::new(placement.base, Pose::identity()),
             };
-            if best.as_ref().is_none_or(|(_, b)| reached > b.arm.reached) {
-                best = Some((i, placed));
+            if best.as_ref().is_none_or(|b| reached > b.arm.reached) {
+                best = Some(placed);
             }
             if all {
                 break;
             }
         }
-        Ok(best.map(|(_, placed)| placed))
+        Ok(best)
     }
 
     /// Whether `robot` standing in `cell` reaches `target` (the replay's check).

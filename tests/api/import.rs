@@ -308,7 +308,8 @@ async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
         .iter()
         .map(|(n, c)| (n.as_str(), c.as_str()))
         .collect();
-    let programs = nextpose::import::parse_files(&texts).unwrap().to_replay();
+    // As `nextpose replay FILES` reads them (replay::corpus::load_raw).
+    let programs = nextpose::replay::corpus::import_upload(&texts).unwrap();
     let cli = nextpose::replay::report::scoreboard(
         &programs,
         "default",
