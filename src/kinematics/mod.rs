@@ -9,6 +9,10 @@
 //!   vector as RAPID `confdata`, KRL Status/Turn and FANUC `CONFIG`; the IK solution it names.
 //! - [`reach`]: reachability of a target in a cell (base and tool frames, limits, singularity).
 //! - [`units`]: the one conversion between the crate's millimetres and URDF metres.
+//! - [`catalog`]: the bundled arms' data sheets (`robots/catalog.json`) and computed reach.
+//! - [`designation`]: arm model designations in text (`IRB 6700-205/2.80`) and their library arm.
+//! - [`layout`]: the cell-layout search: robot bases that reach a program's waypoints.
+//! - [`placement`]: which arm stands where for a recorded program whose cell is not known.
 //!
 //! Both solvers derive their parameters from the URDF chain and are checked against its FK when
 //! the model is built, so a [`Robot`] is always self-consistent. The solvers return principal
