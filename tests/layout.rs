@@ -57,7 +57,13 @@ fn work_objects(program: &Program) -> BTreeSet<String> {
     let dir = corpus_dir()
         .join("raw")
         .join(source.repo.replace('/', "__"));
-    let prefix = source.path.replace('/', "__");
+    // The program's file with any extension (a KRL `.src` and its `.dat`), or the files of its
+    // folder (a FANUC program).
+    let flat = source.path.replace('/', "__");
+    let prefix = match Path::new(&source.path).extension() {
+        Some(ext) => format!("{}.", &flat[..flat.len() - ext.len() - 1]),
+        None => format!("{flat}__"),
+    };
     let files: Vec<(String, String)> = std::fs::read_dir(&dir)
         .expect("the raw files of the repository")
         .map(|e| e.expect("an entry").path())
@@ -189,11 +195,11 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
         reached_before += old.arm.reached;
         reached_after += a.reached;
         rows.push(format!(
-            "| {} | {} | {} | {:?} | {} | {} | {} | {:.1} % | {span:.0} | {} | {why} | {seconds:.2} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.1} % | {span:.0} | {} | {why} | {seconds:.2} |",
             program.name,
             named.unwrap_or("-"),
             a.model.as_deref().unwrap_or(&a.robot),
-            a.chosen,
+            a.chosen.name(),
             a.waypoints,
             old.arm.reached,
             a.reached,

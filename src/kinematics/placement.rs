@@ -99,6 +99,18 @@ pub enum ArmChoice {
     Heuristic,
 }
 
+impl ArmChoice {
+    /// The name in reports (as serialised: `named`, `fitted`, `partial`, `heuristic`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ArmChoice::Named => "named",
+            ArmChoice::Fitted => "fitted",
+            ArmChoice::Partial => "partial",
+            ArmChoice::Heuristic => "heuristic",
+        }
+    }
+}
+
 /// A program's arm and placement, and how many of its taught waypoints it reaches.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProgramArm {

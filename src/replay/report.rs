@@ -440,10 +440,7 @@ impl Report {
             t.row(vec![
                 p.program.clone(),
                 a.model.clone().unwrap_or_else(|| a.robot.clone()),
-                serde_json::to_value(a.chosen)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_default(),
+                a.chosen.name().to_string(),
                 a.named.clone().unwrap_or_else(|| "-".into()),
                 format!("{x:.0}, {y:.0}, {z:.0}"),
                 a.waypoints.to_string(),

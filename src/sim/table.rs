@@ -134,9 +134,9 @@ pub fn arms_markdown(programs: &[String], arms: &[ProgramArm]) -> String {
         reached += a.reached;
         let _ = writeln!(
             s,
-            "| {name} | {} | {:?} | {} | {:.0}, {:.0}, {:.0} | {} | {} | {:.1} % |",
+            "| {name} | {} | {} | {} | {:.0}, {:.0}, {:.0} | {} | {} | {:.1} % |",
             a.model.as_deref().unwrap_or(&a.robot),
-            a.chosen,
+            a.chosen.name(),
             a.named.as_deref().unwrap_or("-"),
             a.base.x,
             a.base.y,
