@@ -228,3 +228,88 @@ async fn exported_configuration_is_the_taught_joints_branch() {
     let missing = app.get("/v1/programs/999999/export?format=rapid").await;
     expect_error(missing, StatusCode::NOT_FOUND, "not_found").await;
 }
+
+/// Names and motion types taught through the API come back from every format: a valid name
+/// as taught, any other as the name a warning of the answer announces (`"from" renamed to`),
+/// and each waypoint's motion class as taught.
+#[tokio::test]
+async fn exported_names_and_motions_survive_through_the_api() {
+    use nextpose::export::Motion;
+    let app = spawn_app().await;
+    let cell = app.create_cell("named").await;
+    let program = app.create_program(cell, "Named").await;
+    let r = app.create_routine(program).await;
+    let taught = [
+        ("pHome", "joint", Motion::Joint),
+        ("pApproach", "joint", Motion::Joint),
+        ("pWeld10", "linear", Motion::Linear),
+        ("weld seam #2", "linear", Motion::Linear),
+        ("pRetract", "linear", Motion::Linear),
+    ];
+    for (k, (name, motion, _)) in taught.iter().enumerate() {
+        let pose = json!({ "x": 450.0 + 20.0 * k as f64, "y": 30.0 * k as f64, "z": 500.0,
+                           "qw": 0.0, "qx": 0.0, "qy": 1.0, "qz": 0.0 });
+        app.post_ok(
+            &format!("/v1/routines/{r}/waypoints"),
+            &json!({ "pose": pose, "name": name, "motion": motion }),
+            StatusCode::CREATED,
+        )
+        .await;
+    }
+    app.finish(r).await;
+    for format in Format::ALL {
+        let out = app
+            .get_ok(&format!(
+                "/v1/programs/{program}/export?format={}",
+                format.as_str()
+            ))
+            .await;
+        let files: Vec<(String, String)> = out["files"]
+            .as_array()
+            .expect("files")
+            .iter()
+            .map(|f| {
+                (
+                    f["file_name"].as_str().expect("name").to_string(),
+                    f["text"].as_str().expect("text").to_string(),
+                )
+            })
+            .collect();
+        let warnings: Vec<&str> = out["warnings"]
+            .as_array()
+            .expect("warnings")
+            .iter()
+            .map(|w| w.as_str().expect("warning"))
+            .collect();
+        let pairs: Vec<(&str, &str)> = files
+            .iter()
+            .map(|(n, t)| (n.as_str(), t.as_str()))
+            .collect();
+        let back = parse_files(&pairs).expect("the export parses");
+        let waypoints = &back.programs[0].routines[0].waypoints;
+        assert_eq!(waypoints.len(), taught.len(), "{format:?}");
+        for (k, ((name, _, motion), w)) in taught.iter().zip(waypoints).enumerate() {
+            let renamed = format!("waypoint {} {name:?} renamed {}", k + 1, w.name);
+            assert!(
+                w.name == *name || warnings.iter().any(|x| x.ends_with(&renamed)),
+                "{format:?}: {name} came back as {} and no warning says so: {warnings:?}",
+                w.name
+            );
+            assert_eq!(
+                Motion::of_instruction(&w.motion, w.role.is_some()),
+                *motion,
+                "{format:?}: {name} ({})",
+                w.motion
+            );
+        }
+        // The messy name is never written as is; RAPID and KRL keep the valid ones.
+        assert!(
+            waypoints.iter().all(|w| w.name != "weld seam #2"),
+            "{format:?}"
+        );
+        if format != Format::Fanuc {
+            let kept = waypoints.iter().filter(|w| w.name.starts_with('p')).count();
+            assert!(kept >= 4, "{format:?}: {waypoints:?}");
+        }
+    }
+}
