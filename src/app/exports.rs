@@ -8,7 +8,6 @@ use std::str::FromStr;
 
 use super::cell_model::{stored_joints, stored_pose};
 use super::error::AppError;
-use super::reach::CellArm;
 use super::registry::blocking;
 use super::resources::*;
 use super::settings::parse_settings;
@@ -22,10 +21,7 @@ impl App {
             Format::from_str(&query.format).map_err(|e| AppError::Invalid(e.to_string()))?;
         let p = self.program_row(id).await?;
         let settings = parse_settings(&self.cell_row(p.cell_id).await?)?;
-        let arm = match self.robots.get(&settings.robot) {
-            Some(robot) => Some(CellArm::new(robot, &settings)?),
-            None => None,
-        };
+        let arm = self.cell_arm(&settings)?;
         let mut routines = Vec::new();
         for r in self.store.routines(id).await? {
             let rows = self.store.waypoints(r.id).await?;

@@ -19,6 +19,7 @@
 //! imports, learning a model from the database) runs on blocking threads ([`blocking`]), so one
 //! cell's import does not stall other cells' requests.
 
+mod arm;
 mod cell_model;
 mod cells;
 mod editing;

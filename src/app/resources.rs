@@ -693,3 +693,74 @@ pub struct Placements {
     pub targets: usize,
     pub placements: Vec<PlacementDto>,
 }
+
+// ---- the arm, as a pendant draws and jogs it --------------------------------------------------
+
+/// `GET /v1/cells/{cell_id}/frames`: the joint vector to draw.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct FramesQuery {
+    /// Six joint values (rad), comma-separated (`0,0.3,-0.2,0,0.8,0`); left out: the arm's
+    /// ready position (flange pointing down in front of the base).
+    pub joints: Option<String>,
+}
+
+impl FramesQuery {
+    /// The joint values given, as numbers (the service checks that there are six).
+    pub fn values(&self) -> Result<Option<Vec<f64>>, super::AppError> {
+        let Some(text) = &self.joints else {
+            return Ok(None);
+        };
+        text.split(',')
+            .enumerate()
+            .map(|(i, v)| {
+                v.trim().parse::<f64>().map_err(|_| {
+                    super::AppError::Invalid(format!(
+                        "joints: value {} ({v:?}) is not a number",
+                        i + 1
+                    ))
+                })
+            })
+            .collect::<Result<Vec<f64>, _>>()
+            .map(Some)
+    }
+}
+
+/// One frame of the arm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct LinkFrame {
+    /// The robot base link's name, then each joint's.
+    pub name: String,
+    pub pose: PoseValues,
+}
+
+/// The cell's arm at a joint vector, every frame in the cell's work frame (mm): segments from
+/// each frame's origin to the next, then to `flange` and `tcp`, draw the arm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ArmFrames {
+    pub robot: String,
+    /// The joints drawn (rad).
+    pub joints: Vec<f64>,
+    /// The robot base in the work frame (the cell's `base` setting).
+    pub base: PoseValues,
+    /// The base, then each of the six joints' frames after its rotation.
+    pub links: Vec<LinkFrame>,
+    /// The flange (`tool0`).
+    pub flange: PoseValues,
+    /// The tool centre point: the flange with the cell's `tool` mounted.
+    pub tcp: PoseValues,
+}
+
+/// `POST /v1/cells/{cell_id}/reach`: can the arm put its TCP at `pose`, and with which
+/// joints (the solution nearest `near`, as a jog from where the arm is)?
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReachQuery {
+    /// TCP pose in the work frame.
+    pub pose: PoseValues,
+    /// Where the arm is (six joint values, rad); left out: the solution nearest the middle of
+    /// the joint ranges.
+    #[schema(min_items = 6, max_items = 6)]
+    pub near: Option<Vec<f64>>,
+}

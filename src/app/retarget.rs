@@ -74,13 +74,6 @@ impl App {
         Ok(out)
     }
 
-    fn cell_arm(&self, settings: &super::settings::CellSettings) -> Result<Option<CellArm>> {
-        self.robots
-            .get(&settings.robot)
-            .map(|robot| CellArm::new(robot, settings))
-            .transpose()
-    }
-
     async fn retargeted(
         &self,
         p: ProgramRow,

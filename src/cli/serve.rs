@@ -13,7 +13,7 @@ pub struct ServeArgs {
     /// Address to listen on.
     #[arg(long, env = "NEXTPOSE_ADDR", default_value = "127.0.0.1:8080")]
     pub addr: String,
-    /// Bearer token required on every route but /healthz (unset: no authentication).
+    /// Bearer token required on every route but /healthz and the pendant page (unset: no authentication).
     #[arg(long, env = "NEXTPOSE_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
     /// fsync every commit, so acknowledged writes survive a power loss too (slower). Without

@@ -381,6 +381,34 @@ impl From<ReachabilityDto> for pb::Reachability {
     }
 }
 
+impl From<ArmFrames> for pb::ArmFrames {
+    fn from(f: ArmFrames) -> pb::ArmFrames {
+        pb::ArmFrames {
+            robot: f.robot,
+            joints: f.joints,
+            base: Some(f.base.into()),
+            links: f
+                .links
+                .into_iter()
+                .map(|l| pb::LinkFrame {
+                    name: l.name,
+                    pose: Some(l.pose.into()),
+                })
+                .collect(),
+            flange: Some(f.flange.into()),
+            tcp: Some(f.tcp.into()),
+        }
+    }
+}
+
+/// A reach question: the pose is required; no `near` joints is none given.
+pub fn reach_query(r: pb::CheckReachRequest) -> In<ReachQuery> {
+    Ok(ReachQuery {
+        pose: required(r.pose, "pose")?.into(),
+        near: (!r.near.is_empty()).then_some(r.near),
+    })
+}
+
 impl From<PredictionDto> for pb::Prediction {
     fn from(p: PredictionDto) -> pb::Prediction {
         pb::Prediction {

@@ -351,6 +351,18 @@ impl Nextpose for Service {
         reply(self.app.search_placements(&robot, search).await)
     }
 
+    async fn get_arm_frames(&self, r: Request<pb::GetArmFramesRequest>) -> Reply<pb::ArmFrames> {
+        let r = r.into_inner();
+        let joints = (!r.joints.is_empty()).then_some(r.joints);
+        reply(self.app.arm_frames(r.cell_id, joints).await)
+    }
+
+    async fn check_reach(&self, r: Request<pb::CheckReachRequest>) -> Reply<pb::Reachability> {
+        let r = r.into_inner();
+        let cell_id = r.cell_id;
+        reply(self.app.reach(cell_id, convert::reach_query(r)?).await)
+    }
+
     async fn delete_robot(
         &self,
         r: Request<pb::DeleteRobotRequest>,

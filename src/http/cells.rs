@@ -7,10 +7,13 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::extract::{Id, Json, Path};
+use super::error::extract::{Id, Json, Path, Query};
 use super::error::{ApiError, ErrorBody};
 use crate::app::App;
-use crate::app::resources::{Cell, CellPatch, CellStats, CreateCell, ModelInfo};
+use crate::app::resources::{
+    ArmFrames, Cell, CellPatch, CellStats, CreateCell, FramesQuery, ModelInfo, ReachQuery,
+    ReachabilityDto,
+};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
@@ -18,6 +21,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         .routes(routes!(get_cell, edit_cell, delete_cell))
         .routes(routes!(cell_stats))
         .routes(routes!(rebuild_model))
+        .routes(routes!(arm_frames))
+        .routes(routes!(reach))
 }
 
 /// Create a work cell with its own model and settings.
@@ -132,4 +137,45 @@ async fn delete_cell(
 ) -> Result<StatusCode, ApiError> {
     app.delete_cell(cell_id).await?;
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// The frames of the cell's arm at a joint vector (its ready position when `joints` is left
+/// out), in the cell's work frame: what a pendant draws, so it does no kinematics of its own.
+#[utoipa::path(get, path = "/v1/cells/{cell_id}/frames", tag = "robots",
+    params(("cell_id" = i64, Path, description = "Cell id"), FramesQuery),
+    responses(
+        (status = 200, description = "The arm's frames", body = ArmFrames),
+        (status = 400, description = "Malformed id or query", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 409, description = "The cell's robot model is not installed", body = ErrorBody),
+        (status = 422, description = "Not six finite joint values", body = ErrorBody),
+    ))]
+async fn arm_frames(
+    State(app): State<Arc<App>>,
+    Path(Id(cell_id)): Path<Id>,
+    Query(q): Query<FramesQuery>,
+) -> Result<axum::Json<ArmFrames>, ApiError> {
+    Ok(axum::Json(app.arm_frames(cell_id, q.values()?).await?))
+}
+
+/// Whether the cell's arm reaches a TCP pose, and the joint solution nearest where the arm is
+/// (`near`): a jog step's target, checked before the arm moves.
+#[utoipa::path(post, path = "/v1/cells/{cell_id}/reach", tag = "robots",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    request_body = ReachQuery,
+    responses(
+        (status = 200, description = "The verdict and the solution chosen", body = ReachabilityDto),
+        (status = 400, description = "Malformed id or JSON", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 409, description = "The cell's robot model is not installed", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Invalid pose, joints or unknown fields", body = ErrorBody),
+    ))]
+async fn reach(
+    State(app): State<Arc<App>>,
+    Path(Id(cell_id)): Path<Id>,
+    Json(body): Json<ReachQuery>,
+) -> Result<axum::Json<ReachabilityDto>, ApiError> {
+    Ok(axum::Json(app.reach(cell_id, body).await?))
 }

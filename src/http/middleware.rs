@@ -14,14 +14,16 @@ use super::error::for_status;
 use crate::telemetry::Metrics;
 use crate::transport::auth::BearerToken;
 
-/// Requires `Authorization: Bearer <token>` on everything but `/healthz` (and CORS
-/// preflights, which the CORS layer answers before this runs).
+/// Requires `Authorization: Bearer <token>` on everything but `/healthz` and the pendant
+/// page's files (the page asks for the token and sends it on its API calls), and CORS
+/// preflights, which the CORS layer answers before this runs.
 pub async fn require_token(
     State(token): State<BearerToken>,
     request: Request,
     next: Next,
 ) -> Response {
-    if request.uri().path() == "/healthz" {
+    let path = request.uri().path();
+    if path == "/healthz" || super::pendant::is_page(path) {
         return next.run(request).await;
     }
     let given = request

@@ -10,6 +10,7 @@ mod cells;
 pub mod error;
 mod imports;
 pub(crate) mod middleware;
+pub mod pendant;
 mod programs;
 mod replays;
 mod robots;
@@ -88,12 +89,13 @@ pub fn openapi() -> OpenApiDoc {
     api().split_for_parts().1
 }
 
-/// The service's router with all its layers; with a `token`, every route but `/healthz`
-/// requires it.
+/// The service's router with all its layers; with a `token`, every route but `/healthz` and
+/// the pendant page's files requires it.
 pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerToken>) -> Router {
     let (routes, _) = api().split_for_parts();
     let request_id = crate::transport::request_id::REQUEST_ID;
     let mut routes = routes
+        .merge(pendant::router())
         .fallback(|| async { error::for_status(StatusCode::NOT_FOUND) })
         .layer(axum::middleware::from_fn_with_state(
             app.metrics().clone(),
@@ -107,7 +109,13 @@ pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerTok
     }
     let cors = CorsLayer::new()
         .allow_origin(Any)
-        .allow_methods([Method::GET, Method::POST, Method::DELETE, Method::OPTIONS])
+        .allow_methods([
+            Method::GET,
+            Method::POST,
+            Method::PATCH,
+            Method::DELETE,
+            Method::OPTIONS,
+        ])
         .allow_headers([
             header::CONTENT_TYPE,
             header::AUTHORIZATION,

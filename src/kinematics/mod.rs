@@ -64,6 +64,7 @@ pub use layout::{
 pub use opw::OpwSolver;
 pub use reach::{
     JointMargin, Mounting, Offer, ReachConfig, ReachPolicy, Reachability, Unreachable, check_reach,
+    ready_joints,
 };
 pub use units::{MM_PER_M, metres_to_pose, pose_to_metres};
 pub use ur::UrSolver;
@@ -238,6 +239,12 @@ impl Robot {
     /// Tip pose in the robot base frame, mm.
     pub fn fk(&self, q: &Joints) -> Pose {
         metres_to_pose(&self.chain.fk(q))
+    }
+
+    /// Each joint's frame after its rotation, in the robot base frame, mm (see
+    /// [`Chain::joint_frames`]); the last one carries the flange, [`Robot::fk`].
+    pub fn joint_frames(&self, q: &Joints) -> [Pose; DOF] {
+        self.chain.joint_frames(q).map(|f| metres_to_pose(&f))
     }
 
     /// Geometric Jacobian at the tip (metres, radians), from the URDF chain.

@@ -128,6 +128,35 @@ pub struct Reachability {
     pub unreachable: Option<Unreachable>,
 }
 
+/// A ready position of the arm: the joints that point the flange down in front of the base,
+/// about half its reach out and up, nearest the arm's zero position; where none of a few
+/// such poses is reachable away from limits and singularities, the middle of each joint's
+/// range.
+pub fn ready_joints(robot: &Robot) -> Joints {
+    let reach = super::catalog::computed_reach_mm(robot);
+    let zero = [0.0; DOF];
+    for (fx, fz) in [(0.5, 0.5), (0.5, 0.3), (0.4, 0.6), (0.6, 0.4), (0.3, 0.3)] {
+        let Ok(target) = Pose::new([fx * reach, 0.0, fz * reach], [0.0, 0.0, 1.0, 0.0]) else {
+            continue;
+        };
+        let r = check_reach(
+            robot,
+            &Mounting::default(),
+            &target,
+            Some(&zero),
+            &ReachConfig::default(),
+        );
+        if let (true, Some(q)) = (r.is_reachable(), r.chosen) {
+            return q;
+        }
+    }
+    let mut q = zero;
+    for (qi, j) in q.iter_mut().zip(robot.joints()) {
+        *qi = 0.5 * (j.lower + j.upper);
+    }
+    q
+}
+
 /// What to do with a prediction, given its reachability and the policy.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "action", rename_all = "snake_case")]

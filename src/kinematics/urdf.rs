@@ -258,6 +258,18 @@ impl Chain {
         t * self.tip_offset
     }
 
+    /// The frame of each joint after its rotation, in the root frame, metres: drawing a
+    /// segment from the root through these origins to [`Chain::fk`]'s tip draws the arm.
+    pub fn joint_frames(&self, q: &Joints) -> [Isometry3<f64>; DOF] {
+        let mut t = Isometry3::identity();
+        let mut out = [Isometry3::identity(); DOF];
+        for (i, &qi) in q.iter().enumerate() {
+            t = t * self.origins[i] * UnitQuaternion::from_axis_angle(&self.axes[i], qi);
+            out[i] = t;
+        }
+        out
+    }
+
     /// Each joint's axis (unit, root frame) and a point on it, plus the tip pose; metres.
     pub fn axes_at(&self, q: &Joints) -> ([JointAxis; DOF], Isometry3<f64>) {
         let mut t = Isometry3::identity();

@@ -1,6 +1,7 @@
 //! The service, tested through its real HTTP interface: a real server on a loopback port with
 //! a temporary SQLite file per test (see `helpers::spawn_app`).
 
+mod arm;
 mod cancellation;
 mod durability;
 mod editing;

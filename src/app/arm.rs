@@ -1,0 +1,100 @@
+//! The cell's arm on its own, as a pendant draws and jogs it: the frames of its links at a
+//! joint vector (so the page does no kinematics), its ready position, and the joint solution
+//! that puts its TCP at a pose from where it is.
+
+use std::sync::Arc;
+
+use super::error::AppError;
+use super::reach::CellArm;
+use super::resources::{ArmFrames, LinkFrame, ReachQuery, ReachabilityDto};
+use super::settings::{CellSettings, parse_settings};
+use super::{App, Result};
+use crate::engine::PoseValues;
+use crate::kinematics::{self, DOF, Joints, Robot};
+
+/// Six finite joint values, from a list a client sent (`what` names it in the error).
+fn joints_of(what: &str, values: &[f64]) -> Result<Joints> {
+    let q: Joints = values.try_into().map_err(|_| {
+        AppError::Invalid(format!(
+            "{what} must hold {DOF} joint values, not {}",
+            values.len()
+        ))
+    })?;
+    if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+        return Err(AppError::Invalid(format!(
+            "{what}: joint {} is not a finite number",
+            i + 1
+        )));
+    }
+    Ok(q)
+}
+
+impl App {
+    /// The cell's arm, when its robot model is installed.
+    pub(super) fn cell_arm(&self, settings: &CellSettings) -> Result<Option<CellArm>> {
+        self.robots
+            .get(&settings.robot)
+            .map(|robot| CellArm::new(robot, settings))
+            .transpose()
+    }
+
+    /// The cell's arm, or a conflict naming the missing model.
+    async fn installed_arm(&self, cell_id: i64) -> Result<(CellArm, CellSettings)> {
+        let settings = parse_settings(&self.cell_row(cell_id).await?)?;
+        match self.cell_arm(&settings)? {
+            Some(arm) => Ok((arm, settings)),
+            None => Err(AppError::Conflict(format!(
+                "the cell's robot model {:?} is not installed",
+                settings.robot
+            ))),
+        }
+    }
+
+    /// The frames of the cell's arm at `joints` (its ready position when left out).
+    pub async fn arm_frames(&self, cell_id: i64, joints: Option<Vec<f64>>) -> Result<ArmFrames> {
+        let given = joints
+            .as_deref()
+            .map(|j| joints_of("joints", j))
+            .transpose()?;
+        let (arm, settings) = self.installed_arm(cell_id).await?;
+        let robot: Arc<Robot> = arm.robot_arc();
+        let q = given.unwrap_or_else(|| kinematics::ready_joints(&robot));
+        let base = settings.base.to_pose()?;
+        let tool = settings.tool.to_pose()?;
+        let in_work = |p: &crate::engine::Pose| -> PoseValues {
+            crate::engine::Pose::from_isometry(base.isometry() * p.isometry()).values()
+        };
+        let mut links = vec![LinkFrame {
+            name: robot.chain().root().to_string(),
+            pose: base.values(),
+        }];
+        for (frame, joint) in robot.joint_frames(&q).iter().zip(robot.joints()) {
+            links.push(LinkFrame {
+                name: joint.name.clone(),
+                pose: in_work(frame),
+            });
+        }
+        let flange = robot.fk(&q);
+        let tcp = crate::engine::Pose::from_isometry(flange.isometry() * tool.isometry());
+        Ok(ArmFrames {
+            robot: robot.name().to_string(),
+            joints: q.to_vec(),
+            base: base.values(),
+            links,
+            flange: in_work(&flange),
+            tcp: in_work(&tcp),
+        })
+    }
+
+    /// Whether the cell's arm reaches `query.pose`, and the solution nearest `query.near`.
+    pub async fn reach(&self, cell_id: i64, query: ReachQuery) -> Result<ReachabilityDto> {
+        let pose = query.pose.to_pose()?;
+        let near = query
+            .near
+            .as_deref()
+            .map(|n| joints_of("near", n))
+            .transpose()?;
+        let (arm, _) = self.installed_arm(cell_id).await?;
+        Ok(arm.dto(&arm.check(&pose, near.as_ref())))
+    }
+}
