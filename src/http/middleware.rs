@@ -14,6 +14,12 @@ use super::error::for_status;
 use crate::telemetry::Metrics;
 use crate::transport::auth::BearerToken;
 
+/// Whether the service was started with a bearer token (`/healthz` says so).
+#[derive(Debug, Clone, Copy)]
+pub struct Authentication {
+    pub token_required: bool,
+}
+
 /// Requires `Authorization: Bearer <token>` on everything but `/healthz` and the pendant
 /// page's files (the page asks for the token and sends it on its API calls), and CORS
 /// preflights, which the CORS layer answers before this runs.

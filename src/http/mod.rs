@@ -101,6 +101,9 @@ pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerTok
             app.metrics().clone(),
             middleware::track,
         ));
+    let auth = middleware::Authentication {
+        token_required: token.is_some(),
+    };
     if let Some(token) = token {
         routes = routes.layer(axum::middleware::from_fn_with_state(
             token,
@@ -134,6 +137,7 @@ pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerTok
                 .layer(RequestBodyLimitLayer::new(options.body_limit))
                 .layer(DefaultBodyLimit::max(options.body_limit)),
         )
+        .layer(axum::Extension(auth))
         .with_state(app);
     crate::transport::request_id::with_request_ids(
         routes,

@@ -2,6 +2,7 @@
 
 use std::sync::Arc;
 
+use axum::Extension;
 use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
@@ -11,6 +12,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 use super::error::{ApiError, ErrorBody};
+use super::middleware::Authentication;
 use crate::app::App;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
@@ -23,6 +25,8 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
 pub struct Health {
     /// `ok`
     pub status: String,
+    /// Whether the other routes want a bearer token (a page asks for it before calling them).
+    pub token_required: bool,
 }
 
 /// Liveness and readiness: the database answers. Never requires the bearer token.
@@ -31,10 +35,14 @@ pub struct Health {
         (status = 200, description = "Healthy", body = Health),
         (status = 503, description = "The database does not answer", body = ErrorBody),
     ))]
-async fn healthz(State(app): State<Arc<App>>) -> Result<axum::Json<Health>, ApiError> {
+async fn healthz(
+    State(app): State<Arc<App>>,
+    Extension(auth): Extension<Authentication>,
+) -> Result<axum::Json<Health>, ApiError> {
     match app.health().await {
         Ok(()) => Ok(axum::Json(Health {
             status: "ok".into(),
+            token_required: auth.token_required,
         })),
         Err(e) => {
             tracing::error!(error = %e, "health check failed");

@@ -312,7 +312,7 @@ async fn the_page_is_served_without_the_token_with_its_headers() {
             "text/css"
         }));
     }
-    let vendored = app.get("/pendant/vendor/three/three.module.min.js").await;
+    let vendored = app.get("/pendant/vendor/three/three.min.js").await;
     assert_eq!(vendored.status(), StatusCode::OK);
     assert_eq!(
         vendored.headers()[header::CACHE_CONTROL],

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The README's test command: installs what the tests need that cargo does not bring (Debian's
+# chromium and chromium-driver, for the pendant's browser test in tests/pendant.rs) when it is
+# missing, then runs `cargo test` with any arguments given (`bash scripts/test.sh --test api`).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! command -v chromium > /dev/null || ! command -v chromedriver > /dev/null; then
+  echo "test: installing Debian's chromium and chromium-driver (the pendant's browser test)" >&2
+  sudo=""
+  if [ "$(id -u)" != 0 ]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq chromium chromium-driver > /dev/null
+fi
+
+exec cargo test --locked "$@"

@@ -1,0 +1,234 @@
+// The teaching session against the simulated arm: where the arm is (joints and TCP, from the
+// server), the routine being taught, the suggestion on offer, and the operator's actions —
+// jog, Record, Accept, Adjust, Reject, Undo, Finish — each one call sequence on the REST API.
+// The page (main.js) renders what this holds; nothing here touches the DOM.
+
+import * as api from './api.js';
+import { jogged } from './pose.js';
+
+/** Joint vectors from `a` to `b` in `n` equal steps (both ends included). */
+function interpolate(a, b, n) {
+  return Array.from({ length: n + 1 }, (_, i) => a.map((v, j) => v + ((b[j] - v) * i) / n));
+}
+
+export class Session {
+  constructor(view) {
+    this.view = view;
+    this.cell = null;
+    this.routine = null; // RoutineDetail
+    this.others = []; // waypoints of the program's other routines
+    this.frames = null; // ArmFrames of where the arm is
+    this.prediction = null;
+    // The suggestion was rejected or is being adjusted: no longer on offer.
+    this.dismissed = false;
+    // Feedback given, by prediction id: an undo offers the same prediction again, and the
+    // service takes feedback once per prediction.
+    this.verdicts = new Map();
+    this.adjusting = null;
+    this.latencies = [];
+  }
+
+  get joints() {
+    return this.frames ? this.frames.joints : null;
+  }
+
+  get open() {
+    return Boolean(this.routine && !this.routine.finished);
+  }
+
+  get offered() {
+    return Boolean(this.prediction && this.prediction.offered && !this.dismissed);
+  }
+
+  /** The feedback already given on the suggestion on offer, if any. */
+  get verdict() {
+    return this.offered ? this.verdicts.get(this.prediction.id) : undefined;
+  }
+
+  /** The offered suggestion's joint solution when the arm reaches it. */
+  get reachableSuggestion() {
+    const r = this.offered ? this.prediction.reachability : null;
+    return r && r.reachable && r.chosen ? r.chosen : null;
+  }
+
+  frameUrl(joints) {
+    const q = joints ? `?joints=${joints.map((v) => v.toFixed(12)).join(',')}` : '';
+    return `/v1/cells/${this.cell.id}/frames${q}`;
+  }
+
+  async moveTo(joints) {
+    this.frames = await api.get(this.frameUrl(joints));
+    this.view.drawArm(this.frames);
+  }
+
+  async setCell(cell) {
+    this.cell = cell;
+    this.routine = null;
+    this.others = [];
+    this.clearSuggestion();
+    await this.moveTo(null);
+  }
+
+  async setRoutine(detail, others) {
+    this.routine = detail;
+    this.others = others;
+    this.adjusting = null;
+    this.view.drawPaths(detail ? detail.waypoints : [], others);
+    const last = detail && detail.waypoints.length ? detail.waypoints[detail.waypoints.length - 1] : null;
+    if (last && last.joints && last.joints.length === 6) await this.moveTo(last.joints);
+    if (this.open && detail.waypoints.length) {
+      const set = await api.get(`/v1/routines/${detail.id}/prediction`);
+      await this.showPrediction(set.predictions[0]);
+    } else {
+      this.clearSuggestion();
+    }
+  }
+
+  async reloadRoutine() {
+    this.routine = await api.get(`/v1/routines/${this.routine.id}`);
+    this.view.drawPaths(this.routine.waypoints, this.others);
+  }
+
+  clearSuggestion() {
+    this.prediction = null;
+    this.dismissed = false;
+    this.view.hideGhost();
+    this.view.drawAhead(null, []);
+  }
+
+  /** Shows a prediction: the ghost at the chosen joints, or why nothing is offered. */
+  async showPrediction(p) {
+    this.prediction = p || null;
+    this.dismissed = false;
+    if (!p || !p.offered || !p.pose) {
+      this.view.hideGhost();
+      this.view.drawAhead(null, []);
+      return;
+    }
+    const reach = p.reachability;
+    const reachable = !reach || reach.reachable;
+    const frames = reach && reach.chosen ? await api.get(this.frameUrl(reach.chosen)) : null;
+    this.view.showGhost(frames, p.pose, p.p_useful ?? p.phi, reachable);
+  }
+
+  /** The next k suggestions (open-loop completion), for the dotted path. */
+  async lookAhead(k) {
+    if (!this.open || !this.routine.waypoints.length) return this.view.drawAhead(null, []);
+    const set = await api.get(`/v1/routines/${this.routine.id}/prediction?k=${k}`);
+    const poses = set.predictions.filter((p) => p.offered && p.pose).map((p) => p.pose);
+    const last = this.routine.waypoints[this.routine.waypoints.length - 1];
+    this.view.drawAhead(last.pose, poses);
+  }
+
+  /** One jog step; the arm moves only where the server says it reaches. */
+  async jog(axis, stepMm, stepDeg, frame) {
+    const target = jogged(this.frames.tcp, axis, stepMm, stepDeg, frame);
+    const reach = await api.post(`/v1/cells/${this.cell.id}/reach`, { pose: target, near: this.joints });
+    if (!reach.reachable || !reach.chosen) {
+      throw new Error(`cannot jog ${axis}: ${reach.unreachable ? reach.unreachable.message : 'no solution'}`);
+    }
+    await this.moveTo(reach.chosen);
+  }
+
+  /** Appends a waypoint (the arm's pose and joints unless given) and shows the next suggestion. */
+  async append(motion, pose = this.frames.tcp, joints = this.joints) {
+    const taught = await api.post(`/v1/routines/${this.routine.id}/waypoints`, { pose, joints, motion });
+    this.routine.waypoints.push(taught.waypoint);
+    this.routine.finished = false;
+    this.view.drawPaths(this.routine.waypoints, this.others);
+    await this.showPrediction(taught.prediction);
+    return taught;
+  }
+
+  /** Record: in the middle of an adjustment, the feedback says where the operator ended. */
+  async record(motion) {
+    const start = performance.now();
+    if (this.adjusting) {
+      await this.feedback(this.adjusting, 'adjusted', this.frames.tcp);
+      this.adjusting = null;
+    }
+    await this.append(motion);
+    const ms = performance.now() - start;
+    this.latencies.push(ms);
+    return ms;
+  }
+
+  /** Moves the arm to the suggestion, animated through joint space. */
+  async goToSuggestion() {
+    const to = this.reachableSuggestion;
+    const steps = await Promise.all(interpolate(this.joints, to, 10).map((q) => api.get(this.frameUrl(q))));
+    await this.view.animate(steps, (f) => this.view.drawArm(f));
+    this.frames = steps[steps.length - 1];
+  }
+
+  async feedback(p, verdict, pose) {
+    await api.post(`/v1/predictions/${p.id}/feedback`, pose ? { verdict, pose } : { verdict });
+    this.verdicts.set(p.id, verdict);
+  }
+
+  /** Accept: the arm goes there and the waypoint is recorded (the feedback once). */
+  async accept(motion) {
+    const p = this.prediction;
+    await this.goToSuggestion();
+    if (!this.verdicts.has(p.id)) await this.feedback(p, 'accepted');
+    await this.append(motion, p.pose, this.joints);
+  }
+
+  /** Adjust: the arm goes there; the next Record gives the feedback with the pose taught. */
+  async adjust() {
+    const p = this.prediction;
+    await this.goToSuggestion();
+    this.adjusting = this.verdicts.has(p.id) ? null : p;
+    this.dismissed = true;
+    this.view.hideGhost();
+  }
+
+  async reject() {
+    await this.feedback(this.prediction, 'rejected');
+    this.clearSuggestion();
+  }
+
+  async undo() {
+    const undone = await api.del(`/v1/routines/${this.routine.id}/waypoints/last`);
+    this.adjusting = null;
+    await this.reloadRoutine();
+    const w = this.routine.waypoints;
+    const last = w.length ? w[w.length - 1] : null;
+    if (last && last.joints && last.joints.length === 6) await this.moveTo(last.joints);
+    await this.showPrediction(undone.prediction);
+    return undone.removed;
+  }
+
+  async finish() {
+    const finished = await api.post(`/v1/routines/${this.routine.id}/finish`);
+    this.adjusting = null;
+    await this.reloadRoutine();
+    this.clearSuggestion();
+    return finished;
+  }
+
+  // ---- edits of the selected waypoint (any routine) ----
+
+  async reteach(id) {
+    await api.patch(`/v1/waypoints/${id}`, { pose: this.frames.tcp, joints: this.joints });
+    await this.reloadRoutine();
+  }
+
+  async edit(id, changes) {
+    await api.patch(`/v1/waypoints/${id}`, changes);
+    await this.reloadRoutine();
+  }
+
+  async insert(id, side, motion) {
+    await api.post(`/v1/waypoints/${id}/insert`, {
+      side,
+      waypoint: { pose: this.frames.tcp, joints: this.joints, motion },
+    });
+    await this.reloadRoutine();
+  }
+
+  async remove(id) {
+    await api.del(`/v1/waypoints/${id}`);
+    await this.reloadRoutine();
+  }
+}

@@ -1,0 +1,552 @@
+//! The web pendant in a real browser (issue 16): headless Chromium, driven over WebDriver
+//! (chromedriver + fantoccini), against the real server on a loopback port with a token.
+//!
+//! A person's session: enter the token, create a cell, a program and a routine on the page;
+//! teach a routine by jogging and recording; finish it; start a second copy elsewhere and see
+//! the suggestion drawn as a ghost of the arm; accept it, undo, reject one; start a copy at the
+//! edge of the arm's reach and see the suggestion flagged unreachable with its reason. The
+//! page's state is asserted through the DOM, the server's through its REST API (stored
+//! waypoints, feedback counts). Screenshots go to `$CARGO_TARGET_TMPDIR/pendant/`, with the
+//! Record → suggestion latencies the page measured (`latency.json`, reported in the README, not
+//! asserted). Any console error fails the test.
+//!
+//! Needs Debian's `chromium` and `chromium-driver` (`scripts/test.sh` installs them when
+//! missing); `NEXTPOSE_CHROMIUM` and `NEXTPOSE_CHROMEDRIVER` point elsewhere.
+
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use fantoccini::wd::WebDriverCompatibleCommand;
+use fantoccini::{Client, ClientBuilder, Locator};
+use nextpose::server::{Application, Database, Running, ServerSettings};
+use nextpose::storage::Durability;
+use nextpose::transport::TransportOptions;
+use serde_json::{Value, json};
+
+const TOKEN: &str = "pendant-test-token";
+/// Longest wait for the page to show something (generous: a loaded 2-core machine).
+const PATIENCE: Duration = Duration::from_secs(30);
+
+fn binary(var: &str, default: &str) -> PathBuf {
+    let path = std::env::var_os(var)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(default));
+    assert!(
+        path.exists(),
+        "{} is missing: install Debian's chromium and chromium-driver \
+         (`scripts/test.sh` does, or set {var})",
+        path.display()
+    );
+    path
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// chromedriver, stopped when dropped.
+struct Driver {
+    child: Child,
+    url: String,
+}
+
+impl Drop for Driver {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+async fn start_driver() -> Driver {
+    let port = free_port();
+    let child = Command::new(binary("NEXTPOSE_CHROMEDRIVER", "/usr/bin/chromedriver"))
+        .arg(format!("--port={port}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start chromedriver");
+    let driver = Driver {
+        child,
+        url: format!("http://127.0.0.1:{port}"),
+    };
+    // Ready when its status says so.
+    let http = reqwest::Client::new();
+    for _ in 0..200 {
+        if let Ok(r) = http.get(format!("{}/status", driver.url)).send().await
+            && let Ok(v) = r.json::<Value>().await
+            && v["value"]["ready"] == true
+        {
+            return driver;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    panic!("chromedriver did not become ready");
+}
+
+async fn start_server(dir: &tempfile::TempDir) -> Running {
+    let settings = ServerSettings {
+        database: Database::File(dir.path().join("nextpose.db")),
+        durability: Durability::Process,
+        addr: "127.0.0.1:0".into(),
+        http: TransportOptions {
+            token: Some(TOKEN.into()),
+            ..TransportOptions::default()
+        },
+        robots: nextpose::kinematics::bundled_robots_dir(),
+    };
+    Application::build(settings)
+        .await
+        .expect("build")
+        .spawn()
+        .expect("addr")
+}
+
+async fn browser(driver: &Driver, profile: &tempfile::TempDir) -> Client {
+    let chromium = binary("NEXTPOSE_CHROMIUM", "/usr/bin/chromium");
+    let mut caps = serde_json::Map::new();
+    caps.insert(
+        "goog:chromeOptions".into(),
+        json!({
+            "binary": chromium,
+            "args": [
+                "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                "--window-size=1280,800",
+                format!("--user-data-dir={}", profile.path().display()),
+            ],
+        }),
+    );
+    caps.insert("goog:loggingPrefs".into(), json!({ "browser": "ALL" }));
+    ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+        .capabilities(caps)
+        .connect(&driver.url)
+        .await
+        .expect("a WebDriver session")
+}
+
+/// chromedriver's console log of the page (`POST /session/{id}/se/log`): every entry since
+/// the last call.
+#[derive(Debug)]
+struct BrowserLog;
+
+impl WebDriverCompatibleCommand for BrowserLog {
+    fn endpoint(
+        &self,
+        base: &url::Url,
+        session: Option<&str>,
+    ) -> Result<url::Url, url::ParseError> {
+        base.join(&format!("session/{}/se/log", session.unwrap_or_default()))
+    }
+
+    fn method_and_body(&self, _: &url::Url) -> (http::Method, Option<String>) {
+        (
+            http::Method::POST,
+            Some(json!({ "type": "browser" }).to_string()),
+        )
+    }
+}
+
+/// The test's view of the page.
+struct Page {
+    c: Client,
+    /// Console entries read so far.
+    console: Vec<Value>,
+    shots: PathBuf,
+}
+
+impl Page {
+    async fn read_console(&mut self) {
+        let log = self.c.issue_cmd(BrowserLog).await.expect("browser log");
+        if let Value::Array(entries) = log {
+            self.console.extend(entries);
+        }
+    }
+
+    fn errors(&self) -> Vec<&Value> {
+        self.console
+            .iter()
+            .filter(|e| e["level"] == "SEVERE")
+            .collect()
+    }
+
+    async fn wait_for(&self, css: &str) -> fantoccini::elements::Element {
+        self.c
+            .wait()
+            .at_most(PATIENCE)
+            .for_element(Locator::Css(css))
+            .await
+            .unwrap_or_else(|e| panic!("{css} did not appear: {e}"))
+    }
+
+    async fn click(&self, css: &str) {
+        self.wait_for(&format!("{css}:not([disabled])"))
+            .await
+            .click()
+            .await
+            .unwrap_or_else(|e| panic!("click {css}: {e}"));
+    }
+
+    async fn fill(&self, css: &str, text: &str) {
+        let e = self.wait_for(css).await;
+        e.clear().await.expect("clear");
+        e.send_keys(text).await.expect("type");
+    }
+
+    async fn select(&self, css: &str, value: &str) {
+        self.wait_for(&format!("{css} option[value=\"{value}\"]"))
+            .await
+            .click()
+            .await
+            .unwrap_or_else(|e| panic!("select {value} in {css}: {e}"));
+    }
+
+    async fn attr(&self, css: &str, name: &str) -> Option<String> {
+        self.wait_for(css)
+            .await
+            .attr(name)
+            .await
+            .expect("attribute")
+    }
+
+    async fn text(&self, css: &str) -> String {
+        self.wait_for(css).await.text().await.expect("text")
+    }
+
+    /// Jogs `n` steps along one axis (`x+`, `rz-`, ...), each step waiting until the arm has
+    /// moved (its joints change).
+    async fn jog(&self, axis: &str, n: usize) {
+        for _ in 0..n {
+            let before = self.attr("#view3d", "data-joints").await;
+            self.click(&format!("[data-jog=\"{axis}\"]")).await;
+            self.c
+                .wait()
+                .at_most(PATIENCE)
+                .for_element(Locator::XPath(&format!(
+                    "//*[@id='view3d' and @data-joints!='{}']",
+                    before.unwrap_or_default()
+                )))
+                .await
+                .unwrap_or_else(|e| panic!("the arm did not move on {axis}: {e}"));
+        }
+    }
+
+    async fn waypoints(&self) -> usize {
+        self.c
+            .find_all(Locator::Css("#waypoints li"))
+            .await
+            .expect("list")
+            .len()
+    }
+
+    /// Records, and waits for the list to grow and the suggestion to be answered.
+    async fn record(&self) {
+        let n = self.waypoints().await;
+        let answered = self.latencies().await.len();
+        self.click("#record").await;
+        self.wait_for(&format!("#waypoints li:nth-child({})", n + 1))
+            .await;
+        self.c
+            .wait()
+            .at_most(PATIENCE)
+            .for_element(Locator::XPath(&format!(
+                "//*[@id='latency' and @data-count='{}']",
+                answered + 1
+            )))
+            .await
+            .expect("the suggestion after Record");
+    }
+
+    async fn latencies(&self) -> Vec<f64> {
+        let v = self
+            .c
+            .execute("return window.nextposeLatencies || [];", vec![])
+            .await
+            .expect("latencies");
+        v.as_array()
+            .expect("array")
+            .iter()
+            .filter_map(Value::as_f64)
+            .collect()
+    }
+
+    async fn screenshot(&self, name: &str) {
+        let png = self.c.screenshot().await.expect("screenshot");
+        std::fs::write(self.shots.join(name), png).expect("write screenshot");
+    }
+}
+
+/// The REST API as the test checks the server's state.
+struct Api {
+    base: String,
+    http: reqwest::Client,
+}
+
+impl Api {
+    async fn get(&self, path: &str) -> Value {
+        let r = self
+            .http
+            .get(format!("{}{path}", self.base))
+            .bearer_auth(TOKEN)
+            .send()
+            .await
+            .expect("send");
+        assert!(r.status().is_success(), "{path}: {}", r.status());
+        r.json().await.expect("json")
+    }
+}
+
+fn position(v: &Value) -> [f64; 3] {
+    let f = |k: &str| v[k].as_f64().expect(k);
+    [f("x"), f("y"), f("z")]
+}
+
+fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+    a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-3)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_person_teaches_through_the_pendant_page() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let server = start_server(&dir).await;
+    let base = server.base_url();
+    let api = Api {
+        base: base.clone(),
+        http: reqwest::Client::new(),
+    };
+    let driver = start_driver().await;
+    let profile = tempfile::tempdir().expect("profile dir");
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pendant");
+    std::fs::create_dir_all(&shots).expect("screenshot dir");
+    let mut page = Page {
+        c: browser(&driver, &profile).await,
+        console: Vec::new(),
+        shots,
+    };
+
+    // The page asks for the token.
+    page.c
+        .goto(&format!("{base}/"))
+        .await
+        .expect("open the page");
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", TOKEN).await;
+    page.click("#token-submit").await;
+
+    // A cell, a program, a routine.
+    page.fill("#new-cell-name", "browser cell").await;
+    page.select("#new-cell-robot", "abb_irb140").await;
+    page.select("#new-cell-policy", "flag").await;
+    page.click("#create-cell").await;
+    page.wait_for("#cell-select option:checked").await;
+    page.fill("#new-program-name", "Seams").await;
+    page.click("#create-program").await;
+    page.wait_for("#program-select option:checked").await;
+    page.click("#create-routine").await;
+    page.wait_for("#routine-select option:checked").await;
+
+    let cells = api.get("/v1/cells").await;
+    let cell = cells
+        .as_array()
+        .expect("cells")
+        .iter()
+        .find(|c| c["name"] == "browser cell")
+        .expect("the cell the page created");
+    let cell_id = cell["id"].as_i64().expect("id");
+    assert_eq!(cell["settings"]["robot"], "abb_irb140");
+    assert_eq!(cell["settings"]["reach_policy"], "flag");
+    let home = position(&api.get(&format!("/v1/cells/{cell_id}/frames")).await["tcp"]);
+
+    // Routine 1, jogged in the work frame with 20 mm steps: a U over a seam.
+    page.select("#jog-frame", "work").await;
+    page.fill("#jog-step", "20").await;
+    let moves: [(&str, usize); 5] = [("x+", 3), ("y+", 2), ("z-", 2), ("x-", 3), ("z+", 2)];
+    page.record().await;
+    for (axis, n) in moves {
+        page.jog(axis, n).await;
+        page.record().await;
+    }
+    assert_eq!(page.waypoints().await, 6);
+    page.click("#finish").await;
+    page.wait_for("#stats [data-stat=states]").await;
+
+    let programs = api.get(&format!("/v1/cells/{cell_id}/programs")).await;
+    let program_id = programs[0]["id"].as_i64().expect("program id");
+    let routines = api
+        .get(&format!("/v1/programs/{program_id}/routines"))
+        .await;
+    let first = api
+        .get(&format!("/v1/routines/{}", routines[0]["id"]))
+        .await;
+    let stored: Vec<[f64; 3]> = first["waypoints"]
+        .as_array()
+        .expect("waypoints")
+        .iter()
+        .map(|w| position(&w["pose"]))
+        .collect();
+    let offsets = [
+        [0.0, 0.0, 0.0],
+        [60.0, 0.0, 0.0],
+        [60.0, 40.0, 0.0],
+        [60.0, 40.0, -40.0],
+        [0.0, 40.0, -40.0],
+        [0.0, 40.0, 0.0],
+    ];
+    assert_eq!(stored.len(), offsets.len());
+    for (s, o) in stored.iter().zip(offsets) {
+        let want = [home[0] + o[0], home[1] + o[1], home[2] + o[2]];
+        assert!(close(*s, want), "stored {s:?}, jogged to {want:?}");
+    }
+    assert!(
+        first["waypoints"]
+            .as_array()
+            .expect("waypoints")
+            .iter()
+            .all(|w| w["joints"].as_array().is_some_and(|j| j.len() == 6)),
+        "the page records the arm's joints with each pose"
+    );
+
+    // Routine 2, from where routine 1 ended (its start + 40 mm in y), 120 mm to the side: the
+    // ghost appears after its first waypoint.
+    page.click("#create-routine").await;
+    page.jog("y-", 6).await;
+    page.record().await;
+    page.wait_for("#suggestion[data-state=offered]").await;
+    page.wait_for("#view3d[data-ghost=shown]").await;
+    page.screenshot("pendant-ghost.png").await;
+    let suggested = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+
+    // Accept: the arm goes there and the waypoint is recorded, with feedback.
+    page.click("#accept").await;
+    page.wait_for("#waypoints li:nth-child(2)").await;
+    page.wait_for("#stats [data-stat=accepted]").await;
+    page.c
+        .wait()
+        .at_most(PATIENCE)
+        .for_element(Locator::XPath(
+            "//*[@id='stats']//*[@data-stat='accepted' and normalize-space(text())='1']",
+        ))
+        .await
+        .expect("one accepted in the statistics");
+    let second = routines_of(&api, program_id).await;
+    let open = api.get(&format!("/v1/routines/{}", second[1])).await;
+    let taught = open["waypoints"].as_array().expect("waypoints");
+    assert_eq!(taught.len(), 2);
+    let start = [home[0], home[1] + 40.0 - 120.0, home[2]];
+    assert!(
+        close(position(&taught[0]["pose"]), start),
+        "{:?}",
+        taught[0]["pose"]
+    );
+    let want = [start[0] + 60.0, start[1], start[2]];
+    assert!(
+        close(position(&taught[1]["pose"]), want),
+        "accepted {:?}, the copy's next corner is {want:?}",
+        position(&taught[1]["pose"])
+    );
+    let stats = api.get(&format!("/v1/cells/{cell_id}/stats")).await;
+    assert_eq!(stats["feedback"]["accepted"], 1, "{stats}");
+
+    // Undo: the accepted waypoint goes; the same suggestion is offered again (the service
+    // keeps one prediction per waypoint and model, and its feedback), and Reject is not
+    // offered for it.
+    page.click("#undo").await;
+    page.c
+        .wait()
+        .at_most(PATIENCE)
+        .for_element(Locator::XPath("//*[@id='waypoints' and count(li)=1]"))
+        .await
+        .expect("one waypoint after undo");
+    page.wait_for(&format!(
+        "#suggestion[data-state=offered][data-prediction-id=\"{suggested}\"]"
+    ))
+    .await;
+    page.wait_for("#reject[disabled]").await;
+    let open = api.get(&format!("/v1/routines/{}", second[1])).await;
+    assert_eq!(open["waypoints"].as_array().expect("waypoints").len(), 1);
+
+    // Accept it again (no second feedback), then reject the next suggestion.
+    page.click("#accept").await;
+    page.wait_for("#waypoints li:nth-child(2)").await;
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let next = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+    assert_ne!(next, suggested, "the next corner is a new prediction");
+    page.click("#reject").await;
+    page.wait_for("#suggestion[data-state=none]").await;
+    page.wait_for("#view3d[data-ghost=none]").await;
+    page.c
+        .wait()
+        .at_most(PATIENCE)
+        .for_element(Locator::XPath(
+            "//*[@id='stats']//*[@data-stat='rejected' and normalize-space(text())='1']",
+        ))
+        .await
+        .expect("one rejected in the statistics");
+    let open = api.get(&format!("/v1/routines/{}", second[1])).await;
+    let taught = open["waypoints"].as_array().expect("waypoints");
+    assert_eq!(taught.len(), 2);
+    assert!(close(position(&taught[1]["pose"]), want));
+    page.click("#finish").await;
+
+    // Routine 3 at the edge of the arm's reach (from routine 2's end, 320 mm out in x): the
+    // next corner, 60 mm further, is beyond it.
+    page.click("#create-routine").await;
+    page.fill("#jog-step", "80").await;
+    page.jog("x+", 4).await;
+    page.record().await;
+    page.wait_for("#suggestion[data-state=unreachable]").await;
+    page.wait_for("#view3d[data-ghost=unreachable]").await;
+    let reason = page.text("#suggestion-reason").await;
+    assert!(reason.contains("reach"), "the reason is shown: {reason:?}");
+    page.screenshot("pendant-unreachable.png").await;
+
+    let stats = api.get(&format!("/v1/cells/{cell_id}/stats")).await;
+    assert_eq!(stats["feedback"]["accepted"], 1, "{stats}");
+    assert_eq!(stats["feedback"]["rejected"], 1, "{stats}");
+    assert_eq!(stats["model"]["routines"], 2, "{stats}");
+
+    // The page's own measurements, and its console.
+    let latencies = page.latencies().await;
+    assert!(latencies.len() >= 8, "{latencies:?}");
+    let mut sorted = latencies.clone();
+    sorted.sort_by(f64::total_cmp);
+    let summary = json!({
+        "samples": latencies,
+        "median_ms": sorted[sorted.len() / 2],
+        "max_ms": sorted[sorted.len() - 1],
+    });
+    std::fs::write(
+        page.shots.join("latency.json"),
+        serde_json::to_string_pretty(&summary).expect("json"),
+    )
+    .expect("write latencies");
+    eprintln!("Record → suggestion (ms): {summary}");
+    page.read_console().await;
+    let errors = page.errors();
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    page.c.close().await.expect("close the browser");
+    drop(driver);
+    drop(server);
+}
+
+async fn routines_of(api: &Api, program_id: i64) -> Vec<i64> {
+    api.get(&format!("/v1/programs/{program_id}/routines"))
+        .await
+        .as_array()
+        .expect("routines")
+        .iter()
+        .map(|r| r["id"].as_i64().expect("id"))
+        .collect()
+}
