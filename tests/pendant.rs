@@ -517,6 +517,23 @@ async fn a_person_teaches_through_the_pendant_page() {
     assert_eq!(stats["feedback"]["rejected"], 1, "{stats}");
     assert_eq!(stats["model"]["routines"], 2, "{stats}");
 
+    // At a pendant's 800×600 the view and every action button are on screen.
+    page.c.set_window_size(800, 600).await.expect("resize");
+    let off_screen = page
+        .c
+        .execute(
+            "return ['view3d', 'record', 'accept', 'adjust', 'reject', 'undo', 'finish', \
+                     'waypoints', 'suggestion', 'latency'].filter((id) => { \
+               const r = document.getElementById(id).getBoundingClientRect(); \
+               return r.width === 0 || r.left < 0 || r.top < 0 || \
+                      r.right > window.innerWidth || r.bottom > window.innerHeight; });",
+            vec![],
+        )
+        .await
+        .expect("layout");
+    assert_eq!(off_screen, json!([]), "off screen at 800×600");
+    page.screenshot("pendant-800x600.png").await;
+
     // The page's own measurements, and its console.
     let latencies = page.latencies().await;
     assert!(latencies.len() >= 8, "{latencies:?}");

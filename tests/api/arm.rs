@@ -55,6 +55,8 @@ async fn frames_are_the_arm_in_the_work_frame_and_reach_inverts_them() {
         "qz": std::f64::consts::FRAC_PI_4.sin() }));
     let tool = nextpose::engine::Pose::new([0.0, 0.0, 150.0], [1.0, 0.0, 0.0, 0.0]).expect("tool");
 
+    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
+
     // The ready position: reachable, away from limits, the flange pointing down.
     let ready = app.get_ok(&format!("/v1/cells/{cell}/frames")).await;
     let q_ready = joints_of(&ready["joints"]);
@@ -282,6 +284,9 @@ async fn the_page_is_served_without_the_token_with_its_headers() {
     })
     .await;
     app.token = None;
+    // The page learns that it must ask for the token without a refused request.
+    let health = expect(app.get("/healthz").await, StatusCode::OK).await;
+    assert_eq!(health["token_required"], true);
     let page = app.get("/").await;
     assert_eq!(page.status(), StatusCode::OK);
     let h = page.headers().clone();

@@ -297,6 +297,7 @@ $('create-program').addEventListener('click', () =>
   run(async () => {
     const p = await api.post(`/v1/cells/${session.cell.id}/programs`, { name: $('new-program-name').value.trim() });
     await loadPrograms(p.id);
+    $('setup').open = false;
     status(`program ${p.name} created`);
   }),
 );

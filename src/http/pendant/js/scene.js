@@ -96,9 +96,9 @@ export class View {
     this.scene.add(grid);
     this.scene.add(new AxesHelper(200));
 
-    this.arm = new ArmFigure(new MeshStandardMaterial({ color: 0xe8862a, metalness: 0.2, roughness: 0.6 }), 28);
+    this.arm = new ArmFigure(new MeshStandardMaterial({ color: 0xc9d1d9, metalness: 0.3, roughness: 0.5 }), 28);
     this.scene.add(this.arm.group);
-    this.ghostMaterial = new MeshStandardMaterial({ color: 0x2ecc71, transparent: true, opacity: 0.35, depthWrite: false });
+    this.ghostMaterial = new MeshStandardMaterial({ color: 0x2ecc71, transparent: true, opacity: 0.45, depthWrite: false });
     this.ghost = new ArmFigure(this.ghostMaterial, 28);
     this.ghost.group.visible = false;
     this.scene.add(this.ghost.group);
@@ -114,7 +114,7 @@ export class View {
     this.ahead = null;
     this.markers = 0;
 
-    this.setView('front');
+    this.setView('oblique', new Vector3(400, 0, 300), 1800);
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
   }
@@ -168,7 +168,7 @@ export class View {
   /** The routine being shown (bright, unreachable waypoints red) and the program's others (faint). */
   drawPaths(current, others) {
     this.paths.clear();
-    for (const waypoints of others) this.addPath(waypoints, 0x4a5866, false);
+    for (const waypoints of others) this.addPath(waypoints, 0x8091a3, false);
     this.markers = this.addPath(current, 0x9fd3ff, true);
     this.container.dataset.waypoints = String(this.markers);
     this.render();
@@ -209,12 +209,13 @@ export class View {
     this.render();
   }
 
-  /** `top`, `front` (looking along −x at the arm), `side` (along +y). */
+  /** `top`, `front` (looking along −x at the arm), `side` (along +y), `oblique` (the start). */
   setView(which, centre = this.controls.target.clone(), distance = 2600) {
     const offsets = {
       top: new Vector3(0, -1e-3, 1),
       front: new Vector3(1, 0, 0.35),
       side: new Vector3(0, -1, 0.35),
+      oblique: new Vector3(1, -0.8, 0.55),
     };
     const o = offsets[which].clone().normalize().multiplyScalar(distance);
     this.controls.target.copy(centre);
