@@ -336,6 +336,23 @@ async fn a_person_teaches_through_the_pendant_page() {
         .await
         .expect("open the page");
     page.wait_for("#token-dialog[open]").await;
+    // The console check sees what the page logs: a probe error is read, then set aside.
+    page.c
+        .execute("console.error('nextpose console probe');", vec![])
+        .await
+        .expect("probe");
+    page.read_console().await;
+    let probe = page.errors().iter().any(|e| {
+        e["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("nextpose console probe"))
+    });
+    assert!(
+        probe,
+        "the browser log shows console errors: {:?}",
+        page.console
+    );
+    page.console.clear();
     page.fill("#token-input", TOKEN).await;
     page.click("#token-submit").await;
 
