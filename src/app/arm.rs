@@ -2,15 +2,13 @@
 //! joint vector (so the page does no kinematics), its ready position, and the joint solution
 //! that puts its TCP at a pose from where it is.
 
-use std::sync::Arc;
-
 use super::error::AppError;
 use super::reach::CellArm;
 use super::resources::{ArmFrames, LinkFrame, ReachQuery, ReachabilityDto};
 use super::settings::{CellSettings, parse_settings};
 use super::{App, Result};
 use crate::engine::PoseValues;
-use crate::kinematics::{self, DOF, Joints, Robot};
+use crate::kinematics::{self, DOF, Joints};
 
 /// Six finite joint values, from a list a client sent (`what` names it in the error).
 fn joints_of(what: &str, values: &[f64]) -> Result<Joints> {
@@ -57,8 +55,8 @@ impl App {
             .map(|j| joints_of("joints", j))
             .transpose()?;
         let (arm, settings) = self.installed_arm(cell_id).await?;
-        let robot: Arc<Robot> = arm.robot_arc();
-        let q = given.unwrap_or_else(|| kinematics::ready_joints(&robot));
+        let robot = arm.robot();
+        let q = given.unwrap_or_else(|| kinematics::ready_joints(robot));
         let base = settings.base.to_pose()?;
         let tool = settings.tool.to_pose()?;
         let in_work = |p: &crate::engine::Pose| -> PoseValues {

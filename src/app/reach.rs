@@ -65,10 +65,6 @@ impl CellArm {
         &self.robot
     }
 
-    pub fn robot_arc(&self) -> Arc<Robot> {
-        Arc::clone(&self.robot)
-    }
-
     pub fn policy(&self) -> ReachPolicy {
         self.config.policy
     }
