@@ -332,6 +332,20 @@ async fn the_page_is_served_without_the_token_with_its_headers() {
         .await
         .expect("send");
     assert_eq!(again.status(), StatusCode::NOT_MODIFIED);
+    // Nothing outside the page's folder is served (the client may normalise the dots away;
+    // then the path is the API's, and wants the token).
+    for escape in [
+        "/pendant/../pendant.rs",
+        "/pendant/%2e%2e/pendant.rs",
+        "/pendant/js//main.js",
+    ] {
+        let r = app.get(escape).await;
+        assert!(
+            [StatusCode::NOT_FOUND, StatusCode::UNAUTHORIZED].contains(&r.status()),
+            "{escape}: {}",
+            r.status()
+        );
+    }
     // Missing files are JSON 404s; the API still wants the token.
     expect_error(
         app.get("/pendant/nope.js").await,
