@@ -8,7 +8,7 @@ use super::resources::{ArmFrames, LinkFrame, ReachQuery, ReachabilityDto};
 use super::settings::{CellSettings, parse_settings};
 use super::{App, Result};
 use crate::engine::PoseValues;
-use crate::kinematics::{self, DOF, Joints};
+use crate::kinematics::{self, DOF, Joints, Mounting};
 
 /// Six finite joint values, from a list a client sent (`what` names it in the error).
 fn joints_of(what: &str, values: &[f64]) -> Result<Joints> {
@@ -37,10 +37,10 @@ impl App {
     }
 
     /// The cell's arm, or a conflict naming the missing model.
-    async fn installed_arm(&self, cell_id: i64) -> Result<(CellArm, CellSettings)> {
+    async fn installed_arm(&self, cell_id: i64) -> Result<CellArm> {
         let settings = parse_settings(&self.cell_row(cell_id).await?)?;
         match self.cell_arm(&settings)? {
-            Some(arm) => Ok((arm, settings)),
+            Some(arm) => Ok(arm),
             None => Err(AppError::Conflict(format!(
                 "the cell's robot model {:?} is not installed",
                 settings.robot
@@ -54,11 +54,10 @@ impl App {
             .as_deref()
             .map(|j| joints_of("joints", j))
             .transpose()?;
-        let (arm, settings) = self.installed_arm(cell_id).await?;
+        let arm = self.installed_arm(cell_id).await?;
         let robot = arm.robot();
         let q = given.unwrap_or_else(|| kinematics::ready_joints(robot));
-        let base = settings.base.to_pose()?;
-        let tool = settings.tool.to_pose()?;
+        let Mounting { base, tool } = *arm.mounting();
         let in_work = |p: &crate::engine::Pose| -> PoseValues {
             crate::engine::Pose::from_isometry(base.isometry() * p.isometry()).values()
         };
@@ -92,7 +91,7 @@ impl App {
             .as_deref()
             .map(|n| joints_of("near", n))
             .transpose()?;
-        let (arm, _) = self.installed_arm(cell_id).await?;
+        let arm = self.installed_arm(cell_id).await?;
         Ok(arm.dto(&arm.check(&pose, near.as_ref())))
     }
 }

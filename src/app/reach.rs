@@ -65,6 +65,11 @@ impl CellArm {
         &self.robot
     }
 
+    /// Where the robot stands in the work frame and the tool it holds.
+    pub fn mounting(&self) -> &Mounting {
+        &self.frames
+    }
+
     pub fn policy(&self) -> ReachPolicy {
         self.config.policy
     }
