@@ -177,12 +177,28 @@ impl Page {
     }
 
     async fn wait_for(&self, css: &str) -> fantoccini::elements::Element {
+        self.wait_until(Locator::Css(css), css).await
+    }
+
+    /// Waits for an element `locator` finds; `what` says what was awaited when it fails.
+    async fn wait_until(&self, locator: Locator<'_>, what: &str) -> fantoccini::elements::Element {
         self.c
             .wait()
             .at_most(PATIENCE)
-            .for_element(Locator::Css(css))
+            .for_element(locator)
             .await
-            .unwrap_or_else(|e| panic!("{css} did not appear: {e}"))
+            .unwrap_or_else(|e| panic!("{what} did not appear: {e}"))
+    }
+
+    /// Waits until the statistics panel shows `n` for `stat`.
+    async fn wait_for_stat(&self, stat: &str, n: i64) {
+        let xpath =
+            format!("//*[@id='stats']//*[@data-stat='{stat}' and normalize-space(text())='{n}']");
+        self.wait_until(
+            Locator::XPath(&xpath),
+            &format!("{stat} = {n} in the statistics"),
+        )
+        .await;
     }
 
     async fn click(&self, css: &str) {
@@ -225,15 +241,12 @@ impl Page {
         for _ in 0..n {
             let before = self.attr("#view3d", "data-joints").await;
             self.click(&format!("[data-jog=\"{axis}\"]")).await;
-            self.c
-                .wait()
-                .at_most(PATIENCE)
-                .for_element(Locator::XPath(&format!(
-                    "//*[@id='view3d' and @data-joints!='{}']",
-                    before.unwrap_or_default()
-                )))
-                .await
-                .unwrap_or_else(|e| panic!("the arm did not move on {axis}: {e}"));
+            let moved = format!(
+                "//*[@id='view3d' and @data-joints!='{}']",
+                before.unwrap_or_default()
+            );
+            self.wait_until(Locator::XPath(&moved), &format!("the arm's move on {axis}"))
+                .await;
         }
     }
 
@@ -252,15 +265,9 @@ impl Page {
         self.click("#record").await;
         self.wait_for(&format!("#waypoints li:nth-child({})", n + 1))
             .await;
-        self.c
-            .wait()
-            .at_most(PATIENCE)
-            .for_element(Locator::XPath(&format!(
-                "//*[@id='latency' and @data-count='{}']",
-                answered + 1
-            )))
-            .await
-            .expect("the suggestion after Record");
+        let shown = format!("//*[@id='latency' and @data-count='{}']", answered + 1);
+        self.wait_until(Locator::XPath(&shown), "the suggestion after Record")
+            .await;
     }
 
     async fn latencies(&self) -> Vec<f64> {
@@ -445,15 +452,7 @@ async fn a_person_teaches_through_the_pendant_page() {
     // Accept: the arm goes there and the waypoint is recorded, with feedback.
     page.click("#accept").await;
     page.wait_for("#waypoints li:nth-child(2)").await;
-    page.wait_for("#stats [data-stat=accepted]").await;
-    page.c
-        .wait()
-        .at_most(PATIENCE)
-        .for_element(Locator::XPath(
-            "//*[@id='stats']//*[@data-stat='accepted' and normalize-space(text())='1']",
-        ))
-        .await
-        .expect("one accepted in the statistics");
+    page.wait_for_stat("accepted", 1).await;
     let second = routines_of(&api, program_id).await;
     let open = api.get(&format!("/v1/routines/{}", second[1])).await;
     let taught = open["waypoints"].as_array().expect("waypoints");
@@ -477,12 +476,11 @@ async fn a_person_teaches_through_the_pendant_page() {
     // keeps one prediction per waypoint and model, and its feedback), and Reject is not
     // offered for it.
     page.click("#undo").await;
-    page.c
-        .wait()
-        .at_most(PATIENCE)
-        .for_element(Locator::XPath("//*[@id='waypoints' and count(li)=1]"))
-        .await
-        .expect("one waypoint after undo");
+    page.wait_until(
+        Locator::XPath("//*[@id='waypoints' and count(li)=1]"),
+        "one waypoint after undo",
+    )
+    .await;
     page.wait_for(&format!(
         "#suggestion[data-state=offered][data-prediction-id=\"{suggested}\"]"
     ))
@@ -503,14 +501,7 @@ async fn a_person_teaches_through_the_pendant_page() {
     page.click("#reject").await;
     page.wait_for("#suggestion[data-state=none]").await;
     page.wait_for("#view3d[data-ghost=none]").await;
-    page.c
-        .wait()
-        .at_most(PATIENCE)
-        .for_element(Locator::XPath(
-            "//*[@id='stats']//*[@data-stat='rejected' and normalize-space(text())='1']",
-        ))
-        .await
-        .expect("one rejected in the statistics");
+    page.wait_for_stat("rejected", 1).await;
     let open = api.get(&format!("/v1/routines/{}", second[1])).await;
     let taught = open["waypoints"].as_array().expect("waypoints");
     assert_eq!(taught.len(), 2);

@@ -14,6 +14,30 @@ use serde_json::{Value, json};
 
 use crate::helpers::*;
 
+/// The files of an export answer: (file name, text).
+fn exported_files(out: &Value) -> Vec<(String, String)> {
+    out["files"]
+        .as_array()
+        .expect("files")
+        .iter()
+        .map(|f| {
+            (
+                f["file_name"].as_str().expect("name").to_string(),
+                f["text"].as_str().expect("text").to_string(),
+            )
+        })
+        .collect()
+}
+
+/// Exported files read back by our importer.
+fn read_back(files: &[(String, String)]) -> nextpose::import::ImportReport {
+    let pairs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(n, t)| (n.as_str(), t.as_str()))
+        .collect();
+    parse_files(&pairs).expect("the export parses")
+}
+
 /// One repository's raw files as an upload body (names are the original paths).
 fn uploads() -> Vec<(String, Vec<Value>)> {
     let raw = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus/raw"));
@@ -113,22 +137,8 @@ async fn every_corpus_program_survives_import_store_export_import_in_all_three_f
                         format.as_str()
                     ))
                     .await;
-                let files: Vec<(String, String)> = out["files"]
-                    .as_array()
-                    .expect("files")
-                    .iter()
-                    .map(|f| {
-                        (
-                            f["file_name"].as_str().expect("name").to_string(),
-                            f["text"].as_str().expect("text").to_string(),
-                        )
-                    })
-                    .collect();
-                let pairs: Vec<(&str, &str)> = files
-                    .iter()
-                    .map(|(n, t)| (n.as_str(), t.as_str()))
-                    .collect();
-                let back = parse_files(&pairs).expect("the export parses");
+                let files = exported_files(&out);
+                let back = read_back(&files);
                 assert_eq!(back.programs.len(), 1, "{repo} {id} {format:?}");
                 let routines = &back.programs[0].routines;
                 assert_eq!(routines.len(), stored.len(), "{repo} {id} {format:?}");
@@ -264,28 +274,14 @@ async fn exported_names_and_motions_survive_through_the_api() {
                 format.as_str()
             ))
             .await;
-        let files: Vec<(String, String)> = out["files"]
-            .as_array()
-            .expect("files")
-            .iter()
-            .map(|f| {
-                (
-                    f["file_name"].as_str().expect("name").to_string(),
-                    f["text"].as_str().expect("text").to_string(),
-                )
-            })
-            .collect();
+        let files = exported_files(&out);
         let warnings: Vec<&str> = out["warnings"]
             .as_array()
             .expect("warnings")
             .iter()
             .map(|w| w.as_str().expect("warning"))
             .collect();
-        let pairs: Vec<(&str, &str)> = files
-            .iter()
-            .map(|(n, t)| (n.as_str(), t.as_str()))
-            .collect();
-        let back = parse_files(&pairs).expect("the export parses");
+        let back = read_back(&files);
         let waypoints = &back.programs[0].routines[0].waypoints;
         assert_eq!(waypoints.len(), taught.len(), "{format:?}");
         for (k, ((name, _, motion), w)) in taught.iter().zip(waypoints).enumerate() {

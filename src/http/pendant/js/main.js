@@ -183,10 +183,14 @@ async function loadPrograms(select) {
   }
 }
 
+function routineLabel(r) {
+  return `${r.name || 'routine ' + r.position}${r.finished ? '' : ' (open)'}`;
+}
+
 async function loadRoutines(programId, select) {
   $('program-select').value = String(programId);
   const routines = await api.get(`/v1/programs/${programId}/routines`);
-  options($('routine-select'), routines, select, (r) => `${r.name || 'routine ' + r.position}${r.finished ? '' : ' (open)'}`);
+  options($('routine-select'), routines, select, routineLabel);
   const open = routines.find((r) => !r.finished);
   const id = select ?? (open ? open.id : routines.length ? routines[routines.length - 1].id : null);
   await chooseRoutine(id, routines);
@@ -209,7 +213,7 @@ async function chooseRoutine(id, routines) {
 async function reloadRoutinePicker() {
   const programId = Number($('program-select').value);
   const routines = await api.get(`/v1/programs/${programId}/routines`);
-  options($('routine-select'), routines, session.routine && session.routine.id, (r) => `${r.name || 'routine ' + r.position}${r.finished ? '' : ' (open)'}`);
+  options($('routine-select'), routines, session.routine && session.routine.id, routineLabel);
 }
 
 // ---- actions ----
