@@ -13,4 +13,7 @@ if ! command -v chromium > /dev/null || ! command -v chromedriver > /dev/null; t
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq chromium chromium-driver > /dev/null
 fi
 
-exec cargo test --locked "$@"
+# The API tests once more on PostgreSQL (a throwaway cluster; installed when missing), with the
+# test of several instances on one database:
+cargo test --locked "$@"
+NEXTPOSE_TEST_DB=postgres bash scripts/with-postgres.sh cargo test --locked --test api "$@"

@@ -21,13 +21,8 @@ use crate::telemetry::Metrics;
 use crate::transport::TransportOptions;
 use crate::transport::auth::BearerToken;
 
-/// Where the database lives.
-#[derive(Debug, Clone)]
-pub enum Database {
-    File(PathBuf),
-    /// In memory, gone when the process ends (tests and demos).
-    Memory,
-}
+/// Where the database lives: an SQLite file, in memory, or a PostgreSQL URL.
+pub use crate::storage::Location as Database;
 
 #[derive(Debug, Clone)]
 pub struct ServerSettings {
@@ -65,12 +60,9 @@ impl Application {
         // Before anything else: a token that is set but unusable is a start-up error.
         let token = BearerToken::from_setting(settings.http.token.as_deref())?;
         let authenticated = token.is_some();
-        let store = match &settings.database {
-            Database::File(path) => Store::open(path, settings.durability)
-                .await
-                .with_context(|| format!("opening database {}", path.display()))?,
-            Database::Memory => Store::in_memory().await?,
-        };
+        let store = Store::connect(&settings.database, settings.durability)
+            .await
+            .with_context(|| format!("opening database {}", settings.database.describe()))?;
         let robots = Robots::load(&settings.robots)
             .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
         robots.add_stored(

@@ -7,7 +7,7 @@ use super::resources::ModelInfo;
 use super::robots::Robots;
 use super::settings::parse_settings;
 use crate::engine::{Pose, Teacher};
-use crate::storage::{CellRow, PoseColumns, Store, WaypointRow};
+use crate::storage::{CellRow, CellState, PoseColumns, Store, WaypointRow};
 
 #[derive(Debug)]
 pub(crate) struct CellModel {
@@ -20,6 +20,25 @@ pub(crate) struct CellModel {
     /// The cell's model version (`cells.model_version`: advanced by each routine learned and
     /// each edit of a learned routine).
     pub version: i64,
+    /// The cell's revision (`cells.revision`) the model is at: a write made from it is
+    /// refused when the database has moved on.
+    pub revision: i64,
+    /// The ids of the open routine's waypoints, in order (what the teacher holds of it).
+    pub open_ids: Vec<i64>,
+    /// The `finish_seq` of the last routine learned (0: none).
+    pub last_finish_seq: i64,
+    /// Check the database before the next use (a write of ours found the cell changed, or
+    /// advanced its revision without saying to what).
+    pub needs_check: bool,
+}
+
+/// How a model in memory stands against the database.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Behind {
+    /// Up to date (or brought up to date by learning only what is new).
+    Caught,
+    /// Must be learned again from the database.
+    Reload,
 }
 
 /// The pose of a stored waypoint. Stored poses were validated when taught, so a failure here
@@ -63,7 +82,9 @@ impl CellModel {
             }
         };
         let mut finished = Vec::new();
+        let mut last_finish_seq = 0;
         for r in store.finished_routines(cell.id).await? {
+            last_finish_seq = r.finish_seq.unwrap_or(last_finish_seq);
             let poses = store
                 .waypoints(r.id)
                 .await?
@@ -74,11 +95,16 @@ impl CellModel {
         }
         let open = store.open_routine(cell.id).await?;
         let mut taught = Vec::new();
+        let mut open_ids = Vec::new();
         if let Some(r) = &open {
             for w in store.waypoints(r.id).await? {
                 taught.push((stored_pose(&w)?, stored_joints(&w)?));
+                open_ids.push(w.id);
             }
         }
+        // The cell's row was read before the routines: what was loaded is at least as new as
+        // its revision (catching up from there is idempotent).
+        let revision = cell.revision;
         let config = settings.engine_config();
         let open = open.map(|r| r.id);
         let version = cell.model_version;
@@ -102,9 +128,88 @@ impl CellModel {
                 teacher,
                 open,
                 version,
+                revision,
+                open_ids,
+                last_finish_seq,
+                needs_check: false,
             })
         })
         .await?
+    }
+
+    /// Brings the model up to the database's `state` of the cell, learning only what is new:
+    /// routines finished since, and the open routine's waypoints from the first that differs
+    /// (taught or undone elsewhere). Anything else (an edit, new settings, a deletion) needs
+    /// a [`Behind::Reload`].
+    pub async fn catch_up(&mut self, store: &Store, state: &CellState) -> Result<Behind, AppError> {
+        if state.revision == self.revision {
+            self.needs_check = false;
+            return Ok(Behind::Caught);
+        }
+        if state.reload_revision > self.revision {
+            return Ok(Behind::Reload);
+        }
+        let finished = store
+            .routines_finished_after(state.id, self.last_finish_seq)
+            .await?;
+        let version = self.version + finished.len() as i64;
+        for r in &finished {
+            if self.open.is_some() && self.open != Some(r.id) {
+                return Ok(Behind::Reload);
+            }
+            self.follow_open(store, r.id).await?;
+            self.teacher.finish_routine();
+            if let Some(arm) = self.arm.as_mut() {
+                arm.clear();
+            }
+            self.open = None;
+            self.open_ids.clear();
+            self.last_finish_seq = r.finish_seq.unwrap_or(self.last_finish_seq);
+        }
+        match store.open_routine(state.id).await? {
+            Some(r) if self.open.is_none() || self.open == Some(r.id) => {
+                self.open = Some(r.id);
+                self.follow_open(store, r.id).await?;
+            }
+            Some(_) => return Ok(Behind::Reload),
+            None if self.open.is_some() => return Ok(Behind::Reload),
+            None => {}
+        }
+        if version != state.model_version {
+            return Ok(Behind::Reload);
+        }
+        self.version = version;
+        self.revision = state.revision;
+        self.needs_check = false;
+        Ok(Behind::Caught)
+    }
+
+    /// Makes the teacher hold routine `id`'s stored waypoints: undoes those of its own from
+    /// the first that is not in the database, then learns the rest.
+    async fn follow_open(&mut self, store: &Store, id: i64) -> Result<(), AppError> {
+        let ids = store.waypoint_ids(id).await?;
+        let common = self
+            .open_ids
+            .iter()
+            .zip(&ids)
+            .take_while(|(a, b)| a == b)
+            .count();
+        for _ in common..self.open_ids.len() {
+            self.teacher.undo();
+            if let Some(arm) = self.arm.as_mut() {
+                arm.undo();
+            }
+        }
+        self.open_ids.truncate(common);
+        for w in store.waypoints_after(id, common as i64).await? {
+            let pose = stored_pose(&w)?;
+            self.teacher.teach(pose);
+            if let Some(arm) = self.arm.as_mut() {
+                arm.taught(&pose, stored_joints(&w)?.as_deref());
+            }
+            self.open_ids.push(w.id);
+        }
+        Ok(())
     }
 
     /// What a rebuild from the database must reproduce: the learned model, the routine being

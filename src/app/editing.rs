@@ -17,7 +17,7 @@ use super::registry::{Locked, lock_map};
 use super::resources::*;
 use super::rows::{pose_columns, program, routine, waypoint};
 use super::{App, Result, check_name};
-use crate::storage::{RoutineRow, WaypointRow, WaypointValues};
+use crate::storage::{CellWrite, RoutineRow, WaypointRow, WaypointValues};
 
 /// What an edit of a routine's waypoints does to the cell's model.
 #[derive(Debug, Clone, Copy)]
@@ -29,6 +29,11 @@ struct Effect {
 }
 
 impl Effect {
+    /// The edit's write on the cell (advancing the model version when `advance`).
+    fn write(self, advance: bool) -> CellWrite {
+        CellWrite::edit(advance, self.rebuild)
+    }
+
     fn of(r: &RoutineRow, changes_poses: bool) -> Effect {
         let open = !r.finished();
         Effect {
@@ -48,6 +53,16 @@ impl App {
             .ok_or_else(|| AppError::not_found("waypoint", id))?;
         let r = self.routine_row(w.routine_id).await?;
         Ok((w, r))
+    }
+
+    /// After an edit (which advanced the cell's revision): the model is learned again when
+    /// the edit changed what it learned, else it checks the database on its next use.
+    fn after_edit(&self, mut locked: Locked, cell_id: i64, rebuild: bool) {
+        if rebuild {
+            self.rebuild_later(locked, cell_id);
+        } else {
+            locked.check_next_time();
+        }
     }
 
     /// Drops the cell's model after an edit that changed what it learned, and learns it again
@@ -113,11 +128,9 @@ impl App {
         let advance = effect.advance && moved;
         let (_, after, version) = self
             .store
-            .update_waypoint(id, &values, r.cell_id, advance)
+            .update_waypoint(id, &values, r.cell_id, effect.write(advance))
             .await?;
-        if effect.rebuild {
-            self.rebuild_later(locked, r.cell_id);
-        }
+        self.after_edit(locked, r.cell_id, effect.rebuild);
         Ok(WaypointEdit {
             waypoint: Some(waypoint(after)?),
             previous: Some(old),
@@ -143,11 +156,9 @@ impl App {
         let effect = Effect::of(&r, true);
         let (row, version) = self
             .store
-            .insert_waypoint(r.id, seq, &values, r.cell_id, effect.advance)
+            .insert_waypoint(r.id, seq, &values, r.cell_id, effect.write(effect.advance))
             .await?;
-        if effect.rebuild {
-            self.rebuild_later(locked, r.cell_id);
-        }
+        self.after_edit(locked, r.cell_id, effect.rebuild);
         Ok(WaypointEdit {
             waypoint: Some(waypoint(row)?),
             previous: None,
@@ -169,11 +180,9 @@ impl App {
         let effect = Effect::of(&r, true);
         let (row, version) = self
             .store
-            .delete_waypoint(id, r.cell_id, effect.advance)
+            .delete_waypoint(id, r.cell_id, effect.write(effect.advance))
             .await?;
-        if effect.rebuild {
-            self.rebuild_later(locked, r.cell_id);
-        }
+        self.after_edit(locked, r.cell_id, effect.rebuild);
         Ok(WaypointEdit {
             waypoint: None,
             previous: Some(waypoint(row)?),
@@ -222,12 +231,10 @@ impl App {
         let locked = self.lock_cell_id(r.cell_id).await?;
         let r = self.routine_row(id).await?;
         self.store
-            .delete_routine(id, r.cell_id, r.learned())
+            .delete_routine(id, r.cell_id, CellWrite::edit(r.learned(), r.learned()))
             .await?;
         lock_map(&self.routine_cells).remove(&id);
-        if r.learned() {
-            self.rebuild_later(locked, r.cell_id);
-        }
+        self.after_edit(locked, r.cell_id, r.learned());
         Ok(())
     }
 
@@ -257,16 +264,17 @@ impl App {
             let routines = app.store.routines(id).await?;
             let advance = routines.iter().any(RoutineRow::learned);
             let open = routines.iter().any(|r| !r.finished());
-            let version = app.store.delete_program(id, p.cell_id, advance).await?;
+            let version = app
+                .store
+                .delete_program(id, p.cell_id, CellWrite::edit(advance, advance || open))
+                .await?;
             {
                 let mut cache = lock_map(&app.routine_cells);
                 for r in &routines {
                     cache.remove(&r.id);
                 }
             }
-            if advance || open {
-                app.rebuild_later(locked, p.cell_id);
-            }
+            app.after_edit(locked, p.cell_id, advance || open);
             tracing::info!(program = id, model_version = version, "program deleted");
             Ok(())
         })
@@ -307,9 +315,7 @@ impl App {
                     }
                     other => other,
                 })?;
-            if json.is_some() {
-                app.rebuild_later(locked, id);
-            }
+            app.after_edit(locked, id, json.is_some());
             app.cell(updated)
         })
         .await

@@ -38,6 +38,10 @@ pub enum AppError {
     /// velocities missing, no closed-form solver fits it), with what is wrong.
     #[error("unusable robot model: {0}")]
     Robot(#[from] KinematicsError),
+    /// The cell was written by another instance at the same time, again and again: the
+    /// request changed nothing and can be sent again.
+    #[error("{0}")]
+    Stale(String),
     /// The database failed. The storage error is kept as the source, so the edge logs the
     /// whole chain (down to sqlx's) once.
     #[error("the database failed")]
@@ -53,6 +57,7 @@ impl AppError {
         match self {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
             AppError::Conflict(_) | AppError::Exists(_) => "conflict",
+            AppError::Stale(_) => "busy",
             AppError::Invalid(_) | AppError::Import(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) => "invalid_settings",
@@ -82,6 +87,7 @@ impl From<StorageError> for AppError {
     fn from(e: StorageError) -> AppError {
         match e {
             StorageError::Conflict(m) => AppError::Conflict(m),
+            e @ StorageError::Stale { .. } => AppError::Stale(e.to_string()),
             other => AppError::Storage(other),
         }
     }

@@ -98,7 +98,7 @@ impl App {
                  with learn"
             )));
         }
-        let stored = self
+        let (stored, state, last_finish) = self
             .store
             .import_programs(cell_id, &programs, learn)
             .await
@@ -119,12 +119,15 @@ impl App {
                         model.teacher.teach(*pose);
                     }
                     model.teacher.finish_routine();
-                    model.version += 1;
                 }
+                model.version = state.model_version;
+                model.revision = state.revision;
+                model.last_finish_seq = last_finish.unwrap_or(model.last_finish_seq);
                 Ok(model.info())
             })
             .await??
         } else {
+            model.revision = state.revision;
             model.info()
         };
         let out = stored

@@ -2,7 +2,7 @@
 //! first use; the routine→cell cache of the hot path; operations that run to completion on
 //! their own task, and CPU work on blocking threads.
 
-use super::cell_model::CellModel;
+use super::cell_model::{Behind, CellModel};
 use super::error::AppError;
 use super::{App, Result};
 use crate::storage::{CellRow, ProgramRow, RoutineRow};
@@ -33,10 +33,25 @@ pub(super) struct OpenRoutine {
 pub(super) struct Locked(pub(super) OwnedMutexGuard<Option<CellModel>>);
 
 impl Locked {
+    /// A write of ours found the cell changed elsewhere (or advanced its revision to a value
+    /// the model does not know): the next lock checks the database first.
+    pub(super) fn check_next_time(&mut self) {
+        if let Some(model) = self.0.as_mut() {
+            model.needs_check = true;
+        }
+    }
+
     pub(super) fn model(&mut self) -> Result<&mut CellModel> {
         self.0
             .as_mut()
             .ok_or_else(|| AppError::Internal("cell model not loaded".into()))
+    }
+}
+
+/// After a failed write that follows a locked model: a stale cell is checked on the next lock.
+pub(super) fn stale_check(locked: &mut Locked, e: &crate::storage::StorageError) {
+    if matches!(e, crate::storage::StorageError::Stale { .. }) {
+        locked.check_next_time();
     }
 }
 
@@ -62,6 +77,28 @@ impl App {
             .spawn(op(self.clone()))
             .await
             .map_err(|e| AppError::Internal(format!("operation task: {e}")))?
+    }
+
+    /// Runs a write that follows the cell's model in memory to completion, again (after the
+    /// model has caught up) when the cell changed elsewhere between its check and its commit.
+    pub(super) async fn following<T, F>(&self, op: impl Fn(App) -> F + Send + 'static) -> Result<T>
+    where
+        F: Future<Output = Result<T>> + Send + 'static,
+        T: Send + 'static,
+    {
+        self.to_completion(move |app| async move {
+            let mut tries = 0;
+            loop {
+                match op(app.clone()).await {
+                    Err(AppError::Stale(m)) if tries < 4 => {
+                        tries += 1;
+                        tracing::debug!(tries, "{m}; trying again");
+                    }
+                    other => return other,
+                }
+            }
+        })
+        .await
     }
 
     /// Waits for the operations still running (their callers may have gone away); new
@@ -99,11 +136,36 @@ impl App {
 
     /// Locks a cell's model, loading it from the database on first use (the cell must exist:
     /// a missing one is a 404, but callers check first so no slot is made for it).
+    ///
+    /// When other instances may write the database (PostgreSQL), or a write of ours found the
+    /// cell changed, the model is first brought up to the database's state of the cell: what
+    /// is new is learned, or the model is learned again when it cannot follow (an edit).
     pub(super) async fn lock_cell_id(&self, cell_id: i64) -> Result<Locked> {
         let mut guard = self.slot(cell_id).lock_owned().await;
-        if guard.is_none() {
-            let cell = self.cell_row(cell_id).await?;
-            *guard = Some(CellModel::load(&self.store, &cell, &self.robots).await?);
+        let check = match guard.as_ref() {
+            None => {
+                let cell = self.cell_row(cell_id).await?;
+                *guard = Some(CellModel::load(&self.store, &cell, &self.robots).await?);
+                false
+            }
+            Some(model) => model.needs_check || self.store.backend().shared(),
+        };
+        if check {
+            let Some(state) = self.store.cell_state(cell_id).await? else {
+                *guard = None;
+                lock_map(&self.routine_cells).retain(|_, cell| *cell != cell_id);
+                return Err(AppError::not_found("cell", cell_id));
+            };
+            let behind = match guard.as_mut() {
+                Some(model) => model.catch_up(&self.store, &state).await?,
+                None => Behind::Reload,
+            };
+            if behind == Behind::Reload {
+                tracing::debug!(cell = cell_id, "cell changed elsewhere; learning it again");
+                *guard = None;
+                let cell = self.cell_row(cell_id).await?;
+                *guard = Some(CellModel::load(&self.store, &cell, &self.robots).await?);
+            }
         }
         Ok(Locked(guard))
     }

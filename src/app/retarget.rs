@@ -149,7 +149,7 @@ impl App {
             .name
             .map(|n| n.trim().to_string())
             .unwrap_or_else(|| format!("{} (moved)", p.name));
-        let stored = self
+        let (stored, _, _) = self
             .store
             .import_programs(p.cell_id, &[(name.clone(), routines)], false)
             .await

@@ -2,7 +2,7 @@
 //! one, finish it (the model learns it). Other edits are in `editing`.
 
 use super::error::AppError;
-use super::registry::lock_map;
+use super::registry::{lock_map, stale_check};
 use super::resources::*;
 use super::rows::{routine, waypoint};
 use super::{App, Result, check_name};
@@ -11,9 +11,10 @@ impl App {
     /// Starts a routine at the end of a program. The cell must not have another routine
     /// being taught.
     pub async fn create_routine(&self, program_id: i64, input: CreateRoutine) -> Result<Routine> {
-        self.to_completion(
-            move |app| async move { app.create_routine_now(program_id, input).await },
-        )
+        self.following(move |app| {
+            let input = input.clone();
+            async move { app.create_routine_now(program_id, input).await }
+        })
         .await
     }
 
@@ -29,11 +30,16 @@ impl App {
                 open.id, p.cell_id
             )));
         }
-        let id = self
+        let expected = locked.model()?.revision;
+        let (id, state) = self
             .store
-            .insert_routine(&p, input.name.as_deref().map(str::trim))
-            .await?;
-        locked.model()?.open = Some(id);
+            .insert_routine(&p, input.name.as_deref().map(str::trim), expected)
+            .await
+            .inspect_err(|e| stale_check(&mut locked, e))?;
+        let model = locked.model()?;
+        model.open = Some(id);
+        model.open_ids.clear();
+        model.revision = state.revision;
         Ok(routine(self.routine_row(id).await?))
     }
 
@@ -73,7 +79,7 @@ impl App {
     /// at once (as if never taught); a finished one that the model learned leaves it by a
     /// rebuild (the model version advances; see `editing`).
     pub async fn delete_routine(&self, id: i64) -> Result<()> {
-        self.to_completion(move |app| async move {
+        self.following(move |app| async move {
             if app.routine_row(id).await?.finished() {
                 app.delete_finished_routine_now(id).await
             } else {
@@ -89,9 +95,16 @@ impl App {
             Err(AppError::Conflict(_)) => return self.delete_finished_routine_now(id).await,
             other => other?,
         };
-        self.store.delete_open_routine(r.id).await?;
+        let expected = locked.model()?.revision;
+        let state = self
+            .store
+            .delete_open_routine(r.id, r.cell_id, expected)
+            .await
+            .inspect_err(|e| stale_check(&mut locked, e))?;
         lock_map(&self.routine_cells).remove(&r.id);
         let model = locked.model()?;
+        model.revision = state.revision;
+        model.open_ids.clear();
         model.teacher.abandon_routine();
         if let Some(arm) = model.arm.as_mut() {
             arm.clear();
@@ -103,20 +116,28 @@ impl App {
     /// Finishes a routine: it takes no more teaching (edits still apply) and the cell's model
     /// assimilates it.
     pub async fn finish_routine(&self, id: i64) -> Result<Finished> {
-        self.to_completion(move |app| async move { app.finish_routine_now(id).await })
+        self.following(move |app| async move { app.finish_routine_now(id).await })
             .await
     }
 
     async fn finish_routine_now(&self, id: i64) -> Result<Finished> {
         let (mut locked, r) = self.lock_open_routine(id).await?;
-        self.store.finish_routine(r.cell_id, r.id).await?;
+        let expected = locked.model()?.revision;
+        let (finish_seq, state) = self
+            .store
+            .finish_routine(r.cell_id, r.id, expected)
+            .await
+            .inspect_err(|e| stale_check(&mut locked, e))?;
         let model = locked.model()?;
+        model.revision = state.revision;
+        model.last_finish_seq = finish_seq;
+        model.open_ids.clear();
         model.teacher.finish_routine();
         if let Some(arm) = model.arm.as_mut() {
             arm.clear();
         }
         model.open = None;
-        model.version += 1;
+        model.version = state.model_version;
         let info = model.info();
         Ok(Finished {
             routine: routine(self.routine_row(id).await?),

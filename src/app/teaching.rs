@@ -3,14 +3,14 @@
 
 use super::error::AppError;
 use super::offer;
-use super::registry::blocking;
+use super::registry::{blocking, stale_check};
 use super::resources::*;
 use super::rows::{pose_columns, waypoint};
 use super::settings::MAX_HORIZON;
 use super::{App, MAX_COMPLETION, Result, check_name};
 use crate::engine::PredictOptions;
 use crate::kinematics::Reachability;
-use crate::storage::NewWaypoint;
+use crate::storage::{Append, NewWaypoint};
 
 impl App {
     pub(super) fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
@@ -34,9 +34,10 @@ impl App {
 
     /// Appends a taught waypoint to an open routine and predicts the next one.
     pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
-        self.to_completion(
-            move |app| async move { app.append_waypoint_now(routine_id, input).await },
-        )
+        self.following(move |app| {
+            let input = input.clone();
+            async move { app.append_waypoint_now(routine_id, input).await }
+        })
         .await
     }
 
@@ -70,16 +71,26 @@ impl App {
             name: input.name.map(|n| n.trim().to_string()),
             reachable: taught_reach.as_ref().map(Reachability::is_reachable),
         };
-        let (row, id) = match self.store.append_waypoint(&wp, record.as_ref()).await {
+        let append = Append {
+            cell_id: r.cell_id,
+            expected_revision: model.revision,
+            waypoint: wp,
+            prediction: record,
+        };
+        let done = match self.store.append_waypoint(append).await {
             Ok(done) => done,
             Err(e) => {
                 model.teacher.undo();
                 if let Some(arm) = model.arm.as_mut() {
                     arm.undo();
                 }
+                stale_check(&mut locked, &e);
                 return Err(e.into());
             }
         };
+        model.revision = done.revision;
+        model.open_ids.push(done.row.id);
+        let (row, id) = (done.row, done.prediction_id);
         let version = model.version;
         let prediction = offer::dto(model.arm.as_ref(), &checked, &opts, id, after, version);
         self.metrics.record_prediction(checked.reason());
@@ -91,18 +102,26 @@ impl App {
 
     /// Removes the last waypoint of an open routine; the prediction rolls back with it.
     pub async fn undo(&self, routine_id: i64) -> Result<Undone> {
-        self.to_completion(move |app| async move { app.undo_now(routine_id).await })
+        self.following(move |app| async move { app.undo_now(routine_id).await })
             .await
     }
 
     async fn undo_now(&self, routine_id: i64) -> Result<Undone> {
         let (mut locked, r) = self.lock_open_routine(routine_id).await?;
-        let Some(removed) = self.store.delete_last_waypoint(r.id).await? else {
+        let expected = locked.model()?.revision;
+        let (removed, state) = self
+            .store
+            .delete_last_waypoint(r.id, r.cell_id, expected)
+            .await
+            .inspect_err(|e| stale_check(&mut locked, e))?;
+        let Some(removed) = removed else {
             return Err(AppError::Conflict(format!(
                 "routine {routine_id} has no waypoint to undo"
             )));
         };
         let model = locked.model()?;
+        model.revision = state.revision;
+        model.open_ids.pop();
         model.teacher.undo();
         if let Some(arm) = model.arm.as_mut() {
             arm.undo();

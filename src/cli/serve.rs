@@ -7,9 +7,10 @@ use clap::Args;
 
 #[derive(Debug, Args)]
 pub struct ServeArgs {
-    /// SQLite database file (created when missing).
+    /// The database: an SQLite file (created when missing), or a PostgreSQL URL
+    /// (`postgres://user:password@host:5432/name`) that several instances may share.
     #[arg(long, env = "NEXTPOSE_DB", default_value = "nextpose.db")]
-    pub db: PathBuf,
+    pub db: String,
     /// Address to listen on.
     #[arg(long, env = "NEXTPOSE_ADDR", default_value = "127.0.0.1:8080")]
     pub addr: String,
@@ -42,8 +43,9 @@ pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
                 .unwrap_or_else(|_| "info,sqlx=warn".into()),
         )
         .init();
+    let database = Database::parse(&args.db);
     let settings = ServerSettings {
-        database: Database::File(args.db.clone()),
+        database: database.clone(),
         durability: if args.sync_full {
             Durability::Full
         } else {
@@ -70,10 +72,10 @@ pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
         // Tests and scripts read this line to find the port.
         println!(
             "nextpose listening on http://{addr} (database {})",
-            args.db.display()
+            database.describe()
         );
         std::io::stdout().flush().ok();
-        tracing::info!(%addr, db = %args.db.display(), "serving");
+        tracing::info!(%addr, db = %database.describe(), "serving");
         application.run_until_stopped(shutdown_signal()).await?;
         Ok(())
     })

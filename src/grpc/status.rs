@@ -15,6 +15,8 @@ pub fn code(e: &AppError) -> Code {
         AppError::NotFound { .. } | AppError::NotFoundName { .. } => Code::NotFound,
         AppError::Exists(_) => Code::AlreadyExists,
         AppError::Conflict(_) => Code::FailedPrecondition,
+        // Changed by another instance at the same time: nothing was done; send it again.
+        AppError::Stale(_) => Code::Aborted,
         AppError::Invalid(_)
         | AppError::Import(_)
         | AppError::Pose(_)

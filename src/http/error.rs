@@ -66,7 +66,9 @@ impl From<AppError> for ApiError {
     fn from(e: AppError) -> ApiError {
         let status = match &e {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => StatusCode::NOT_FOUND,
-            AppError::Conflict(_) | AppError::Exists(_) => StatusCode::CONFLICT,
+            AppError::Conflict(_) | AppError::Exists(_) | AppError::Stale(_) => {
+                StatusCode::CONFLICT
+            }
             AppError::Invalid(_)
             | AppError::Import(_)
             | AppError::Pose(_)

@@ -1,6 +1,100 @@
 //! Rows as stored. Poses are flat columns: position in mm, quaternion `w, x, y, z`.
 
-use sqlx::FromRow;
+use sqlx::any::Any;
+use sqlx::decode::Decode;
+use sqlx::error::BoxDynError;
+use sqlx::types::Type;
+use sqlx::{FromRow, ValueRef};
+
+/// A 0/1 integer column read as a flag. Both dialects store flags as integers so that the same
+/// SQL (`imported = 0`) and the same binds serve SQLite and PostgreSQL.
+#[derive(Debug, Clone, Copy)]
+pub struct Flag(bool);
+
+impl From<Flag> for bool {
+    fn from(f: Flag) -> bool {
+        f.0
+    }
+}
+
+impl Type<Any> for Flag {
+    fn type_info() -> <Any as sqlx::Database>::TypeInfo {
+        <i64 as Type<Any>>::type_info()
+    }
+
+    fn compatible(ty: &<Any as sqlx::Database>::TypeInfo) -> bool {
+        <i64 as Type<Any>>::compatible(ty) || <i32 as Type<Any>>::compatible(ty)
+    }
+}
+
+impl<'r> Decode<'r, Any> for Flag {
+    fn decode(value: <Any as sqlx::Database>::ValueRef<'r>) -> Result<Self, BoxDynError> {
+        Ok(Flag(<i64 as Decode<Any>>::decode(value)? != 0))
+    }
+}
+
+/// A nullable 0/1 integer column (NULL: not known).
+#[derive(Debug, Clone, Copy)]
+pub struct MaybeFlag(Option<bool>);
+
+impl From<MaybeFlag> for Option<bool> {
+    fn from(f: MaybeFlag) -> Option<bool> {
+        f.0
+    }
+}
+
+impl Type<Any> for MaybeFlag {
+    fn type_info() -> <Any as sqlx::Database>::TypeInfo {
+        <Flag as Type<Any>>::type_info()
+    }
+
+    fn compatible(ty: &<Any as sqlx::Database>::TypeInfo) -> bool {
+        <Flag as Type<Any>>::compatible(ty)
+    }
+}
+
+impl<'r> Decode<'r, Any> for MaybeFlag {
+    fn decode(value: <Any as sqlx::Database>::ValueRef<'r>) -> Result<Self, BoxDynError> {
+        if value.is_null() {
+            return Ok(MaybeFlag(None));
+        }
+        Ok(MaybeFlag(Some(
+            <Flag as Decode<Any>>::decode(value)?.into(),
+        )))
+    }
+}
+
+/// A nullable float as it is bound: `Option<f64>` would do, but sqlx's Any driver sends a
+/// missing f64 to PostgreSQL as a `float4` NULL, and a statement prepared with it then refuses
+/// the next call's `float8` ("incorrect binary data format"). Declared as the other float
+/// kind, a missing value goes out as a `float8` NULL; a present one is an f64 either way.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Real(f64);
+
+impl Type<Any> for Real {
+    fn type_info() -> <Any as sqlx::Database>::TypeInfo {
+        <f32 as Type<Any>>::type_info()
+    }
+}
+
+impl<'q> sqlx::Encode<'q, Any> for Real {
+    fn encode_by_ref(
+        &self,
+        buf: &mut <Any as sqlx::Database>::ArgumentBuffer,
+    ) -> Result<sqlx::encode::IsNull, BoxDynError> {
+        <f64 as sqlx::Encode<'q, Any>>::encode_by_ref(&self.0, buf)
+    }
+}
+
+/// A nullable float, ready to bind (see [`Real`]).
+pub(super) fn real(v: Option<f64>) -> Option<Real> {
+    v.map(Real)
+}
+
+/// A flag as it is bound (see [`Flag`]).
+pub(super) fn flag(b: bool) -> i64 {
+    i64::from(b)
+}
 
 /// A pose as seven columns.
 #[derive(Debug, Clone, Copy, PartialEq, FromRow)]
@@ -36,6 +130,20 @@ pub struct CellRow {
     pub model_version: i64,
     /// When the settings last changed (None: as created).
     pub settings_changed_at: Option<String>,
+    /// See [`CellState`].
+    pub revision: i64,
+    pub reload_revision: i64,
+}
+
+/// Where a cell's writes stand: every write to the cell advances `revision`; one after which a
+/// model in memory cannot follow incrementally (an edit, new settings, an import) also sets
+/// `reload_revision` to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, FromRow)]
+pub struct CellState {
+    pub id: i64,
+    pub revision: i64,
+    pub reload_revision: i64,
+    pub model_version: i64,
 }
 
 #[derive(Debug, Clone, FromRow)]
@@ -57,6 +165,7 @@ pub struct RoutineRow {
     pub finished_at: Option<String>,
     pub created_at: String,
     /// Imported from an offline program (takes no teaching; learned only when `finish_seq` is set).
+    #[sqlx(try_from = "Flag")]
     pub imported: bool,
     /// Number of waypoints.
     pub waypoints: i64,
@@ -93,6 +202,7 @@ pub struct WaypointRow {
     pub motion: Option<String>,
     pub name: Option<String>,
     /// Whether the cell's arm reaches it (None: not checked).
+    #[sqlx(try_from = "MaybeFlag")]
     pub reachable: Option<bool>,
     pub created_at: String,
 }

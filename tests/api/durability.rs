@@ -6,6 +6,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 use nextpose::replay::load_paths;
+use nextpose::server::Database;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
@@ -102,11 +103,11 @@ async fn rebuild_and_restart_give_the_same_model_and_predictions() {
     assert_eq!(snapshot(&app, cell, open).await, before);
 }
 
-/// The real binary, started on a free port; returns the child and its base URL.
-fn start_binary(db: &Path) -> (Child, String) {
+/// The real binary on `db`, started on a free port; returns the child and its base URL.
+pub(crate) fn start_binary(db: &Database) -> (Child, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_nextpose"))
         .args(["serve", "--addr", "127.0.0.1:0", "--db"])
-        .arg(db)
+        .arg(db_setting(db))
         .env("RUST_LOG", "warn")
         .env_remove("NEXTPOSE_TOKEN")
         .stdout(Stdio::piped())
@@ -129,7 +130,7 @@ fn start_binary(db: &Path) -> (Child, String) {
 #[tokio::test]
 async fn acknowledged_waypoints_survive_kill_9() {
     let dir = tempfile::tempdir().unwrap();
-    let db = dir.path().join("durable.db");
+    let db = test_database(dir.path()).await;
     let (mut child, base) = tokio::task::spawn_blocking({
         let db = db.clone();
         move || start_binary(&db)
@@ -166,7 +167,7 @@ async fn an_older_database_upgrades_with_its_ids_and_rows() {
     let dir = tempfile::tempdir().unwrap();
     let old = dir.path().join("migrations");
     std::fs::create_dir(&old).unwrap();
-    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
     for name in [
         "0001_init.sql",
         "0002_waypoint_reachable.sql",
@@ -223,7 +224,7 @@ async fn an_older_database_upgrades_with_its_ids_and_rows() {
     }
     pool.close().await;
 
-    let app = spawn_on(db).await;
+    let app = spawn_on(Database::File(db)).await;
     let cells = app.get_ok("/v1/cells").await;
     assert_eq!(cells[0]["id"], 1);
     assert_eq!(cells[0]["name"], "c");

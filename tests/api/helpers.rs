@@ -1,8 +1,6 @@
 //! `spawn_app()`: the real application on 127.0.0.1:0 with a fresh SQLite file, plus small
 //! clients for the routes the tests use.
 
-use std::path::PathBuf;
-
 use nalgebra::UnitQuaternion;
 use nextpose::server::{Application, Database, Running, ServerSettings};
 use nextpose::storage::Durability;
@@ -13,7 +11,7 @@ use serde_json::{Value, json};
 pub struct TestApp {
     pub base: String,
     pub client: reqwest::Client,
-    pub db: PathBuf,
+    pub db: Database,
     pub token: Option<String>,
     _dir: Option<tempfile::TempDir>,
     server: Option<Running>,
@@ -25,21 +23,77 @@ pub async fn spawn_app() -> TestApp {
 
 pub async fn spawn_with(http: TransportOptions) -> TestApp {
     let dir = tempfile::tempdir().expect("temp dir");
-    let db = dir.path().join("nextpose.db");
+    let db = test_database(dir.path()).await;
     let mut app = start(db, http).await;
     app._dir = Some(dir);
     app
 }
 
-/// The application on an existing database file (kept by the caller).
-pub async fn spawn_on(db: PathBuf) -> TestApp {
+/// The application on an existing database (kept by the caller).
+pub async fn spawn_on(db: Database) -> TestApp {
     start(db, TransportOptions::default()).await
 }
 
-async fn start(db: PathBuf, http: TransportOptions) -> TestApp {
+/// Whether the tests run on PostgreSQL (`NEXTPOSE_TEST_DB=postgres`, with the cluster of
+/// `scripts/with-postgres.sh` in `NEXTPOSE_TEST_POSTGRES`) instead of SQLite files.
+pub fn on_postgres() -> bool {
+    std::env::var("NEXTPOSE_TEST_DB").is_ok_and(|v| v == "postgres")
+}
+
+/// A new, empty database for one test: an SQLite file in `dir`, or (on PostgreSQL) a database
+/// of its own in the test cluster.
+pub async fn test_database(dir: &std::path::Path) -> Database {
+    if on_postgres() {
+        Database::Postgres(postgres_database().await)
+    } else {
+        Database::File(dir.join("nextpose.db"))
+    }
+}
+
+/// Creates a database in the test cluster; returns its URL. Needs `NEXTPOSE_TEST_POSTGRES`
+/// (`bash scripts/with-postgres.sh cargo test …` sets it).
+pub async fn postgres_database() -> String {
+    use sqlx::Connection;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let cluster = std::env::var("NEXTPOSE_TEST_POSTGRES").expect(
+        "NEXTPOSE_TEST_POSTGRES is unset: run the tests with `bash scripts/test.sh`, which starts \
+         a throwaway PostgreSQL cluster (scripts/with-postgres.sh)",
+    );
+    let mut conn = sqlx::PgConnection::connect(&cluster)
+        .await
+        .expect("connect to the test cluster");
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("clock")
+        .subsec_nanos();
+    let name = format!(
+        "t{}_{}_{nanos}",
+        std::process::id(),
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    );
+    sqlx::query(sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}")))
+        .execute(&mut conn)
+        .await
+        .expect("create a test database");
+    let mut url = url::Url::parse(&cluster).expect("cluster URL");
+    url.set_path(&name);
+    url.to_string()
+}
+
+/// `db` as `nextpose serve --db` takes it.
+pub fn db_setting(db: &Database) -> std::ffi::OsString {
+    match db {
+        Database::File(path) => path.clone().into_os_string(),
+        Database::Memory => "sqlite::memory:".into(),
+        Database::Postgres(url) => url.into(),
+    }
+}
+
+async fn start(db: Database, http: TransportOptions) -> TestApp {
     let token = http.token.clone();
     let settings = ServerSettings {
-        database: Database::File(db.clone()),
+        database: db.clone(),
         durability: Durability::Process,
         addr: "127.0.0.1:0".into(),
         http,
@@ -66,7 +120,7 @@ impl TestApp {
         TestApp {
             base: base.trim_end_matches('/').to_string(),
             client: reqwest::Client::new(),
-            db: PathBuf::new(),
+            db: Database::Memory,
             token: None,
             _dir: None,
             server: None,

@@ -1,0 +1,193 @@
+//! The two database engines behind [`super::Store`]: where a `--db` setting points, how a pool
+//! is opened on it, its migrations, and the little SQL that differs between them.
+//!
+//! Every query is written once, with `$1`-style parameters (SQLite reads them as numbered
+//! parameters too), flags as 0/1 integers and `IS NOT DISTINCT FROM` for null-safe equality;
+//! only the current-time expression differs ([`Backend::now`]).
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use sqlx::AnyPool;
+use sqlx::ConnectOptions;
+use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
+use sqlx::sqlite::SqliteConnectOptions;
+
+use super::{Durability, Result, StorageError};
+
+/// Where the database lives, as `--db` / `NEXTPOSE_DB` give it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Location {
+    /// An SQLite file (created when missing).
+    File(PathBuf),
+    /// An in-memory SQLite database, gone when the process ends (tests and demos).
+    Memory,
+    /// A PostgreSQL database (`postgres://` or `postgresql://` URL).
+    Postgres(String),
+}
+
+impl Location {
+    /// A setting: a `postgres://…` URL, `sqlite::memory:`, or an SQLite file path.
+    pub fn parse(setting: &str) -> Location {
+        if setting.starts_with("postgres://") || setting.starts_with("postgresql://") {
+            Location::Postgres(setting.to_string())
+        } else if setting == "sqlite::memory:" || setting == ":memory:" {
+            Location::Memory
+        } else {
+            Location::File(PathBuf::from(
+                setting
+                    .strip_prefix("sqlite://")
+                    .or_else(|| setting.strip_prefix("sqlite:"))
+                    .unwrap_or(setting),
+            ))
+        }
+    }
+
+    /// For logs: the file, or the URL without its password.
+    pub fn describe(&self) -> String {
+        match self {
+            Location::File(p) => p.display().to_string(),
+            Location::Memory => "in memory".into(),
+            Location::Postgres(url) => match url::Url::parse(url) {
+                Ok(mut u) => {
+                    if u.password().is_some() {
+                        let _ = u.set_password(Some("***"));
+                    }
+                    u.to_string()
+                }
+                Err(_) => "postgres (unparsable URL)".into(),
+            },
+        }
+    }
+}
+
+/// The engine of an open store.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    /// One process per file: the service is the only writer.
+    Sqlite,
+    /// Shared by any number of service instances.
+    Postgres,
+}
+
+impl Backend {
+    /// The current UTC time as stored (`2026-12-03T10:00:00.123Z`), as an SQL expression.
+    pub fn now(self) -> &'static str {
+        match self {
+            Backend::Sqlite => "strftime('%Y-%m-%dT%H:%M:%fZ', 'now')",
+            Backend::Postgres => {
+                "to_char(clock_timestamp() AT TIME ZONE 'UTC', 'YYYY-MM-DD\"T\"HH24:MI:SS.MS\"Z\"')"
+            }
+        }
+    }
+
+    /// Other processes may write the same database, so a cell's model in memory must be
+    /// checked against it before it answers.
+    pub fn shared(self) -> bool {
+        self == Backend::Postgres
+    }
+}
+
+/// Opens a pool on `location` and brings its schema up to date.
+pub(super) async fn connect(
+    location: &Location,
+    durability: Durability,
+) -> Result<(AnyPool, Backend)> {
+    sqlx::any::install_default_drivers();
+    match location {
+        Location::File(path) => {
+            let pool = sqlite_pool(sqlite_url(path), 8, durability).await?;
+            sqlx::migrate!("./migrations/sqlite").run(&pool).await?;
+            Ok((pool, Backend::Sqlite))
+        }
+        Location::Memory => {
+            // One connection: each `:memory:` connection is its own database.
+            let pool = sqlite_pool("sqlite::memory:".into(), 1, durability).await?;
+            sqlx::migrate!("./migrations/sqlite").run(&pool).await?;
+            Ok((pool, Backend::Sqlite))
+        }
+        Location::Postgres(url) => {
+            let options: AnyConnectOptions = url.parse()?;
+            let pool = AnyPoolOptions::new()
+                .max_connections(16)
+                .min_connections(1)
+                .acquire_timeout(Duration::from_secs(10))
+                .connect_with(options.disable_statement_logging())
+                .await?;
+            sqlx::migrate!("./migrations/postgres").run(&pool).await?;
+            Ok((pool, Backend::Postgres))
+        }
+    }
+}
+
+/// The URL of an SQLite file, created when missing (the path percent-encoded by sqlx).
+fn sqlite_url(path: &Path) -> String {
+    SqliteConnectOptions::new()
+        .filename(path)
+        .create_if_missing(true)
+        .to_url_lossy()
+        .to_string()
+}
+
+async fn sqlite_pool(url: String, max: u32, durability: Durability) -> Result<AnyPool> {
+    let options: AnyConnectOptions = url.parse()?;
+    let synchronous = match durability {
+        Durability::Process => "PRAGMA synchronous = NORMAL",
+        Durability::Full => "PRAGMA synchronous = FULL",
+    };
+    let pool = AnyPoolOptions::new()
+        .max_connections(max)
+        .min_connections(1)
+        .after_connect(move |conn, _meta| {
+            Box::pin(async move {
+                // WAL: readers never wait for the writer; a committed transaction is in the
+                // WAL, which survives the process being killed.
+                for pragma in [
+                    "PRAGMA journal_mode = WAL",
+                    synchronous,
+                    "PRAGMA foreign_keys = ON",
+                    "PRAGMA busy_timeout = 5000",
+                ] {
+                    sqlx::query(pragma).execute(&mut *conn).await?;
+                }
+                Ok(())
+            })
+        })
+        .connect_with(options.disable_statement_logging())
+        .await
+        .map_err(StorageError::Database)?;
+    Ok(pool)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_name_the_engine() {
+        assert_eq!(
+            Location::parse("postgres://u:p@h/db"),
+            Location::Postgres("postgres://u:p@h/db".into())
+        );
+        assert_eq!(
+            Location::parse("postgresql://h/db"),
+            Location::Postgres("postgresql://h/db".into())
+        );
+        assert_eq!(Location::parse("sqlite::memory:"), Location::Memory);
+        assert_eq!(
+            Location::parse("data/cell.db"),
+            Location::File(PathBuf::from("data/cell.db"))
+        );
+        assert_eq!(
+            Location::parse("sqlite://data/cell.db"),
+            Location::File(PathBuf::from("data/cell.db"))
+        );
+    }
+
+    #[test]
+    fn a_password_is_not_logged() {
+        let d = Location::parse("postgres://nextpose:secret@db:5432/site").describe();
+        assert!(!d.contains("secret"), "{d}");
+        assert!(d.contains("db:5432/site"), "{d}");
+    }
+}
