@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's test command: installs what the tests need that cargo does not bring (Debian's
 # chromium and chromium-driver, for the pendant's browser test in tests/pendant.rs) when it is
-# missing, then runs `cargo test` with any arguments given (`bash scripts/test.sh --test api`).
+# missing, then runs `cargo test` with any arguments given (`bash scripts/test.sh --test api`),
+# and the API tests again on PostgreSQL (scripts/with-postgres.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -13,7 +14,11 @@ if ! command -v chromium > /dev/null || ! command -v chromedriver > /dev/null; t
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq chromium chromium-driver > /dev/null
 fi
 
-# The API tests once more on PostgreSQL (a throwaway cluster; installed when missing), with the
-# test of several instances on one database:
 cargo test --locked "$@"
-NEXTPOSE_TEST_DB=postgres bash scripts/with-postgres.sh cargo test --locked --test api "$@"
+
+# The API tests once more on PostgreSQL (a throwaway cluster, its server installed when missing),
+# then the tests of several instances on one database (ignored by plain `cargo test`: they need
+# the cluster).
+NEXTPOSE_TEST_DB=postgres bash scripts/with-postgres.sh bash -c \
+  'cargo test --locked --test api "$@" && cargo test --locked --test api instances -- --ignored' \
+  test "$@"

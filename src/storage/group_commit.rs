@@ -6,15 +6,20 @@
 //! holds as for any other write. Appends on one cell never share a batch: the service holds the
 //! cell's lock until its append is answered, which also keeps their order.
 //!
-//! A failing statement rolls back the whole batch (PostgreSQL aborts the transaction), so the
-//! writer then commits the batch's appends one by one, each with its own answer. A stale cell
-//! ([`StorageError::Stale`]) is not a failure: that append is left out and the rest commit.
+//! A batch is three statements whatever its size (the cells' revisions, the waypoints, the
+//! predictions: multi-row, so the connection's thread is woken three times, not three times
+//! per append). A failing statement rolls back the whole batch (PostgreSQL aborts the
+//! transaction), so the writer then commits the batch's appends one by one, each with its own
+//! answer. A stale cell ([`StorageError::Stale`]) is not a failure: that append is left out and
+//! the rest commit.
 
 use sqlx::AnyPool;
 use tokio::sync::{mpsc, oneshot};
 
-use super::rows::{NewPrediction, NewWaypoint, WaypointRow};
-use super::{CellWrite, Result, StorageError, Tx, insert_prediction, touch_cell};
+use std::collections::HashMap;
+
+use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow, flag, real};
+use super::{CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell};
 
 /// Most appends in one transaction (SQLite and PostgreSQL handle far more; this bounds the
 /// latency of the first append of a long queue).
@@ -39,6 +44,8 @@ pub struct Appended {
     pub prediction_id: Option<i64>,
     /// The cell's revision after the append.
     pub revision: i64,
+    /// How many appends its transaction committed (1: alone).
+    pub batch: usize,
 }
 
 struct Job {
@@ -107,19 +114,197 @@ async fn commit(pool: &AnyPool, batch: Vec<Job>) {
     }
 }
 
-/// The whole batch in one transaction. Err: nothing was committed.
+/// The whole batch in one transaction of three statements, whatever its size: the cells'
+/// revisions checked and advanced, the waypoints, the predictions. Err: nothing was committed.
 async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>> {
+    let appends: Vec<&Append> = batch.iter().map(|j| &j.append).collect();
     let mut tx = pool.begin().await?;
-    let mut results = Vec::with_capacity(batch.len());
-    for job in batch {
-        match store(&mut tx, &job.append).await {
-            Ok(done) => results.push(Ok(done)),
-            Err(e @ StorageError::Stale { .. }) => results.push(Err(e)),
-            Err(e) => return Err(e),
+    let states = advance_cells(&mut tx, &appends).await?;
+    let fresh: Vec<&Append> = appends
+        .iter()
+        .copied()
+        .filter(|a| states.contains_key(&a.cell_id))
+        .collect();
+    let mut rows = insert_waypoint_rows(&mut tx, &fresh).await?;
+    let with_prediction: Vec<(&NewPrediction, i64)> = fresh
+        .iter()
+        .filter_map(|a| {
+            let row = rows.get(&(a.waypoint.routine_id, a.waypoint.seq))?;
+            Some((a.prediction.as_ref()?, row.id))
+        })
+        .collect();
+    let mut predictions = insert_prediction_rows(&mut tx, &with_prediction).await?;
+    tx.commit().await?;
+    Ok(appends
+        .iter()
+        .map(|a| {
+            let Some(state) = states.get(&a.cell_id) else {
+                return Err(StorageError::Stale {
+                    cell: a.cell_id,
+                    expected: a.expected_revision,
+                });
+            };
+            let row = rows
+                .remove(&(a.waypoint.routine_id, a.waypoint.seq))
+                .ok_or_else(|| {
+                    StorageError::Unavailable("a batched waypoint went missing".into())
+                })?;
+            let prediction_id = match a.prediction {
+                Some(_) => Some(predictions.remove(&row.id).ok_or_else(|| {
+                    StorageError::Unavailable("a batched prediction went missing".into())
+                })?),
+                None => None,
+            };
+            Ok(Appended {
+                row,
+                prediction_id,
+                revision: state.revision,
+                batch: appends.len(),
+            })
+        })
+        .collect())
+}
+
+/// `$first, $first+1, …` for `n` values, in parentheses.
+fn placeholders(first: usize, n: usize) -> String {
+    let list: Vec<String> = (first..first + n).map(|i| format!("${i}")).collect();
+    format!("({})", list.join(", "))
+}
+
+/// Advances the revision of each append's cell that is still at the revision the append was
+/// made from; returns the states of those cells (the others are stale). A cell that does not
+/// exist any more is an error for the whole batch (committed one by one, it gets its 404).
+async fn advance_cells(tx: &mut Tx<'_>, appends: &[&Append]) -> Result<HashMap<i64, CellState>> {
+    let terms: Vec<String> = (0..appends.len())
+        .map(|i| format!("(id = ${} AND revision = ${})", 2 * i + 1, 2 * i + 2))
+        .collect();
+    let sql = format!(
+        "UPDATE cells SET revision = revision + 1 WHERE {} \
+         RETURNING id, revision, reload_revision, model_version",
+        terms.join(" OR ")
+    );
+    let mut q = sqlx::query_as::<_, CellState>(sqlx::AssertSqlSafe(sql));
+    for a in appends {
+        q = q.bind(a.cell_id).bind(a.expected_revision);
+    }
+    let states: HashMap<i64, CellState> = q
+        .fetch_all(&mut **tx)
+        .await?
+        .into_iter()
+        .map(|s| (s.id, s))
+        .collect();
+    if states.len() < appends.len() {
+        let missing: Vec<i64> = appends
+            .iter()
+            .map(|a| a.cell_id)
+            .filter(|c| !states.contains_key(c))
+            .collect();
+        let sql = format!(
+            "SELECT COUNT(*) FROM cells WHERE id IN {}",
+            placeholders(1, missing.len())
+        );
+        let mut q = sqlx::query_as::<_, (i64,)>(sqlx::AssertSqlSafe(sql));
+        for c in &missing {
+            q = q.bind(*c);
+        }
+        let (present,) = q.fetch_one(&mut **tx).await?;
+        if present < missing.len() as i64 {
+            return Err(StorageError::NotFound);
         }
     }
-    tx.commit().await?;
-    Ok(results)
+    Ok(states)
+}
+
+/// Inserts the waypoints; returns them as stored, by (routine, seq).
+async fn insert_waypoint_rows(
+    tx: &mut Tx<'_>,
+    appends: &[&Append],
+) -> Result<HashMap<(i64, i64), WaypointRow>> {
+    if appends.is_empty() {
+        return Ok(HashMap::new());
+    }
+    const COLUMNS: usize = 13;
+    let values: Vec<String> = (0..appends.len())
+        .map(|i| placeholders(i * COLUMNS + 1, COLUMNS))
+        .collect();
+    let sql = format!(
+        "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+         reachable) VALUES {} RETURNING {}",
+        values.join(", "),
+        Store::WAYPOINT_COLUMNS
+    );
+    let mut q = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql));
+    for a in appends {
+        let w = &a.waypoint;
+        let p = &w.pose;
+        q = q
+            .bind(w.routine_id)
+            .bind(w.seq)
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(w.joints.clone())
+            .bind(w.motion.clone())
+            .bind(w.name.clone())
+            .bind(w.reachable.map(flag));
+    }
+    Ok(q.fetch_all(&mut **tx)
+        .await
+        .map_err(classify)?
+        .into_iter()
+        .map(|r| ((r.routine_id, r.seq), r))
+        .collect())
+}
+
+/// Inserts the predictions, each made after the waypoint given; returns their ids by that
+/// waypoint.
+async fn insert_prediction_rows(
+    tx: &mut Tx<'_>,
+    predictions: &[(&NewPrediction, i64)],
+) -> Result<HashMap<i64, i64>> {
+    if predictions.is_empty() {
+        return Ok(HashMap::new());
+    }
+    const COLUMNS: usize = 16;
+    let values: Vec<String> = (0..predictions.len())
+        .map(|i| placeholders(i * COLUMNS + 1, COLUMNS))
+        .collect();
+    let sql = format!(
+        "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
+           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) \
+         VALUES {} RETURNING id, after_waypoint_id",
+        values.join(", ")
+    );
+    let mut q = sqlx::query_as::<_, (i64, i64)>(sqlx::AssertSqlSafe(sql));
+    for (pr, after) in predictions {
+        q = q
+            .bind(pr.cell_id)
+            .bind(pr.routine_id)
+            .bind(pr.after_seq)
+            .bind(*after)
+            .bind(pr.pose.x)
+            .bind(pr.pose.y)
+            .bind(pr.pose.z)
+            .bind(pr.pose.qw)
+            .bind(pr.pose.qx)
+            .bind(pr.pose.qy)
+            .bind(pr.pose.qz)
+            .bind(pr.phi)
+            .bind(pr.psi)
+            .bind(real(pr.misfit))
+            .bind(pr.end_probability)
+            .bind(pr.model_version);
+    }
+    Ok(q.fetch_all(&mut **tx)
+        .await
+        .map_err(classify)?
+        .into_iter()
+        .map(|(id, after)| (after, id))
+        .collect())
 }
 
 async fn alone(pool: &AnyPool, append: &Append) -> Result<Appended> {
@@ -142,5 +327,6 @@ async fn store(tx: &mut Tx<'_>, a: &Append) -> Result<Appended> {
         row,
         prediction_id,
         revision: state.revision,
+        batch: 1,
     })
 }

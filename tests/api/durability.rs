@@ -14,7 +14,7 @@ use crate::helpers::*;
 
 /// A real program from the shared corpus, as API poses per routine: the first (by file name)
 /// with at least three routines of three or more waypoints and at most 300 waypoints in all.
-fn corpus_program() -> Vec<Vec<Value>> {
+pub(crate) fn corpus_program() -> Vec<Vec<Value>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/json");
     let programs = load_paths(&[dir]).expect("corpus");
     let program = programs
@@ -54,7 +54,7 @@ async fn teach_corpus_program(app: &TestApp, cell: i64) -> (i64, Value) {
 }
 
 /// Everything observable about a cell: its routines, waypoints, model and current prediction.
-async fn snapshot(app: &TestApp, cell: i64, open: i64) -> Value {
+pub(crate) async fn snapshot(app: &TestApp, cell: i64, open: i64) -> Value {
     let mut routines = Vec::new();
     for p in app
         .get_ok(&format!("/v1/cells/{cell}/programs"))
