@@ -98,6 +98,7 @@ pub(super) async fn connect(
         Location::File(path) => {
             let pool = sqlite_pool(sqlite_url(path), 8, durability).await?;
             sqlx::migrate!("./migrations/sqlite").run(&pool).await?;
+            tokio::spawn(checkpoints(pool.clone()));
             Ok((pool, Backend::Sqlite))
         }
         Location::Memory => {
@@ -116,6 +117,31 @@ pub(super) async fn connect(
                 .await?;
             sqlx::migrate!("./migrations/postgres").run(&pool).await?;
             Ok((pool, Backend::Postgres))
+        }
+    }
+}
+
+/// How often the WAL is copied back into the database file.
+const CHECKPOINT_EVERY: Duration = Duration::from_millis(250);
+
+/// Copies the WAL back into the database file from a connection of its own, beside the
+/// writer (a passive checkpoint waits for no one and holds no one up), until the pool closes.
+async fn checkpoints(pool: AnyPool) {
+    let mut tick = tokio::time::interval(CHECKPOINT_EVERY);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        if pool.is_closed() {
+            return;
+        }
+        if let Err(e) = sqlx::query("PRAGMA wal_checkpoint(PASSIVE)")
+            .execute(&pool)
+            .await
+        {
+            if pool.is_closed() {
+                return;
+            }
+            tracing::warn!(error = %e, "WAL checkpoint failed; trying again");
         }
     }
 }
@@ -142,11 +168,14 @@ async fn sqlite_pool(url: String, max: u32, durability: Durability) -> Result<An
             Box::pin(async move {
                 // WAL: readers never wait for the writer; a committed transaction is in the
                 // WAL, which survives the process being killed.
+                // Checkpoints are not run by the committing connection (the appends' writer
+                // would wait for the database file's fsync) but by `checkpoints`.
                 for pragma in [
                     "PRAGMA journal_mode = WAL",
                     synchronous,
                     "PRAGMA foreign_keys = ON",
                     "PRAGMA busy_timeout = 5000",
+                    "PRAGMA wal_autocheckpoint = 0",
                 ] {
                     sqlx::query(pragma).execute(&mut *conn).await?;
                 }

@@ -19,11 +19,13 @@ use tokio::sync::{mpsc, oneshot};
 use std::collections::HashMap;
 
 use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow, flag, real};
-use super::{CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell};
+use super::{
+    Backend, CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell,
+};
 
-/// Most appends in one transaction (SQLite and PostgreSQL handle far more; this bounds the
-/// latency of the first append of a long queue).
-const MAX_BATCH: usize = 256;
+/// Most appends in one transaction: bounds the latency of the first append of a long queue and
+/// the number of statement shapes (one per batch size) each connection prepares and keeps.
+const MAX_BATCH: usize = 64;
 
 /// An append as the service hands it over.
 #[derive(Debug, Clone)]
@@ -60,9 +62,9 @@ pub(super) struct Writer {
 }
 
 impl Writer {
-    pub(super) fn start(pool: AnyPool) -> Writer {
+    pub(super) fn start(pool: AnyPool, backend: Backend) -> Writer {
         let (jobs, queue) = mpsc::unbounded_channel();
-        tokio::spawn(run(pool, queue));
+        tokio::spawn(run(pool, backend, queue));
         Writer { jobs }
     }
 
@@ -78,7 +80,7 @@ impl Writer {
     }
 }
 
-async fn run(pool: AnyPool, mut queue: mpsc::UnboundedReceiver<Job>) {
+async fn run(pool: AnyPool, backend: Backend, mut queue: mpsc::UnboundedReceiver<Job>) {
     let mut batch = Vec::with_capacity(MAX_BATCH);
     while let Some(first) = queue.recv().await {
         batch.push(first);
@@ -88,14 +90,19 @@ async fn run(pool: AnyPool, mut queue: mpsc::UnboundedReceiver<Job>) {
                 Err(_) => break,
             }
         }
-        commit(&pool, std::mem::take(&mut batch)).await;
+        commit(&pool, backend, std::mem::take(&mut batch)).await;
     }
 }
 
-/// Commits a batch and answers each of its appends.
-async fn commit(pool: &AnyPool, batch: Vec<Job>) {
-    if batch.len() > 1 {
-        match together(pool, &batch).await {
+/// Commits a batch and answers each of its appends. (On SQLite a lone append takes the
+/// one-trip script too: the fewest hops is what its latency is made of.)
+async fn commit(pool: &AnyPool, backend: Backend, batch: Vec<Job>) {
+    if batch.len() > 1 || backend == Backend::Sqlite {
+        let done = match backend {
+            Backend::Sqlite => in_one_trip(pool, &batch).await,
+            Backend::Postgres => together(pool, &batch).await,
+        };
+        match done {
             Ok(results) => {
                 for (job, result) in batch.into_iter().zip(results) {
                     // The caller may have gone away; the append stands all the same.
@@ -125,7 +132,7 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
         .copied()
         .filter(|a| states.contains_key(&a.cell_id))
         .collect();
-    let mut rows = insert_waypoint_rows(&mut tx, &fresh).await?;
+    let rows = insert_waypoint_rows(&mut tx, &fresh).await?;
     let with_prediction: Vec<(&NewPrediction, i64)> = fresh
         .iter()
         .filter_map(|a| {
@@ -133,9 +140,19 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
             Some((a.prediction.as_ref()?, row.id))
         })
         .collect();
-    let mut predictions = insert_prediction_rows(&mut tx, &with_prediction).await?;
+    let predictions = insert_prediction_rows(&mut tx, &with_prediction).await?;
     tx.commit().await?;
-    Ok(appends
+    Ok(answers(&appends, &states, rows, predictions))
+}
+
+/// Each append's answer from what the batch stored.
+fn answers(
+    appends: &[&Append],
+    states: &HashMap<i64, CellState>,
+    mut rows: HashMap<(i64, i64), WaypointRow>,
+    mut predictions: HashMap<i64, i64>,
+) -> Vec<Result<Appended>> {
+    appends
         .iter()
         .map(|a| {
             let Some(state) = states.get(&a.cell_id) else {
@@ -162,7 +179,201 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
                 batch: appends.len(),
             })
         })
-        .collect())
+        .collect()
+}
+
+/// SQLite: the whole batch as one script sent to the connection's thread once (each
+/// statement is a wake-up of that thread and of the writer: under load, those hops, not the
+/// database, made the tail). Each waypoint and prediction is inserted only if its cell is
+/// still at the revision its append was made from, then those cells' revisions advance, all
+/// between `BEGIN IMMEDIATE` and `COMMIT`. Err: nothing was committed.
+async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>> {
+    use futures_util::TryStreamExt;
+    use sqlx::{FromRow, Row};
+
+    let appends: Vec<&Append> = batch.iter().map(|j| &j.append).collect();
+    // Slots for a power-of-two number of appends, the spare ones empty (cell 0 does not
+    // exist): a handful of statement shapes, each prepared once per connection and kept.
+    let slots = appends.len().next_power_of_two();
+    let empty = empty_append();
+    let filled: Vec<&Append> = (0..slots)
+        .map(|i| appends.get(i).copied().unwrap_or(&empty))
+        .collect();
+    // Per append: the waypoint's 13 values, then the cell and the revision expected.
+    const PER: usize = 15;
+    let fresh = |i: usize| {
+        format!(
+            "FROM cells WHERE id = ${} AND revision = ${}",
+            i * PER + 14,
+            i * PER + 15
+        )
+    };
+    let waypoints: Vec<String> = (0..slots)
+        .map(|i| {
+            let values: Vec<String> = (1..=13).map(|k| format!("${}", i * PER + k)).collect();
+            format!("SELECT {} {}", values.join(", "), fresh(i))
+        })
+        .collect();
+    // Per append again, for its prediction: whether there is one (the SQL then depends on the
+    // batch's size only, so it is prepared once per size), after_seq, pose and scores.
+    const PRED: usize = 14;
+    let base = slots * PER;
+    let predictions: Vec<String> = (0..slots)
+        .map(|i| {
+            let own: Vec<String> = (1..=PRED)
+                .map(|k| format!("${}", base + i * PRED + k))
+                .collect();
+            format!(
+                "SELECT ${cell}, ${routine}, {after_seq}, \
+                   (SELECT id FROM waypoints WHERE routine_id = ${routine} AND seq = ${seq}), \
+                   {rest} {from} AND {has} = 1",
+                cell = i * PER + 14,
+                routine = i * PER + 1,
+                seq = i * PER + 2,
+                has = own[0],
+                after_seq = own[1],
+                rest = own[2..].join(", "),
+                from = fresh(i),
+            )
+        })
+        .collect();
+    let cells: Vec<String> = (0..slots)
+        .map(|i| format!("(id = ${} AND revision = ${})", i * PER + 14, i * PER + 15))
+        .collect();
+    let mut sql = format!(
+        "BEGIN IMMEDIATE; \
+         INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+           reachable) {} RETURNING {};",
+        waypoints.join(" UNION ALL "),
+        Store::WAYPOINT_COLUMNS
+    );
+    sql.push_str(&format!(
+        " INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
+           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) {} \
+         RETURNING id, after_waypoint_id;",
+        predictions.join(" UNION ALL ")
+    ));
+    sql.push_str(&format!(
+        " UPDATE cells SET revision = revision + 1 WHERE {} \
+         RETURNING id, revision, reload_revision, model_version; COMMIT;",
+        cells.join(" OR ")
+    ));
+
+    let mut q = sqlx::query(sqlx::AssertSqlSafe(sql));
+    for a in &filled {
+        let w = &a.waypoint;
+        let p = &w.pose;
+        q = q
+            .bind(w.routine_id)
+            .bind(w.seq)
+            .bind(p.x)
+            .bind(p.y)
+            .bind(p.z)
+            .bind(p.qw)
+            .bind(p.qx)
+            .bind(p.qy)
+            .bind(p.qz)
+            .bind(w.joints.clone())
+            .bind(w.motion.clone())
+            .bind(w.name.clone())
+            .bind(w.reachable.map(flag))
+            .bind(a.cell_id)
+            .bind(a.expected_revision);
+    }
+    for a in &filled {
+        let (has, pr) = match &a.prediction {
+            Some(pr) => (1, pr.clone()),
+            None => (0, placeholder_prediction(a)),
+        };
+        q = q
+            .bind(has)
+            .bind(pr.after_seq)
+            .bind(pr.pose.x)
+            .bind(pr.pose.y)
+            .bind(pr.pose.z)
+            .bind(pr.pose.qw)
+            .bind(pr.pose.qx)
+            .bind(pr.pose.qy)
+            .bind(pr.pose.qz)
+            .bind(pr.phi)
+            .bind(pr.psi)
+            .bind(real(pr.misfit))
+            .bind(pr.end_probability)
+            .bind(pr.model_version);
+    }
+
+    let mut conn = pool.acquire().await?;
+    let mut rows: HashMap<(i64, i64), WaypointRow> = HashMap::new();
+    let mut predictions: HashMap<i64, i64> = HashMap::new();
+    let mut states: HashMap<i64, CellState> = HashMap::new();
+    let outcome: std::result::Result<(), sqlx::Error> = async {
+        let mut results = q.fetch(&mut *conn);
+        while let Some(row) = results.try_next().await? {
+            // The three kinds of rows tell themselves apart by their columns.
+            match row.columns().len() {
+                2 => {
+                    predictions.insert(row.try_get(1)?, row.try_get(0)?);
+                }
+                4 => {
+                    let s = CellState::from_row(&row)?;
+                    states.insert(s.id, s);
+                }
+                _ => {
+                    let w = WaypointRow::from_row(&row)?;
+                    rows.insert((w.routine_id, w.seq), w);
+                }
+            }
+        }
+        Ok(())
+    }
+    .await;
+    if let Err(e) = outcome {
+        // The script stopped part-way: whatever it began is taken back on this connection.
+        let _ = sqlx::query("ROLLBACK").execute(&mut *conn).await;
+        return Err(classify(e));
+    }
+    Ok(answers(&appends, &states, rows, predictions))
+}
+
+/// What fills a spare slot of a batch: an append to no cell (ids start at 1), never stored.
+fn empty_append() -> Append {
+    Append {
+        cell_id: 0,
+        expected_revision: -1,
+        waypoint: NewWaypoint {
+            routine_id: 0,
+            seq: 0,
+            pose: super::PoseColumns {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                qw: 1.0,
+                qx: 0.0,
+                qy: 0.0,
+                qz: 0.0,
+            },
+            joints: None,
+            motion: None,
+            name: None,
+            reachable: None,
+        },
+        prediction: None,
+    }
+}
+
+/// The values bound for an append without a prediction (not inserted: its flag is 0).
+fn placeholder_prediction(a: &Append) -> NewPrediction {
+    NewPrediction {
+        cell_id: a.cell_id,
+        routine_id: a.waypoint.routine_id,
+        after_seq: a.waypoint.seq,
+        pose: a.waypoint.pose,
+        phi: 0.0,
+        psi: 1.0,
+        misfit: None,
+        end_probability: 0.0,
+        model_version: 0,
+    }
 }
 
 /// `$first, $first+1, …` for `n` values, in parentheses.

@@ -120,7 +120,7 @@ impl Store {
     /// Opens (creating if missing) the database and applies the migrations.
     pub async fn connect(location: &Location, durability: Durability) -> Result<Store> {
         let (pool, backend) = backend::connect(location, durability).await?;
-        let appends = group_commit::Writer::start(pool.clone());
+        let appends = group_commit::Writer::start(pool.clone(), backend);
         Ok(Store {
             pool,
             backend,
