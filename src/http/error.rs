@@ -18,10 +18,11 @@ pub struct ErrorBody {
 
 #[derive(Debug, Serialize, Deserialize, ToSchema)]
 pub struct ErrorDetail {
-    /// Stable machine-readable code (`not_found`, `conflict`, `invalid`, `invalid_pose`,
-    /// `invalid_settings`, `bad_request`, `unprocessable`, `payload_too_large`,
-    /// `unsupported_media_type`, `unauthorized`, `route_not_found`, `method_not_allowed`,
-    /// `timeout`, `internal`).
+    /// Stable machine-readable code (`not_found`, `conflict`, `busy` (409: the cell was
+    /// written by another instance at the same time, again and again; nothing changed, send it
+    /// again), `invalid`, `invalid_pose`, `invalid_settings`, `bad_request`, `unprocessable`,
+    /// `payload_too_large`, `unsupported_media_type`, `unauthorized`, `route_not_found`,
+    /// `method_not_allowed`, `timeout`, `internal`).
     pub code: String,
     pub message: String,
 }

@@ -1,11 +1,15 @@
-//! Storage: cells, programs, routines, waypoints, predictions and feedback in SQLite via sqlx.
+//! Storage: cells, programs, routines, waypoints, predictions and feedback, in SQLite or
+//! PostgreSQL through sqlx's Any driver (one set of queries; see [`backend`]).
 //!
 //! The database is the source of truth; the models in memory are rebuilt from it. Every
-//! write is one transaction. SQLite runs in WAL mode with `synchronous = NORMAL`: a committed
-//! transaction survives the process being killed (it is in the WAL, which the OS holds); only
-//! a power loss can take back the last commits (use `synchronous = FULL` via
-//! [`Durability::Full`] when that matters more than latency). Queries are checked at run time
-//! (`query_as` + `FromRow`), so building needs no live database.
+//! write is one transaction; appends share theirs with the other cells' appends queued at the
+//! same time ([`group_commit`]). Every write to a cell advances the cell's revision
+//! ([`CellWrite`]), so that models of it in several instances follow the database. SQLite runs
+//! in WAL mode with `synchronous = NORMAL`: a committed transaction survives the process being
+//! killed (it is in the WAL, which the OS holds); only a power loss can take back the last
+//! commits (use `synchronous = FULL` via [`Durability::Full`] when that matters more than
+//! latency). Queries are checked at run time (`query_as` + `FromRow`), so building needs no
+//! live database.
 
 mod backend;
 mod group_commit;
