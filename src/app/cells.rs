@@ -89,17 +89,21 @@ impl App {
     }
 
     async fn rebuild_now(&self, id: i64) -> Result<ModelInfo> {
+        self.cell_row(id).await?;
+        // Locked as for any use: a model behind writes of another instance catches up first,
+        // so what is compared is what this instance would answer from.
+        let mut locked = self.lock_cell_id(id).await?;
         let cell = self.cell_row(id).await?;
-        let mut guard = self.slot(id).lock_owned().await;
         let model = CellModel::load(&self.store, &cell, &self.robots).await?;
         let info = model.info();
+        let guard = &mut locked.0;
         if let Some(previous) = guard.as_ref()
             && !previous.in_step_with(&model)
         {
             tracing::error!(cell = id, before = ?previous.info(), rebuilt = ?info, "the cell's model in memory differed from the database");
             self.metrics.record_divergence();
         }
-        *guard = Some(model);
+        **guard = Some(model);
         Ok(info)
     }
 }

@@ -171,6 +171,19 @@ async fn two_instances_alternating_with_a_kill_match_one_instance() {
             expected_state,
             "instance {k}"
         );
+        // And its model in memory is the one the database gives.
+        app.post_ok(
+            &format!("/v1/cells/{cell}/rebuild"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await;
+        let metrics = app.get("/metrics").await.text().await.expect("metrics");
+        assert_eq!(
+            sample(&metrics, "nextpose_model_divergences_total"),
+            Some(0.0),
+            "instance {k}"
+        );
     }
 }
 
@@ -242,5 +255,12 @@ async fn concurrent_appends_on_two_instances_are_serialised() {
             )
             .await;
         assert_eq!(rebuilt, before, "instance {k}");
+        // The model in memory, caught up, was what the rebuild learned.
+        let metrics = app.get("/metrics").await.text().await.expect("metrics");
+        assert_eq!(
+            sample(&metrics, "nextpose_model_divergences_total"),
+            Some(0.0),
+            "instance {k}"
+        );
     }
 }
