@@ -6,12 +6,12 @@
 //! holds as for any other write. Appends on one cell never share a batch: the service holds the
 //! cell's lock until its append is answered, which also keeps their order.
 //!
-//! A batch is three statements whatever its size (the cells' revisions, the waypoints, the
-//! predictions: multi-row, so the connection's thread is woken three times, not three times
-//! per append). A failing statement rolls back the whole batch (PostgreSQL aborts the
-//! transaction), so the writer then commits the batch's appends one by one, each with its own
-//! answer. A stale cell ([`StorageError::Stale`]) is not a failure: that append is left out and
-//! the rest commit.
+//! Whatever its size, a batch is one script on SQLite ([`in_one_trip`]: one wake-up of the
+//! connection's thread) and three multi-row statements on PostgreSQL ([`together`]: the cells'
+//! revisions, the waypoints, the predictions). A failing statement rolls back the whole batch
+//! (PostgreSQL aborts the transaction), so the writer then commits the batch's appends one by
+//! one, each with its own answer. A stale cell ([`StorageError::Stale`]) is not a failure: that
+//! append is left out and the rest commit.
 
 use sqlx::AnyPool;
 use tokio::sync::{mpsc, oneshot};
@@ -24,7 +24,8 @@ use super::{
 };
 
 /// Most appends in one transaction: bounds the latency of the first append of a long queue and
-/// the number of statement shapes (one per batch size) each connection prepares and keeps.
+/// the number of statement shapes (one per power of two up to it) each connection prepares
+/// and keeps.
 const MAX_BATCH: usize = 64;
 
 /// An append as the service hands it over.
