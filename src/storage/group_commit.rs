@@ -18,7 +18,8 @@ use tokio::sync::{mpsc, oneshot};
 
 use std::collections::HashMap;
 
-use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow, flag, real};
+use super::binds::Binds;
+use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow};
 use super::{
     Backend, CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell,
 };
@@ -263,21 +264,10 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     let mut q = sqlx::query(sqlx::AssertSqlSafe(sql));
     for a in &filled {
         let w = &a.waypoint;
-        let p = &w.pose;
         q = q
             .bind(w.routine_id)
             .bind(w.seq)
-            .bind(p.x)
-            .bind(p.y)
-            .bind(p.z)
-            .bind(p.qw)
-            .bind(p.qx)
-            .bind(p.qy)
-            .bind(p.qz)
-            .bind(w.joints.clone())
-            .bind(w.motion.clone())
-            .bind(w.name.clone())
-            .bind(w.reachable.map(flag))
+            .waypoint_values(&w.pose, &w.joints, &w.motion, &w.name, w.reachable)
             .bind(a.cell_id)
             .bind(a.expected_revision);
     }
@@ -286,21 +276,7 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
             Some(pr) => (1, pr.clone()),
             None => (0, placeholder_prediction(a)),
         };
-        q = q
-            .bind(has)
-            .bind(pr.after_seq)
-            .bind(pr.pose.x)
-            .bind(pr.pose.y)
-            .bind(pr.pose.z)
-            .bind(pr.pose.qw)
-            .bind(pr.pose.qx)
-            .bind(pr.pose.qy)
-            .bind(pr.pose.qz)
-            .bind(pr.phi)
-            .bind(pr.psi)
-            .bind(real(pr.misfit))
-            .bind(pr.end_probability)
-            .bind(pr.model_version);
+        q = q.bind(has).bind(pr.after_seq).prediction_values(&pr);
     }
 
     let mut conn = pool.acquire().await?;
@@ -448,21 +424,13 @@ async fn insert_waypoint_rows(
     let mut q = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql));
     for a in appends {
         let w = &a.waypoint;
-        let p = &w.pose;
-        q = q
-            .bind(w.routine_id)
-            .bind(w.seq)
-            .bind(p.x)
-            .bind(p.y)
-            .bind(p.z)
-            .bind(p.qw)
-            .bind(p.qx)
-            .bind(p.qy)
-            .bind(p.qz)
-            .bind(w.joints.clone())
-            .bind(w.motion.clone())
-            .bind(w.name.clone())
-            .bind(w.reachable.map(flag));
+        q = q.bind(w.routine_id).bind(w.seq).waypoint_values(
+            &w.pose,
+            &w.joints,
+            &w.motion,
+            &w.name,
+            w.reachable,
+        );
     }
     Ok(q.fetch_all(&mut **tx)
         .await
@@ -498,18 +466,7 @@ async fn insert_prediction_rows(
             .bind(pr.routine_id)
             .bind(pr.after_seq)
             .bind(*after)
-            .bind(pr.pose.x)
-            .bind(pr.pose.y)
-            .bind(pr.pose.z)
-            .bind(pr.pose.qw)
-            .bind(pr.pose.qx)
-            .bind(pr.pose.qy)
-            .bind(pr.pose.qz)
-            .bind(pr.phi)
-            .bind(pr.psi)
-            .bind(real(pr.misfit))
-            .bind(pr.end_probability)
-            .bind(pr.model_version);
+            .prediction_values(pr);
     }
     Ok(q.fetch_all(&mut **tx)
         .await

@@ -12,12 +12,14 @@
 //! live database.
 
 mod backend;
+mod binds;
 mod group_commit;
 mod rows;
 
 use sqlx::AnyPool;
 
 pub use backend::{Backend, Location};
+use binds::Binds;
 pub use rows::{
     CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
     NewWaypoint, PoseColumns, PredictionRow, ProgramRow, RobotRow, RoutineRow, WaypointRow,
@@ -575,19 +577,8 @@ impl Store {
              joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12 RETURNING {}",
             Self::WAYPOINT_COLUMNS
         );
-        let p = &v.pose;
         let after = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
-            .bind(p.x)
-            .bind(p.y)
-            .bind(p.z)
-            .bind(p.qw)
-            .bind(p.qx)
-            .bind(p.qy)
-            .bind(p.qz)
-            .bind(&v.joints)
-            .bind(&v.motion)
-            .bind(&v.name)
-            .bind(v.reachable.map(flag))
+            .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
             .bind(id)
             .fetch_one(&mut *tx)
             .await
@@ -623,21 +614,10 @@ impl Store {
              reachable) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) RETURNING {}",
             Self::WAYPOINT_COLUMNS
         );
-        let p = &v.pose;
         let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
             .bind(routine_id)
             .bind(seq)
-            .bind(p.x)
-            .bind(p.y)
-            .bind(p.z)
-            .bind(p.qw)
-            .bind(p.qx)
-            .bind(p.qy)
-            .bind(p.qz)
-            .bind(&v.joints)
-            .bind(&v.motion)
-            .bind(&v.name)
-            .bind(v.reachable.map(flag))
+            .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
             .fetch_one(&mut *tx)
             .await
             .map_err(classify)?;
@@ -1057,21 +1037,10 @@ async fn insert_waypoint_row(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<Waypoi
          reachable) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) RETURNING {}",
         Store::WAYPOINT_COLUMNS
     );
-    let p = &wp.pose;
     sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
         .bind(wp.routine_id)
         .bind(wp.seq)
-        .bind(p.x)
-        .bind(p.y)
-        .bind(p.z)
-        .bind(p.qw)
-        .bind(p.qx)
-        .bind(p.qy)
-        .bind(p.qz)
-        .bind(&wp.joints)
-        .bind(&wp.motion)
-        .bind(&wp.name)
-        .bind(wp.reachable.map(flag))
+        .waypoint_values(&wp.pose, &wp.joints, &wp.motion, &wp.name, wp.reachable)
         .fetch_one(&mut **tx)
         .await
         .map_err(classify)
@@ -1084,24 +1053,13 @@ async fn insert_waypoints(
     waypoints: &[WaypointValues],
 ) -> Result<()> {
     for (i, v) in waypoints.iter().enumerate() {
-        let p = &v.pose;
         sqlx::query(
             "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
                name, reachable) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
         )
         .bind(routine_id)
         .bind(i as i64 + 1)
-        .bind(p.x)
-        .bind(p.y)
-        .bind(p.z)
-        .bind(p.qw)
-        .bind(p.qx)
-        .bind(p.qy)
-        .bind(p.qz)
-        .bind(&v.joints)
-        .bind(&v.motion)
-        .bind(&v.name)
-        .bind(v.reachable.map(flag))
+        .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
         .execute(&mut **tx)
         .await
         .map_err(classify)?;
@@ -1139,18 +1097,7 @@ pub(super) async fn insert_prediction(
     .bind(pr.routine_id)
     .bind(pr.after_seq)
     .bind(after_waypoint)
-    .bind(pr.pose.x)
-    .bind(pr.pose.y)
-    .bind(pr.pose.z)
-    .bind(pr.pose.qw)
-    .bind(pr.pose.qx)
-    .bind(pr.pose.qy)
-    .bind(pr.pose.qz)
-    .bind(pr.phi)
-    .bind(pr.psi)
-    .bind(real(pr.misfit))
-    .bind(pr.end_probability)
-    .bind(pr.model_version)
+    .prediction_values(pr)
     .fetch_one(&mut **tx)
     .await
     .map_err(classify)?;
