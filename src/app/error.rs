@@ -1,6 +1,7 @@
 //! The application's errors. Adapters (HTTP, gRPC) map them to their status codes once, at the
 //! edge; nothing here knows about either.
 
+use crate::engine::segment::TrajectoryError;
 use crate::engine::{ConfigError, PoseError};
 use crate::import::ImportError;
 use crate::kinematics::KinematicsError;
@@ -30,6 +31,18 @@ pub enum AppError {
     Pose(#[from] PoseError),
     #[error("invalid settings: {0}")]
     Config(#[from] ConfigError),
+    /// A hand-guided trajectory that cannot be segmented (too few or too many samples, times
+    /// not increasing, settings out of range), or a sample that cannot be taught (its place
+    /// in the request and the problem).
+    #[error("invalid trajectory: {0}")]
+    Trajectory(#[from] TrajectoryError),
+    /// A trajectory sample whose pose is invalid, by its place in the request (from 0).
+    #[error("sample {index}: invalid pose: {source}")]
+    SamplePose {
+        index: usize,
+        #[source]
+        source: PoseError,
+    },
     /// Files of an upload that cannot be imported (syntax, not text, nesting too deep, two
     /// programs of one name), with the file and place.
     #[error("cannot import: {0}")]
@@ -60,7 +73,11 @@ impl AppError {
             AppError::Stale(_) => "busy",
             AppError::Invalid(_) | AppError::Import(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
-            AppError::Config(_) => "invalid_settings",
+            AppError::Config(_) | AppError::Trajectory(TrajectoryError::Settings(_)) => {
+                "invalid_settings"
+            }
+            AppError::Trajectory(_) => "invalid_trajectory",
+            AppError::SamplePose { .. } => "invalid_pose",
             AppError::Robot(_) => "invalid_robot",
             AppError::Storage(_) | AppError::Internal(_) => "internal",
         }

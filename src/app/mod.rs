@@ -40,6 +40,7 @@ mod routines;
 mod rows;
 pub mod settings;
 mod teaching;
+mod trajectory;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -52,6 +53,7 @@ pub use error::AppError;
 use registry::Slot;
 pub(crate) use registry::blocking;
 use robots::Robots;
+pub use trajectory::{MAX_POSITION_MM, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET};
 
 /// Longest open-loop completion a request may ask for.
 pub const MAX_COMPLETION: usize = 100;

@@ -13,7 +13,7 @@ use tonic::{Request, Streaming};
 use super::{ClientError, Result};
 use crate::app::resources::{
     CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest, ModelInfo,
-    NewWaypointDto, PredictQuery, PredictionSet, Taught,
+    NewWaypointDto, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
 };
 use crate::grpc::convert;
 use crate::grpc::pb;
@@ -117,6 +117,18 @@ impl GrpcClient {
         let t = self.inner.clone().append_waypoint(r).await;
         let t = t.map_err(failed("AppendWaypoint"))?.into_inner();
         t.try_into().map_err(unexpected("AppendWaypoint"))
+    }
+
+    /// Appends a hand-guided trajectory's attractors (or previews them).
+    pub async fn append_trajectory(
+        &self,
+        routine: i64,
+        trajectory: &TrajectoryRequest,
+    ) -> Result<TrajectoryAnswer> {
+        let r = self.request(convert::trajectory_request_out(routine, trajectory.clone()));
+        let t = self.inner.clone().append_trajectory(r).await;
+        let t = t.map_err(failed("AppendTrajectory"))?.into_inner();
+        t.try_into().map_err(unexpected("AppendTrajectory"))
     }
 
     pub async fn feedback(&self, prediction: i64, feedback: &FeedbackDto) -> Result<()> {

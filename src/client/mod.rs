@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::app::resources::{
     CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest, ModelInfo,
-    NewWaypointDto, PredictQuery, PredictionSet, Taught,
+    NewWaypointDto, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
 };
 pub use grpc::{GrpcClient, TeachStream};
 pub use rest::RestClient;
@@ -147,6 +147,16 @@ impl Client {
     /// Appends a waypoint by one call (for teaching many, see [`Client::teaching`]).
     pub async fn append(&self, routine: i64, waypoint: &NewWaypointDto) -> Result<Taught> {
         either!(self, c => c.append(routine, waypoint).await)
+    }
+
+    /// Appends a hand-guided trajectory's attractors as taught waypoints (or, with
+    /// `preview`, only shows them).
+    pub async fn append_trajectory(
+        &self,
+        routine: i64,
+        trajectory: &TrajectoryRequest,
+    ) -> Result<TrajectoryAnswer> {
+        either!(self, c => c.append_trajectory(routine, trajectory).await)
     }
 
     pub async fn finish(&self, routine: i64) -> Result<()> {

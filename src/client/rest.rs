@@ -9,7 +9,7 @@ use super::{ClientError, Result};
 use crate::app::resources::{
     Cell, CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, FeedbackRecorded,
     Finished, ImportRequest, ImportResult, ModelInfo, NewWaypointDto, PredictQuery, PredictionSet,
-    Program, ProgramExport, Routine, Taught,
+    Program, ProgramExport, Routine, Taught, TrajectoryAnswer, TrajectoryRequest,
 };
 use crate::http::error::ErrorBody;
 
@@ -105,6 +105,16 @@ impl RestClient {
 
     pub async fn append(&self, routine: i64, waypoint: &NewWaypointDto) -> Result<Taught> {
         self.post(&format!("/v1/routines/{routine}/waypoints"), waypoint)
+            .await
+    }
+
+    /// Appends a hand-guided trajectory's attractors (or previews them).
+    pub async fn append_trajectory(
+        &self,
+        routine: i64,
+        trajectory: &TrajectoryRequest,
+    ) -> Result<TrajectoryAnswer> {
+        self.post(&format!("/v1/routines/{routine}/trajectory"), trajectory)
             .await
     }
 

@@ -1140,3 +1140,196 @@ impl From<Placements> for pb::Placements {
         }
     }
 }
+
+// ---- hand-guided trajectories --------------------------------------------------------------------
+
+fn criterion_in(v: i32) -> In<Option<Criterion>> {
+    match pb::SegmentCriterion::try_from(v) {
+        Ok(pb::SegmentCriterion::Unspecified) => Ok(None),
+        Ok(pb::SegmentCriterion::Direction) => Ok(Some(Criterion::Direction)),
+        Ok(pb::SegmentCriterion::Seed) => Ok(Some(Criterion::Seed)),
+        Err(_) => Err(Status::invalid_argument(format!(
+            "unknown segment criterion {v}"
+        ))),
+    }
+}
+
+fn criterion_out(c: Option<Criterion>) -> pb::SegmentCriterion {
+    match c {
+        None => pb::SegmentCriterion::Unspecified,
+        Some(Criterion::Direction) => pb::SegmentCriterion::Direction,
+        Some(Criterion::Seed) => pb::SegmentCriterion::Seed,
+    }
+}
+
+/// A trajectory to append: every sample needs its pose; empty joints are none sent.
+pub fn trajectory_request(r: pb::AppendTrajectoryRequest) -> In<TrajectoryRequest> {
+    let s = r.settings.unwrap_or_default();
+    Ok(TrajectoryRequest {
+        samples: r
+            .samples
+            .into_iter()
+            .enumerate()
+            .map(|(i, s)| {
+                Ok(TrajectorySample {
+                    t: s.t,
+                    pose: required(s.pose, &format!("samples[{i}].pose"))?.into(),
+                    joints: (!s.joints.is_empty()).then_some(s.joints),
+                })
+            })
+            .collect::<In<_>>()?,
+        preview: r.preview,
+        settings: TrajectorySettings {
+            epsilon_max: s.epsilon_max,
+            criterion: criterion_in(s.criterion)?,
+            min_step_mm: s.min_step_mm,
+            rotation_mm_per_rad: s.rotation_mm_per_rad,
+            zeta_mm: s.zeta_mm,
+            min_segment_steps: s
+                .min_segment_steps
+                .map(|v| usize_from(v, "min_segment_steps"))
+                .transpose()?,
+            kappa_max: s.kappa_max,
+            rank_tolerance: s.rank_tolerance,
+        },
+    })
+}
+
+/// The request as a client sends it.
+pub fn trajectory_request_out(
+    routine_id: i64,
+    r: TrajectoryRequest,
+) -> pb::AppendTrajectoryRequest {
+    let s = r.settings;
+    pb::AppendTrajectoryRequest {
+        routine_id,
+        samples: r
+            .samples
+            .into_iter()
+            .map(|s| pb::TrajectorySample {
+                t: s.t,
+                pose: Some(s.pose.into()),
+                joints: s.joints.unwrap_or_default(),
+            })
+            .collect(),
+        preview: r.preview,
+        settings: Some(pb::TrajectorySettings {
+            epsilon_max: s.epsilon_max,
+            criterion: criterion_out(s.criterion).into(),
+            min_step_mm: s.min_step_mm,
+            rotation_mm_per_rad: s.rotation_mm_per_rad,
+            zeta_mm: s.zeta_mm,
+            min_segment_steps: s.min_segment_steps.map(|v| v as u64),
+            kappa_max: s.kappa_max,
+            rank_tolerance: s.rank_tolerance,
+        }),
+    }
+}
+
+impl From<TrajectoryPoint> for pb::TrajectoryPoint {
+    fn from(p: TrajectoryPoint) -> pb::TrajectoryPoint {
+        pb::TrajectoryPoint {
+            sample: p.sample as u64,
+            t: p.t,
+            pose: Some(p.pose.into()),
+            joints: p.joints.unwrap_or_default(),
+            taught: p.taught,
+        }
+    }
+}
+
+impl From<TrajectoryAnswer> for pb::TrajectoryAnswer {
+    fn from(a: TrajectoryAnswer) -> pb::TrajectoryAnswer {
+        let s = a.segmentation;
+        pb::TrajectoryAnswer {
+            preview: a.preview,
+            start: Some(a.start.into()),
+            attractors: a.attractors.into_iter().map(Into::into).collect(),
+            waypoints: a.waypoints.into_iter().map(Into::into).collect(),
+            segmentation: Some(pb::Segmentation {
+                samples: s.samples as u64,
+                kept: s.kept as u64,
+                segments: s
+                    .segments
+                    .into_iter()
+                    .map(|g| pb::TrajectorySegment {
+                        from: g.from as u64,
+                        to: g.to as u64,
+                        steps: g.steps as u64,
+                        rank: g.rank as u64,
+                        condition: g.condition,
+                        identity: g.identity,
+                        alpha: g.alpha,
+                        epsilon: g.epsilon,
+                        r: g.r,
+                    })
+                    .collect(),
+                mean_error_mm: s.mean_error_mm,
+                max_error_mm: s.max_error_mm,
+                converged: s.converged,
+                parameters: s.parameters as u64,
+                raw_parameters: s.raw_parameters as u64,
+            }),
+        }
+    }
+}
+
+impl TryFrom<pb::TrajectoryPoint> for TrajectoryPoint {
+    type Error = Status;
+    fn try_from(p: pb::TrajectoryPoint) -> In<TrajectoryPoint> {
+        Ok(TrajectoryPoint {
+            sample: usize_from(p.sample, "sample")?,
+            t: p.t,
+            pose: required(p.pose, "point.pose")?.into(),
+            joints: (!p.joints.is_empty()).then_some(p.joints),
+            taught: p.taught,
+        })
+    }
+}
+
+impl TryFrom<pb::TrajectoryAnswer> for TrajectoryAnswer {
+    type Error = Status;
+    fn try_from(a: pb::TrajectoryAnswer) -> In<TrajectoryAnswer> {
+        let s = required(a.segmentation, "answer.segmentation")?;
+        Ok(TrajectoryAnswer {
+            preview: a.preview,
+            start: required(a.start, "answer.start")?.try_into()?,
+            attractors: a
+                .attractors
+                .into_iter()
+                .map(TryInto::try_into)
+                .collect::<In<_>>()?,
+            waypoints: a
+                .waypoints
+                .into_iter()
+                .map(TryInto::try_into)
+                .collect::<In<_>>()?,
+            segmentation: SegmentationDto {
+                samples: usize_from(s.samples, "samples")?,
+                kept: usize_from(s.kept, "kept")?,
+                segments: s
+                    .segments
+                    .into_iter()
+                    .map(|g| {
+                        Ok(TrajectorySegment {
+                            from: usize_from(g.from, "from")?,
+                            to: usize_from(g.to, "to")?,
+                            steps: usize_from(g.steps, "steps")?,
+                            rank: usize_from(g.rank, "rank")?,
+                            condition: g.condition,
+                            identity: g.identity,
+                            alpha: g.alpha,
+                            epsilon: g.epsilon,
+                            r: g.r,
+                        })
+                    })
+                    .collect::<In<_>>()?,
+                mean_error_mm: s.mean_error_mm,
+                max_error_mm: s.max_error_mm,
+                converged: s.converged,
+                parameters: usize_from(s.parameters, "parameters")?,
+                raw_parameters: usize_from(s.raw_parameters, "raw_parameters")?,
+            },
+        })
+    }
+}

@@ -264,6 +264,16 @@ impl Nextpose for Service {
         reply(self.app.append_waypoint(r.routine_id, input).await)
     }
 
+    async fn append_trajectory(
+        &self,
+        r: Request<pb::AppendTrajectoryRequest>,
+    ) -> Reply<pb::TrajectoryAnswer> {
+        let r = r.into_inner();
+        let id = r.routine_id;
+        let input = convert::trajectory_request(r)?;
+        reply(self.app.append_trajectory(id, input).await)
+    }
+
     async fn undo(&self, r: Request<pb::UndoRequest>) -> Reply<pb::Undone> {
         reply(self.app.undo(r.into_inner().routine_id).await)
     }

@@ -21,6 +21,8 @@ pub fn code(e: &AppError) -> Code {
         | AppError::Import(_)
         | AppError::Pose(_)
         | AppError::Config(_)
+        | AppError::Trajectory(_)
+        | AppError::SamplePose { .. }
         | AppError::Robot(_) => Code::InvalidArgument,
         AppError::Storage(_) | AppError::Internal(_) => Code::Internal,
     }

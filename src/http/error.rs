@@ -20,7 +20,7 @@ pub struct ErrorBody {
 pub struct ErrorDetail {
     /// Stable machine-readable code (`not_found`, `conflict`, `busy` (409: the cell was
     /// written by another instance at the same time, again and again; nothing changed, send it
-    /// again), `invalid`, `invalid_pose`, `invalid_settings`, `bad_request`, `unprocessable`,
+    /// again), `invalid`, `invalid_pose`, `invalid_settings`, `invalid_trajectory`, `bad_request`, `unprocessable`,
     /// `payload_too_large`, `unsupported_media_type`, `unauthorized`, `route_not_found`,
     /// `method_not_allowed`, `timeout`, `internal`).
     pub code: String,
@@ -74,6 +74,8 @@ impl From<AppError> for ApiError {
             | AppError::Import(_)
             | AppError::Pose(_)
             | AppError::Config(_)
+            | AppError::Trajectory(_)
+            | AppError::SamplePose { .. }
             | AppError::Robot(_) => StatusCode::UNPROCESSABLE_ENTITY,
             AppError::Storage(_) | AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         };

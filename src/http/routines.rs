@@ -15,7 +15,7 @@ use crate::app::App;
 use crate::app::resources::{
     CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, InsertWaypoint, NewWaypointDto,
     PredictQuery, PredictionSet, Retarget, Retargeted, Routine, RoutineDetail, RoutineEdit,
-    RoutinePatch, Taught, Undone, WaypointEdit, WaypointPatch,
+    RoutinePatch, Taught, TrajectoryAnswer, TrajectoryRequest, Undone, WaypointEdit, WaypointPatch,
 };
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
@@ -26,6 +26,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         .routes(routes!(insert_waypoint))
         .routes(routes!(retarget_routine))
         .routes(routes!(append_waypoint))
+        .routes(routes!(append_trajectory))
         .routes(routes!(undo_waypoint))
         .routes(routes!(finish_routine))
         .routes(routes!(predict))
@@ -126,6 +127,43 @@ async fn append_waypoint(
         StatusCode::CREATED,
         axum::Json(app.append_waypoint(routine_id, body).await?),
     ))
+}
+
+/// Teach a hand-guided (lead-through) trajectory: its attractors become taught waypoints.
+///
+/// The recorded TCP trajectory is cut into linear dynamical systems, and their attractors are
+/// appended as taught waypoints, in order, each answered with the prediction that follows it as
+/// a single append is. The trajectory's first sample comes first, unless the routine's last
+/// waypoint is within `min_step_mm` of it; an attractor within `min_step_mm` of the waypoint
+/// before it is not appended. Each waypoint is the recorded sample (pose, and joints when the
+/// samples carry them). All or nothing: a request that is refused changes nothing. With
+/// `preview`, nothing is stored: the answer (200) shows the attractors, the segments and the
+/// reproduction error.
+#[utoipa::path(post, path = "/v1/routines/{routine_id}/trajectory", tag = "teaching",
+    params(("routine_id" = i64, Path, description = "Routine id")),
+    request_body = TrajectoryRequest,
+    responses(
+        (status = 200, description = "Preview: nothing stored", body = TrajectoryAnswer),
+        (status = 201, description = "Stored: the waypoints appended, each with the prediction after it", body = TrajectoryAnswer),
+        (status = 400, description = "Malformed JSON", body = ErrorBody),
+        (status = 404, description = "No such routine", body = ErrorBody),
+        (status = 409, description = "The routine is finished", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Too few or too many samples, times not increasing, an invalid pose or joints (named by the sample's place), invalid settings, nothing to append, or unknown fields", body = ErrorBody),
+    ))]
+async fn append_trajectory(
+    State(app): State<Arc<App>>,
+    Path(Id(routine_id)): Path<Id>,
+    Json(body): Json<TrajectoryRequest>,
+) -> Result<(StatusCode, axum::Json<TrajectoryAnswer>), ApiError> {
+    let answer = app.append_trajectory(routine_id, body).await?;
+    let status = if answer.preview {
+        StatusCode::OK
+    } else {
+        StatusCode::CREATED
+    };
+    Ok((status, axum::Json(answer)))
 }
 
 /// Undo: delete the last waypoint of a routine being taught; the prediction rolls back.

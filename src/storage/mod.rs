@@ -509,6 +509,37 @@ impl Store {
         self.appends.append(append).await
     }
 
+    /// Appends several waypoints to a routine of `cell_id`, each with the prediction offered
+    /// after it (when one was), in one transaction of their own, all or nothing: a trajectory
+    /// taught at once. The model in memory made them at revision `expected` (refused with
+    /// [`StorageError::Stale`] when the cell has moved on); the revision advances once. Not
+    /// through the group-commit writer: its batches hold one append per cell.
+    pub async fn append_waypoints(
+        &self,
+        cell_id: i64,
+        expected: i64,
+        appends: &[(NewWaypoint, Option<NewPrediction>)],
+    ) -> Result<Vec<Appended>> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
+        let mut out = Vec::with_capacity(appends.len());
+        for (waypoint, prediction) in appends {
+            let row = insert_waypoint_row(&mut tx, waypoint).await?;
+            let prediction_id = match prediction {
+                Some(p) => Some(insert_prediction(&mut tx, p, Some(row.id)).await?),
+                None => None,
+            };
+            out.push(Appended {
+                row,
+                prediction_id,
+                revision: state.revision,
+                batch: 1,
+            });
+        }
+        tx.commit().await?;
+        Ok(out)
+    }
+
     /// Deletes the last waypoint of a routine; returns it. Predictions made after it stay
     /// recorded: they were offered, and feedback may refer to them.
     pub async fn delete_last_waypoint(

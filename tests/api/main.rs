@@ -18,3 +18,4 @@ mod robots;
 mod schemathesis;
 mod storage;
 mod teaching;
+mod trajectory;
