@@ -8,6 +8,7 @@
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
 //! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
 //! - `layout` ([`layout`]): robot base placements for program files.
+//! - `segment` ([`segment`]): recorded trajectories cut into LDSs and their attractors.
 //! - `openapi`: the REST API's description.
 //!
 //! Engine settings ([`engine_args`]) start from a named profile; each flag overrides one
@@ -20,6 +21,7 @@ mod import;
 mod lab;
 mod layout;
 mod replay;
+mod segment;
 mod serve;
 mod simulate;
 
@@ -37,6 +39,7 @@ pub use import::ImportArgs;
 pub use lab::LabArgs;
 pub use layout::{LayoutArgs, MountingArg};
 pub use replay::{ReplayArgs, SweepArgs};
+pub use segment::{CriterionArg, SegmentArgs};
 pub use serve::ServeArgs;
 pub use simulate::{HistoryArg, OperatorArg, ReachPolicyArg, SimulateArgs, TransportArg};
 
@@ -73,6 +76,9 @@ pub enum Command {
     /// Write the seed's online lab (4 tasks, 3 users, 44 programs, joystick error) as corpus
     /// JSON files, for `simulate --history repository`.
     Lab(LabArgs),
+    /// Cut recorded TCP trajectories (CSV) into linear dynamical systems; their attractors are
+    /// the waypoints hand-guided teaching would append (locally, no server).
+    Segment(SegmentArgs),
 }
 
 /// Parses the process arguments and runs the command.
@@ -91,6 +97,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Simulate(args) => simulate::run_simulate(&args),
         Command::Lab(args) => lab::run_lab(&args),
         Command::Layout(args) => layout::run_layout(&args),
+        Command::Segment(args) => segment::run_segment(&args),
         Command::Openapi => {
             let yaml = crate::http::openapi()
                 .to_yaml()

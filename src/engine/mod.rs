@@ -10,6 +10,10 @@
 //! [`scale`] estimates how much larger or smaller the taught routine is than the learned pattern;
 //! [`teach`] ties these together for one work cell while an operator teaches routine after
 //! routine; [`config`] holds the settings and the named profiles (`seed`, `default`).
+//!
+//! Hand-guided teaching (seed chapter 5): [`lds`] fits one linear dynamical system to a simple
+//! trajectory; [`segment`] cuts a recorded trajectory into a sequence of them, whose attractors
+//! are the waypoints the model then learns like taught ones.
 
 pub mod calibration;
 pub mod config;
@@ -19,6 +23,7 @@ mod forward;
 pub mod frames;
 mod gates;
 pub mod hmm;
+pub mod lds;
 pub mod learner;
 pub mod metric;
 mod mixture;
@@ -27,6 +32,7 @@ pub mod pose;
 pub mod predict;
 mod recall;
 pub mod scale;
+pub mod segment;
 pub mod teach;
 pub mod template;
 mod transitions;

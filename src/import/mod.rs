@@ -20,6 +20,7 @@
 //! other control characters) is an error.
 //!
 //! - [`rapid`]: RAPID modules. [`krl`]: KRL `.src`/`.dat`. [`fanuc`]: FANUC `.ls` listings.
+//!   [`trajectory`]: a recorded TCP trajectory as CSV (hand-guided teaching).
 //! - [`parse_files`] is the entry point; [`ImportedProgram::to_replay`] feeds replay.
 //!   [`parse_upload`] is the one for programs to be stored in a cell: it also refuses two
 //!   programs of the same name.
@@ -29,6 +30,7 @@ pub mod fanuc;
 pub mod krl;
 pub mod rapid;
 mod tokens;
+pub mod trajectory;
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;

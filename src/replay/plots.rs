@@ -53,7 +53,7 @@ pub const MIN_OFFERED_FOR_MEDIAN: usize = 5;
 /// Errors shown at a smaller value on the scatter's logarithmic axis, mm.
 pub const ERROR_FLOOR_MM: f64 = 1e-3;
 
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 const BLUE: RGBColor = RGBColor(31, 119, 180);
 const ORANGE: RGBColor = RGBColor(255, 127, 14);
 const GREEN: RGBColor = RGBColor(44, 160, 44);
@@ -403,7 +403,7 @@ pub fn write_plots(dir: &Path, data: &PlotData) -> Result<Vec<PathBuf>, PlotErro
     Ok(written)
 }
 
-fn register_font() -> Result<(), PlotError> {
+pub(crate) fn register_font() -> Result<(), PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular()).is_ok()
