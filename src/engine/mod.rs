@@ -20,6 +20,7 @@ pub mod frames;
 mod gates;
 pub mod hmm;
 pub mod learner;
+pub mod map_merge;
 pub mod metric;
 mod mixture;
 pub mod noise;
