@@ -44,10 +44,13 @@
 //!   units the variance is written in. We measure it in the units the likelihood is measured in,
 //!   whitened, where `C⁻¹ = I` and the term is 0 ([`VarianceTerm::Whitened`], the default).
 //!   Read in the engine's raw units (mm and quaternion components, σ_t = 1 mm, σ_q = 0.01) it is
-//!   `4 log 10⁻⁴ ≈ −36.8` nats per merge ([`VarianceTerm::Raw`]), which forbids nearly every
-//!   merge; the seed's MAP models (≈ 249 states against Learn-HMM's ≈ 199) merged most
-//!   observations, so that cannot be what it ran. Taken literally (a determinant, no log) the
-//!   term is `10⁻¹⁶` in raw units or 1 whitened: negligible either way.
+//!   `4 log 10⁻⁴ ≈ −36.8` nats per merge ([`VarianceTerm::Raw`]), and then nothing ever merges:
+//!   every model starts from singleton states, and a merge of two singletons gains at most
+//!   `4 log 2 + 1 + 2 log(|Q| − 1)` nats (start and one shared source pooled, at most two edges
+//!   saved; pooling rows or observations never gains), less than 36.8 below `|Q| ≈ 10⁷`. The
+//!   seed's MAP models (≈ 249 states against Learn-HMM's ≈ 199) merged most observations, so
+//!   that cannot be what it ran. Taken literally (a determinant, no log) the term is `10⁻¹⁶` in
+//!   raw units or 1 whitened: negligible either way.
 //!
 //! **Making it fast.** The prior's pair-independent part `|E| log(|Q|/(|Q|−1))` and the
 //! per-saved-edge weight `log(|Q| − 1)` change with every merge, but a pair's own part (its
