@@ -11,11 +11,15 @@ use serde::Serialize;
 use super::engine_args::EngineArgs;
 use super::write_json;
 use crate::engine::EngineConfig;
+use crate::engine::map_merge::MapSettings;
+use crate::replay::Method;
 use crate::replay::baselines::DEFAULT_NEAREST_SEQ_GATE;
 use crate::replay::load_paths;
+use crate::replay::map_comparison;
+use crate::replay::map_method::MapMethod;
 #[cfg(feature = "plots")]
 use crate::replay::plots::{PlotGrid, plot_data, write_plots};
-use crate::replay::report::scoreboard;
+use crate::replay::report::scoreboard_with;
 use crate::replay::sweep::{sweep, sweep_table};
 
 #[derive(Debug, Args)]
@@ -37,6 +41,15 @@ pub struct ReplayArgs {
     /// Print only the totals table (no per-program table).
     #[arg(long)]
     pub quiet: bool,
+    /// Also run `map`, the seed's MAP structure-estimation baseline (best-first state merging,
+    /// predicting like the engine at the run's settings), and print its comparison with the
+    /// engine by confidence threshold (seed Figure 4.14; use with --profile seed). Off by
+    /// default: it replays the engine and `map` once more (about a minute in release).
+    #[arg(long)]
+    pub map: bool,
+    /// With --map: also write the comparison as JSON to this file.
+    #[arg(long, value_name = "OUT.json", requires = "map")]
+    pub map_json: Option<PathBuf>,
     /// Also write the plots (offered/useful % vs phi_min, median error vs delta, median error
     /// vs moves assimilated, confidence vs error, reliability of p_useful, precision vs offered
     /// share as the p_useful threshold moves) into this directory, each as PNG and SVG, with
@@ -74,7 +87,21 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
         bail!("--gate must be finite and non-negative, got {}", args.gate);
     }
     let programs = load_paths(&args.paths)?;
-    let report = scoreboard(&programs, args.engine.profile_name(), &config, args.gate)?;
+    let extra: Vec<Box<dyn Method>> = if args.map {
+        vec![Box::new(MapMethod::new(
+            config.clone(),
+            MapSettings::default(),
+        )?)]
+    } else {
+        Vec::new()
+    };
+    let report = scoreboard_with(
+        &programs,
+        args.engine.profile_name(),
+        &config,
+        args.gate,
+        extra,
+    )?;
 
     let mut out = std::io::stdout().lock();
     if !args.quiet {
@@ -86,6 +113,18 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
     write!(out, "{}", report.totals_table())?;
     if let Some(path) = &args.json {
         write_json(path, &report)?;
+    }
+    if args.map {
+        let comparison = map_comparison::compare(
+            &programs,
+            args.engine.profile_name(),
+            &config,
+            &map_comparison::PHI_GRID,
+        )?;
+        write!(out, "\n{}", comparison.table())?;
+        if let Some(path) = &args.map_json {
+            write_json(path, &comparison)?;
+        }
     }
     #[cfg(feature = "plots")]
     if let Some(dir) = &args.plots {

@@ -316,6 +316,20 @@ impl ObservationGraph {
     pub fn push(&mut self, x: &Observation) -> usize {
         let z = self.metric.whiten(x);
         let best = self.best_node(&z);
+        self.push_whitened(z, best)
+    }
+
+    /// Assimilates the next move of the open routine into the node the caller chose (a learner
+    /// with a merge criterion of its own, e.g. [`super::map_merge`]): node `node` when it
+    /// exists, else a new node (whose index is returned). Statistics, edges and the trace are
+    /// kept exactly as [`ObservationGraph::push`] keeps them.
+    pub fn push_to(&mut self, x: &Observation, node: usize) -> usize {
+        let z = self.metric.whiten(x);
+        let existing = (node < self.nodes.len()).then_some(node);
+        self.push_whitened(z, existing)
+    }
+
+    fn push_whitened(&mut self, z: Observation, best: Option<usize>) -> usize {
         if let Some(i) = best {
             self.remember(i);
         }

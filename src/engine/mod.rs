@@ -25,6 +25,7 @@ mod gates;
 pub mod hmm;
 pub mod lds;
 pub mod learner;
+pub mod map_merge;
 pub mod metric;
 mod mixture;
 pub mod noise;

@@ -8,6 +8,9 @@
 //! - [`corpus`]: reads the shared corpus's JSON programs into [`Program`]s.
 //! - [`method`]: the [`Method`] trait every predictor implements.
 //! - [`engine_method`]: the engine behind that trait.
+//! - [`map_method`]: `map`, the seed's MAP structure-estimation baseline (best-first state
+//!   merging, `engine::map_merge`) predicting with the engine's machinery; [`map_comparison`]:
+//!   its comparison with the engine by confidence threshold (seed §4.4.1, Figure 4.14).
 //! - [`baselines`]: repeat-last-move and nearest-sequence (tool-frame, work-frame, absolute).
 //! - [`frames`]: the three readings of a routine (tool-frame moves, work-frame moves, poses).
 //! - [`metrics`]: the replay loop ([`replay_program`]) and the figures computed from it.
@@ -26,6 +29,8 @@ pub mod baselines;
 pub mod corpus;
 pub mod engine_method;
 pub mod frames;
+pub mod map_comparison;
+pub mod map_method;
 pub mod method;
 pub mod metrics;
 pub mod oracle;

@@ -186,7 +186,20 @@ pub fn scoreboard(
     config: &EngineConfig,
     gate: f64,
 ) -> Result<Report, ScoreboardError> {
+    scoreboard_with(programs, profile, config, gate, Vec::new())
+}
+
+/// [`scoreboard`] with further methods, run after the engine and before the baselines (e.g.
+/// `nextpose replay --map`'s [`super::map_method::MapMethod`]).
+pub fn scoreboard_with(
+    programs: &[Program],
+    profile: &str,
+    config: &EngineConfig,
+    gate: f64,
+    extra: Vec<Box<dyn Method>>,
+) -> Result<Report, ScoreboardError> {
     let mut methods: Vec<Box<dyn Method>> = vec![Box::new(EngineMethod::new(config.clone())?)];
+    methods.extend(extra);
     methods.extend(baselines::scoreboard(config, gate));
     let mut report = replay_all(
         programs,
