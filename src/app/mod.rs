@@ -53,7 +53,10 @@ pub use error::AppError;
 use registry::Slot;
 pub(crate) use registry::blocking;
 use robots::Robots;
-pub use trajectory::{MAX_POSITION_MM, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET};
+pub use trajectory::{
+    MAX_POSITION_MM, MAX_ROTATION_MM_PER_RAD, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET,
+    REPRODUCTION_ERROR_BUDGET,
+};
 
 /// Longest open-loop completion a request may ask for.
 pub const MAX_COMPLETION: usize = 100;

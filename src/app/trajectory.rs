@@ -44,11 +44,14 @@ pub const MAX_POSITION_MM: f64 = 1e6;
 /// Largest weight of rotation against position (mm per radian).
 pub const MAX_ROTATION_MM_PER_RAD: f64 = 1e4;
 
-/// Reproduced states the segmentation may compute for one request, over all its segments:
-/// each segment's reproduction stops after its share (at most the engine's 10000 steps), so
-/// that a trajectory of many segments that converge slowly cannot take unbounded time and
-/// memory. `converged` says whether every segment reached its attractor within it.
+/// Reproduced states the segmentation may compute for one request, over all its segments
+/// (48 bytes each): the memory a request may take for its reproduction.
 pub const REPRODUCTION_BUDGET: usize = 2_000_000;
+
+/// Distances from a sample to a step of the reproduced path one request may compute for its
+/// reproduction error (each sample is measured against the paths of its segment and the two
+/// beside it, so this is about 3 × samples × steps per segment): about a second of CPU.
+pub const REPRODUCTION_ERROR_BUDGET: usize = 30_000_000;
 
 /// Most joint values a sample may carry (as a single append).
 const MAX_JOINTS: usize = 12;
@@ -314,8 +317,23 @@ fn prepare(input: &TrajectoryRequest) -> Result<Prepared> {
         joints.push(s.joints.clone());
     }
     segment::validate(&samples)?;
-    settings.max_reproduction_steps = reproduction_steps(&samples, &settings);
-    let segmentation = segment::segment(&samples, &settings)?;
+    // Each segment's reproduction stops after its share of the budgets (at most the engine's
+    // limit), so that a trajectory of many segments, or a long one, whose reproductions
+    // converge slowly takes bounded time and memory: first among as many segments as there
+    // can be, again among those there are when that was too little for them to converge.
+    // (The attractors do not depend on it; `converged` and the errors do.)
+    let most = settings.max_reproduction_steps;
+    let states = segment::states(&samples, settings.rotation_mm_per_rad);
+    let kept = segment::thin(&states, settings.min_step_mm).len();
+    let possible = kept.saturating_sub(1).div_ceil(settings.min_segment_steps);
+    let first = reproduction_steps(n, possible, most);
+    settings.max_reproduction_steps = first;
+    let mut segmentation = segment::segment(&samples, &settings)?;
+    let share = reproduction_steps(n, segmentation.segments.len(), most);
+    if !segmentation.converged && share > first {
+        settings.max_reproduction_steps = share;
+        segmentation = segment::segment(&samples, &settings)?;
+    }
     Ok(Prepared {
         samples,
         joints,
@@ -352,16 +370,13 @@ fn check_sample_joints(index: usize, joints: Option<&[f64]>, count: Option<usize
     }
 }
 
-/// Steps each segment's reproduction may take: the engine's limit, or a share of
-/// [`REPRODUCTION_BUDGET`] among as many segments as the samples used allow.
-fn reproduction_steps(samples: &[TimedPose], settings: &SegmentSettings) -> usize {
-    let states = segment::states(samples, settings.rotation_mm_per_rad);
-    let kept = segment::thin(&states, settings.min_step_mm).len();
-    let most_segments = kept
-        .saturating_sub(1)
-        .div_ceil(settings.min_segment_steps)
-        .max(1);
-    (REPRODUCTION_BUDGET / most_segments).clamp(1, settings.max_reproduction_steps)
+/// Steps each of `segments` segments of a trajectory of `samples` samples may take in its
+/// reproduction: its share of [`REPRODUCTION_BUDGET`] and [`REPRODUCTION_ERROR_BUDGET`], at
+/// most `most` (the engine's limit).
+fn reproduction_steps(samples: usize, segments: usize, most: usize) -> usize {
+    let memory = REPRODUCTION_BUDGET / segments.max(1);
+    let time = REPRODUCTION_ERROR_BUDGET / (3 * samples.max(1));
+    memory.min(time).clamp(1, most)
 }
 
 /// The distance between two poses as the segmentation measures a step: position (mm) and
@@ -531,21 +546,13 @@ mod tests {
     }
 
     #[test]
-    fn the_reproduction_budget_is_shared_among_the_possible_segments() {
-        let samples: Vec<TimedPose> = (0..1001)
-            .map(|i| TimedPose {
-                t: i as f64,
-                pose: Pose::new([i as f64 * 2.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap(),
-            })
-            .collect();
-        let settings = SegmentSettings::default();
-        assert_eq!(
-            reproduction_steps(&samples[..3], &settings),
-            settings.max_reproduction_steps
-        );
-        assert_eq!(
-            reproduction_steps(&samples, &settings),
-            (REPRODUCTION_BUDGET / 500).min(settings.max_reproduction_steps)
-        );
+    fn the_reproduction_budgets_are_shared() {
+        let most = SegmentSettings::default().max_reproduction_steps;
+        assert_eq!(reproduction_steps(20, 3, most), most);
+        // Long: the distances to the reproduced path bound it.
+        assert_eq!(reproduction_steps(20_000, 4, most), 500);
+        // Many segments: their states bound it.
+        assert_eq!(reproduction_steps(1000, 5000, most), 400);
+        assert_eq!(reproduction_steps(20_000, 0, most), 500);
     }
 }

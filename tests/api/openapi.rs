@@ -91,7 +91,7 @@ fn the_spec_states_the_enforced_limits() {
             );
         }
     }
-    assert_eq!(json_posts, 13, "POST routes taking JSON");
+    assert_eq!(json_posts, 14, "POST routes taking JSON");
 
     let schemas = &spec["components"]["schemas"];
     let prop = |schema: &str, field: &str| schemas[schema]["properties"][field].clone();
@@ -115,6 +115,22 @@ fn the_spec_states_the_enforced_limits() {
     let joints = prop("NewWaypointDto", "joints");
     assert_eq!(limit(&joints, "minItems"), Some(1.0), "{joints}");
     assert_eq!(limit(&joints, "maxItems"), Some(12.0), "{joints}");
+    let samples = prop("TrajectoryRequest", "samples");
+    assert_eq!(limit(&samples, "minItems"), Some(2.0), "{samples}");
+    assert_eq!(
+        limit(&samples, "maxItems"),
+        Some(nextpose::app::MAX_TRAJECTORY_SAMPLES as f64),
+        "{samples}"
+    );
+    let joints = prop("TrajectorySample", "joints");
+    assert_eq!(limit(&joints, "minItems"), Some(1.0), "{joints}");
+    assert_eq!(limit(&joints, "maxItems"), Some(12.0), "{joints}");
+    let rotation = prop("TrajectorySettings", "rotation_mm_per_rad");
+    assert_eq!(
+        limit(&rotation, "maximum"),
+        Some(nextpose::app::MAX_ROTATION_MM_PER_RAD),
+        "{rotation}"
+    );
     for schema in ["ImportRequest", "ReplayRequest"] {
         let files = prop(schema, "files");
         assert_eq!(limit(&files, "minItems"), Some(1.0), "{schema}: {files}");
