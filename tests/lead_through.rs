@@ -569,3 +569,49 @@ fn parameter_count_is_m_times_d_squared_plus_d() {
     );
     let _ = waypoints(start, &legs);
 }
+
+/// The LASA handwriting set (real demonstrations: 30 shapes × 7, drawn on a tablet), as
+/// `scripts/lasa.sh` writes it into `target/lasa/` from the Python package that ships it.
+/// Ignored by plain `cargo test` (it needs that export); `scripts/test.sh` exports and runs it.
+#[test]
+#[ignore = "needs target/lasa/ from scripts/lasa.sh (scripts/test.sh runs it)"]
+fn lasa_handwriting_is_segmented_and_reproduced() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/lasa");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e} (run scripts/lasa.sh first)", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 210, "30 shapes × 7 demonstrations");
+    let settings = SegmentSettings::default();
+    let (mut ldss, mut error) = (0usize, 0.0);
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        let samples: Vec<TimedPose> = nextpose::import::trajectory::parse_trajectory(&text)
+            .unwrap()
+            .into_iter()
+            .map(|s| s.sample)
+            .collect();
+        let seg = segment(&samples, &settings).unwrap();
+        assert!(seg.converged, "{}", f.display());
+        // Every demonstration ends at the shape's target; its last sample is the last attractor.
+        assert_eq!(seg.attractors().last(), Some(samples.len() - 1));
+        assert!(
+            seg.mean_error_mm < 2.0,
+            "{}: {} mm",
+            f.display(),
+            seg.mean_error_mm
+        );
+        assert!(seg.parameters() < seg.raw_parameters() / 10);
+        ldss += seg.segments.len();
+        error += seg.mean_error_mm;
+    }
+    let n = files.len() as f64;
+    eprintln!(
+        "LASA: {:.1} LDSs per demonstration, mean reproduction error {:.3} mm",
+        ldss as f64 / n,
+        error / n
+    );
+    assert!(error / n < 1.0);
+}

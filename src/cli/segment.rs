@@ -256,13 +256,26 @@ mod figure {
     use std::path::{Path, PathBuf};
 
     use anyhow::{Context, Result, anyhow};
+    use plotters::coord::Shift;
     use plotters::prelude::*;
 
     use crate::engine::segment::Segmentation;
     use crate::import::trajectory::TrajectorySample;
     use crate::replay::plots::{FONT, register_font};
 
-    /// Draws the x–y view: samples (grey), reproduction (blue), attractors (red), start (black).
+    const SIZE: (u32, u32) = (720, 560);
+
+    struct Figure {
+        title: String,
+        recorded: Vec<(f64, f64)>,
+        reproduced: Vec<(f64, f64)>,
+        attractors: Vec<(f64, f64)>,
+        x: std::ops::Range<f64>,
+        y: std::ops::Range<f64>,
+    }
+
+    /// Writes the x–y view as `<stem>.svg` and `<stem>.png` into `dir`: samples (grey),
+    /// reproduction (blue), attractors (red), start (black). Returns the SVG's path.
     pub(super) fn write(
         dir: &Path,
         file: &Path,
@@ -274,7 +287,6 @@ mod figure {
         let stem = file
             .file_stem()
             .map_or("trajectory".into(), |s| s.to_string_lossy().into_owned());
-        let path = dir.join(format!("{stem}.svg"));
         let recorded: Vec<(f64, f64)> = samples
             .iter()
             .map(|s| {
@@ -284,74 +296,117 @@ mod figure {
             .collect();
         let reproduced: Vec<(f64, f64)> = seg.reproduction.iter().map(|x| (x[0], x[1])).collect();
         let attractors: Vec<(f64, f64)> = seg.attractors().map(|i| recorded[i]).collect();
-        let all = recorded.iter().chain(&reproduced);
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (x, y) in all {
+        for (x, y) in recorded.iter().chain(&reproduced) {
             x0 = x0.min(*x);
             x1 = x1.max(*x);
             y0 = y0.min(*y);
             y1 = y1.max(*y);
         }
         let pad = 0.05 * (x1 - x0).max(y1 - y0).max(1.0);
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, (720, 560)).into_drawing_area();
-            root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-            let caption = format!(
+        let figure = Figure {
+            title: format!(
                 "{stem}: {} samples, {} attractors, mean error {:.2} mm",
                 seg.samples,
                 seg.segments.len(),
                 seg.mean_error_mm
-            );
-            let mut chart = ChartBuilder::on(&root)
-                .caption(caption, (FONT, 18))
-                .margin(12)
-                .x_label_area_size(36)
-                .y_label_area_size(52)
-                .build_cartesian_2d((x0 - pad)..(x1 + pad), (y0 - pad)..(y1 + pad))
-                .map_err(|e| anyhow!("{e}"))?;
-            chart
-                .configure_mesh()
-                .x_desc("x (mm)")
-                .y_desc("y (mm)")
-                .label_style((FONT, 13))
-                .draw()
-                .map_err(|e| anyhow!("{e}"))?;
-            let grey = RGBColor(150, 150, 150);
-            chart
-                .draw_series(recorded.iter().map(|p| Circle::new(*p, 2, grey.filled())))
-                .map_err(|e| anyhow!("{e}"))?
-                .label("recorded samples")
-                .legend(move |(x, y)| Circle::new((x + 8, y), 3, grey.filled()));
-            chart
-                .draw_series(LineSeries::new(reproduced, BLUE.stroke_width(2)))
-                .map_err(|e| anyhow!("{e}"))?
-                .label("reproduction (Eq. 5.4, LDS after LDS)")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE.stroke_width(2)));
-            chart
-                .draw_series(
-                    attractors
-                        .iter()
-                        .map(|p| Circle::new(*p, 6, RED.stroke_width(2))),
-                )
-                .map_err(|e| anyhow!("{e}"))?
-                .label("attractors = waypoints")
-                .legend(|(x, y)| Circle::new((x + 8, y), 5, RED.stroke_width(2)));
-            chart
-                .draw_series(std::iter::once(Circle::new(recorded[0], 5, BLACK.filled())))
-                .map_err(|e| anyhow!("{e}"))?
-                .label("start")
-                .legend(|(x, y)| Circle::new((x + 8, y), 4, BLACK.filled()));
-            chart
-                .configure_series_labels()
-                .label_font((FONT, 13))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()
-                .map_err(|e| anyhow!("{e}"))?;
+            ),
+            recorded,
+            reproduced,
+            attractors,
+            x: (x0 - pad)..(x1 + pad),
+            y: (y0 - pad)..(y1 + pad),
+        };
+
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+            draw(&figure, &root)?;
             root.present().map_err(|e| anyhow!("{e}"))?;
         }
-        std::fs::write(&path, svg).with_context(|| format!("{}", path.display()))?;
-        Ok(path)
+        let svg_path = dir.join(format!("{stem}.svg"));
+        std::fs::write(&svg_path, svg).with_context(|| format!("{}", svg_path.display()))?;
+
+        let mut rgb = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
+            draw(&figure, &root)?;
+            root.present().map_err(|e| anyhow!("{e}"))?;
+        }
+        let png_path = dir.join(format!("{stem}.png"));
+        let mut bytes = Vec::new();
+        let mut encoder = png::Encoder::new(&mut bytes, SIZE.0, SIZE.1);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_compression(png::Compression::Best);
+        let mut writer = encoder.write_header()?;
+        writer.write_image_data(&rgb)?;
+        writer.finish()?;
+        std::fs::write(&png_path, bytes).with_context(|| format!("{}", png_path.display()))?;
+        Ok(svg_path)
+    }
+
+    fn draw<DB: DrawingBackend>(f: &Figure, root: &DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
+    {
+        let e = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("drawing the figure: {e}");
+        root.fill(&WHITE).map_err(e)?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&f.title, (FONT, 18))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(52)
+            .build_cartesian_2d(f.x.clone(), f.y.clone())
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc("x (mm)")
+            .y_desc("y (mm)")
+            .label_style((FONT, 13))
+            .draw()
+            .map_err(e)?;
+        let grey = RGBColor(160, 160, 160);
+        // Every fourth sample keeps the figure light; the path stays visible.
+        chart
+            .draw_series(
+                f.recorded
+                    .iter()
+                    .step_by(4)
+                    .map(|p| Circle::new(*p, 2, grey.filled())),
+            )
+            .map_err(e)?
+            .label("recorded samples (every 4th)")
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, grey.filled()));
+        chart
+            .draw_series(LineSeries::new(f.reproduced.clone(), BLUE.stroke_width(2)))
+            .map_err(e)?
+            .label("reproduction (Eq. 5.4, LDS after LDS)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE.stroke_width(2)));
+        chart
+            .draw_series(
+                f.attractors
+                    .iter()
+                    .map(|p| Circle::new(*p, 6, RED.stroke_width(2))),
+            )
+            .map_err(e)?
+            .label("attractors = waypoints")
+            .legend(|(x, y)| Circle::new((x + 8, y), 5, RED.stroke_width(2)));
+        if let Some(start) = f.recorded.first() {
+            chart
+                .draw_series(std::iter::once(Circle::new(*start, 5, BLACK.filled())))
+                .map_err(e)?
+                .label("start")
+                .legend(|(x, y)| Circle::new((x + 8, y), 4, BLACK.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(e)?;
+        Ok(())
     }
 }
