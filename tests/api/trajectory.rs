@@ -622,3 +622,121 @@ async fn a_long_recording_fits_the_default_body_limit() {
     assert_eq!(answer["segmentation"]["samples"], 5000);
     assert!(!answer["attractors"].as_array().unwrap().is_empty());
 }
+
+/// Single appends sent while a trajectory is appended land before or after its waypoints,
+/// never between them: the cell's lock is held for the whole trajectory.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn single_appends_do_not_interleave_with_a_trajectory() {
+    let app = spawn_app().await;
+    let (_, _, routine) = open_routine(&app, "interleave").await;
+    let corners = square([200.0, 200.0]);
+    let body = json!({ "samples": recording(&corners) });
+    let singles = (0..6).map(|i| {
+        let app = &app;
+        async move {
+            app.append(routine, &pose_at([0.0, 10.0 * i as f64, 500.0]))
+                .await
+        }
+    });
+    let at = path(routine);
+    let (answer, _) = tokio::join!(
+        app.post_ok(&at, &body, StatusCode::CREATED),
+        futures_util::future::join_all(singles)
+    );
+    let seqs: Vec<i64> = answer["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["waypoint"]["seq"].as_i64().unwrap())
+        .collect();
+    assert_eq!(seqs.len(), corners.len());
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    let stored = detail["waypoints"].as_array().unwrap();
+    assert_eq!(stored.len(), corners.len() + 6);
+    for (seq, corner) in seqs.iter().zip(&corners) {
+        assert!(near(&stored[*seq as usize - 1]["pose"], *corner, 1e-6));
+    }
+}
+
+/// Below the API: several appends to one routine commit in one transaction, or none of them
+/// does (a stale cell, a place taken in the middle).
+#[tokio::test]
+async fn the_store_appends_several_waypoints_all_or_nothing() {
+    use nextpose::storage::{
+        Durability, NewPrediction, NewWaypoint, PoseColumns, StorageError, Store,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let db = test_database(dir.path()).await;
+    let store = Store::connect(&db, Durability::Process).await.unwrap();
+    let cell = store.insert_cell("all-or-nothing", "{}").await.unwrap();
+    let program = store.insert_program(cell.id, "p").await.unwrap();
+    let (routine, state) = store
+        .insert_routine(&program, None, cell.revision)
+        .await
+        .unwrap();
+    let item = |seq: i64| {
+        let pose = PoseColumns {
+            x: seq as f64,
+            y: 0.0,
+            z: 0.0,
+            qw: 1.0,
+            qx: 0.0,
+            qy: 0.0,
+            qz: 0.0,
+        };
+        let waypoint = NewWaypoint {
+            routine_id: routine,
+            seq,
+            pose,
+            joints: Some("[0.5]".into()),
+            motion: None,
+            name: None,
+            reachable: None,
+        };
+        let prediction = (seq % 2 == 0).then_some(NewPrediction {
+            cell_id: cell.id,
+            routine_id: routine,
+            after_seq: seq,
+            pose,
+            phi: 0.8,
+            psi: 1.0,
+            misfit: None,
+            end_probability: 0.0,
+            model_version: 0,
+        });
+        (waypoint, prediction)
+    };
+    let revision = state.revision;
+    let stale = store
+        .append_waypoints(cell.id, revision - 1, &[item(1), item(2)])
+        .await;
+    assert!(
+        matches!(stale, Err(StorageError::Stale { .. })),
+        "{stale:?}"
+    );
+    let taken = store
+        .append_waypoints(cell.id, revision, &[item(1), item(2), item(1)])
+        .await;
+    assert!(matches!(taken, Err(StorageError::Conflict(_))), "{taken:?}");
+    assert!(store.waypoints(routine).await.unwrap().is_empty());
+    assert_eq!(
+        store.cell_state(cell.id).await.unwrap().unwrap().revision,
+        revision
+    );
+
+    let done = store
+        .append_waypoints(cell.id, revision, &[item(1), item(2), item(3)])
+        .await
+        .unwrap();
+    let rows = store.waypoints(routine).await.unwrap();
+    assert_eq!(rows.len(), 3);
+    for (d, row) in done.iter().zip(&rows) {
+        assert_eq!(d.row.id, row.id);
+        assert_eq!(d.revision, revision + 1);
+        assert_eq!(d.prediction_id.is_some(), row.seq == 2);
+    }
+    let id = done[1].prediction_id.unwrap();
+    let p = store.prediction(id).await.unwrap().unwrap();
+    assert_eq!(p.after_seq, 2);
+}
