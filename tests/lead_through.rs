@@ -391,6 +391,12 @@ fn bad_trajectories_are_refused_with_the_reason() {
         segment(&nan, &s),
         Err(TrajectoryError::TimeNotFinite { index: 1, .. })
     ));
+    let far = Pose::new([2e6, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
+    let beyond = [TimedPose { t: 0.0, pose: p }, TimedPose { t: 1.0, pose: far }];
+    assert_eq!(
+        segment(&beyond, &s),
+        Err(TrajectoryError::PositionOutOfRange { index: 1 })
+    );
     let bad = SegmentSettings {
         epsilon_max: -1.0,
         ..s

@@ -41,6 +41,9 @@ pub struct SegmentArgs {
     /// Reproduction moves to the next LDS within this distance of an attractor (mm).
     #[arg(long, default_value_t = SegmentSettings::default().zeta_mm)]
     pub zeta_mm: f64,
+    /// Consecutive samples over ε_max that close a segment (1: the seed's rule).
+    #[arg(long, default_value_t = SegmentSettings::default().persistence)]
+    pub persistence: usize,
     /// Largest condition number of an LDS matrix kept (else a scaled identity).
     #[arg(long, default_value_t = SegmentSettings::default().fit.kappa_max)]
     pub kappa_max: f64,
@@ -69,6 +72,7 @@ impl SegmentArgs {
             min_step_mm: self.min_step_mm,
             rotation_mm_per_rad: self.rotation_mm_per_rad,
             zeta_mm: self.zeta_mm,
+            persistence: self.persistence,
             fit: crate::engine::lds::FitSettings {
                 kappa_max: self.kappa_max,
                 ..d.fit

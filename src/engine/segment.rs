@@ -52,6 +52,13 @@ use super::pose::Pose;
 /// The most samples one trajectory may have.
 pub const MAX_SAMPLES: usize = 100_000;
 
+/// Largest coordinate of a sample's position (mm, either sign): a kilometre, far beyond any
+/// arm, and far below where the fit's squared sums would overflow.
+pub const MAX_COORDINATE_MM: f64 = 1e6;
+
+/// Largest weight of rotation against position (mm per radian), for the same reason.
+pub const MAX_ROTATION_MM_PER_RAD: f64 = 1e4;
+
 /// A recorded sample: time in seconds and the TCP pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TimedPose {
@@ -113,6 +120,8 @@ pub enum TrajectoryError {
     TimeNotFinite { index: usize, t: f64 },
     #[error("sample {index}: time {t} s does not follow {previous} s (times must increase)")]
     TimeNotIncreasing { index: usize, t: f64, previous: f64 },
+    #[error("sample {index}: a coordinate of the position is beyond ±{MAX_COORDINATE_MM} mm")]
+    PositionOutOfRange { index: usize },
     #[error("{0}")]
     Settings(String),
     #[error(transparent)]
@@ -134,9 +143,10 @@ impl SegmentSettings {
                 )));
             }
         }
-        if !(self.rotation_mm_per_rad.is_finite() && self.rotation_mm_per_rad >= 0.0) {
+        if !(self.rotation_mm_per_rad >= 0.0 && self.rotation_mm_per_rad <= MAX_ROTATION_MM_PER_RAD)
+        {
             return Err(TrajectoryError::Settings(format!(
-                "rotation_mm_per_rad must be finite and non-negative, got {}",
+                "rotation_mm_per_rad must be in [0, {MAX_ROTATION_MM_PER_RAD}], got {}",
                 self.rotation_mm_per_rad
             )));
         }
@@ -264,6 +274,13 @@ pub fn validate(samples: &[TimedPose]) -> Result<(), TrajectoryError> {
     for (index, s) in samples.iter().enumerate() {
         if !s.t.is_finite() {
             return Err(TrajectoryError::TimeNotFinite { index, t: s.t });
+        }
+        if s.pose
+            .position()
+            .iter()
+            .any(|v| v.abs() > MAX_COORDINATE_MM)
+        {
+            return Err(TrajectoryError::PositionOutOfRange { index });
         }
         if s.t <= previous {
             return Err(TrajectoryError::TimeNotIncreasing {
