@@ -392,7 +392,10 @@ fn bad_trajectories_are_refused_with_the_reason() {
         Err(TrajectoryError::TimeNotFinite { index: 1, .. })
     ));
     let far = Pose::new([2e6, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-    let beyond = [TimedPose { t: 0.0, pose: p }, TimedPose { t: 1.0, pose: far }];
+    let beyond = [
+        TimedPose { t: 0.0, pose: p },
+        TimedPose { t: 1.0, pose: far },
+    ];
     assert_eq!(
         segment(&beyond, &s),
         Err(TrajectoryError::PositionOutOfRange { index: 1 })
@@ -620,4 +623,76 @@ fn lasa_handwriting_is_segmented_and_reproduced() {
         error / n
     );
     assert!(error / n < 1.0);
+}
+
+/// `nextpose segment` reads a CSV (with joints), prints and writes the attractors, and names
+/// what is wrong with a bad file.
+#[test]
+fn the_segment_command_reads_a_csv_and_writes_the_attractors() {
+    let (start, legs) = polyline();
+    let samples = record(start, &legs, CLEAN);
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rectangle.csv");
+    let mut text = String::from("t,x,y,z,qw,qx,qy,qz,j1,j2\n");
+    for (i, s) in samples.iter().enumerate() {
+        let v = s.pose.values();
+        text += &format!(
+            "{},{},{},{},{},{},{},{},{},{}\n",
+            s.t,
+            v.x,
+            v.y,
+            v.z,
+            v.qw,
+            v.qx,
+            v.qy,
+            v.qz,
+            i,
+            -(i as f64)
+        );
+    }
+    std::fs::write(&csv, text).unwrap();
+    let json = dir.path().join("out.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .arg("segment")
+        .arg(&csv)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("6 LDSs"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let attractors = report[0]["attractors"].as_array().unwrap();
+    assert_eq!(attractors.len(), legs.len());
+    for (a, l) in attractors.iter().zip(&legs) {
+        let p = Vector3::new(
+            a["pose"]["x"].as_f64().unwrap(),
+            a["pose"]["y"].as_f64().unwrap(),
+            a["pose"]["z"].as_f64().unwrap(),
+        );
+        assert!((p - l.to).norm() < 1.5, "{p} for {}", l.to);
+        // The attractor's joints are the sample's own.
+        let i = a["sample"].as_u64().unwrap() as f64;
+        assert_eq!(a["joints"][0].as_f64(), Some(i));
+    }
+
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "t,x,y\n0,0,0\n1,abc,0\n").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .arg("segment")
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("line 3") && stderr.contains("\"abc\""),
+        "{stderr}"
+    );
 }

@@ -329,14 +329,24 @@ mod tests {
 
     #[test]
     fn ill_conditioned_fits_become_a_scaled_identity() {
-        let demo: Vec<State> = (0..20).map(|i| state(i as f64, 0.0)).collect();
+        // A curve that slows down hard in one direction: R has a large and a small gain.
+        let demo: Vec<State> = (0..20)
+            .map(|i| {
+                let k = (19 - i) as f64;
+                state(k, 0.5 * k * k)
+            })
+            .collect();
+        let fitted = Fit::demonstrations(&[&demo], &FitSettings::default()).unwrap();
+        assert!(!fitted.identity);
+        assert!(fitted.condition > 1.5, "{}", fitted.condition);
         let settings = FitSettings {
-            kappa_max: 10.0,
+            kappa_max: fitted.condition * 0.9,
             ..FitSettings::default()
         };
         let fit = Fit::demonstrations(&[&demo], &settings).unwrap();
         assert!(fit.identity);
         assert_eq!(fit.r, -Dynamics::identity() * fit.alpha);
+        assert!(fit.alpha > 0.0 && fit.alpha <= 1.0);
     }
 
     #[test]
