@@ -26,10 +26,10 @@
 //! 2 when the prediction does not move). A segment closes when ε exceeds `ε_max` (0.5 by default,
 //! θ ≈ 29°) at `persistence` consecutive samples (2 by default; 1 is the seed's rule: one noisy
 //! sample no longer cuts a line) and it has at least `min_segment_steps` steps. The seed's
-//! attractor would be the sample before the first one over `ε_max`; since a direction change
-//! shows only a sample or two after the corner, the attractor is the sample among that one and
-//! its three predecessors farthest from the chord across them (where the path turns). A new
-//! segment starts at the attractor. The last sample ends the last segment.
+//! attractor is the sample before the first one over `ε_max` (so it is with [`Criterion::Seed`]);
+//! since a direction change shows only a sample or two after the corner, the direction criterion
+//! takes the sample among that one and its three predecessors farthest from the chord across
+//! them (where the path turns). A new segment starts at the attractor. The last sample ends the last segment.
 //!
 //! The fit of the open segment leaves out directions along which the samples spread less than
 //! `min_step_mm` (RMS) from the attractor ([`super::lds::FitSettings::min_extent`]): a sample a
@@ -334,8 +334,13 @@ pub fn segment(
             let seed_attractor = n - settings.persistence;
             let lo = (start + settings.min_segment_steps).max(seed_attractor.saturating_sub(3));
             if lo < n {
-                let k =
-                    corner(&y, start.max(lo.saturating_sub(2)), lo, n).unwrap_or(seed_attractor);
+                let fallback = seed_attractor.clamp(lo, n - 1);
+                let k = match settings.criterion {
+                    Criterion::Direction => {
+                        corner(&y, start.max(lo.saturating_sub(2)), lo, n).unwrap_or(fallback)
+                    }
+                    Criterion::Seed => fallback,
+                };
                 let closing = sums_of(&y, start, k);
                 segments.push(Segment {
                     from: kept[start],
