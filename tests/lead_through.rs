@@ -257,6 +257,22 @@ fn noise_jitter_pauses_and_speed_do_not_move_the_attractors() {
     }
 }
 
+/// A recording with 0.1 mm of noise and ±30 % jitter, segmented with `min_step_mm` 2.
+fn noisy(start: Vector3<f64>, legs: &[Leg]) -> (Vec<TimedPose>, Segmentation) {
+    let rec = Recording {
+        noise_mm: 0.1,
+        jitter: 0.3,
+        ..CLEAN
+    };
+    let samples = record(start, legs, rec);
+    let settings = SegmentSettings {
+        min_step_mm: 2.0,
+        ..SegmentSettings::default()
+    };
+    let seg = segment(&samples, &settings).unwrap();
+    (samples, seg)
+}
+
 #[test]
 fn a_pause_in_the_middle_of_a_line_adds_no_waypoint() {
     let start = Vector3::new(0.0, 0.0, 0.0);
@@ -266,17 +282,7 @@ fn a_pause_in_the_middle_of_a_line_adds_no_waypoint() {
         leg(300.0, 200.0, 0.0),
     ];
     legs[0].pause = 2.0;
-    let rec = Recording {
-        noise_mm: 0.1,
-        jitter: 0.3,
-        ..CLEAN
-    };
-    let samples = record(start, &legs, rec);
-    let settings = SegmentSettings {
-        min_step_mm: 2.0,
-        ..SegmentSettings::default()
-    };
-    let seg = segment(&samples, &settings).unwrap();
+    let (samples, seg) = noisy(start, &legs);
     let found = attractor_list(&seg, &samples);
     // The rest at 150 mm is on the line from 0 to 300: only the corner and the end remain.
     let corners = [legs[1].to, legs[2].to];
@@ -299,17 +305,7 @@ fn curved_legs_keep_their_end_points() {
         },
         leg(300.0, -40.0, 350.0),
     ];
-    let rec = Recording {
-        noise_mm: 0.1,
-        jitter: 0.3,
-        ..CLEAN
-    };
-    let samples = record(start, &legs, rec);
-    let settings = SegmentSettings {
-        min_step_mm: 2.0,
-        ..SegmentSettings::default()
-    };
-    let seg = segment(&samples, &settings).unwrap();
+    let (samples, seg) = noisy(start, &legs);
     let found = attractor_list(&seg, &samples);
     // Every end point (each a corner: the arcs meet the lines at 58° and 53°) is found; an
     // arc may need an attractor along it.

@@ -37,12 +37,9 @@ use crate::storage::{NewPrediction, NewWaypoint};
 /// JSON and about 15000 as protobuf; raise it for longer recordings.
 pub const MAX_TRAJECTORY_SAMPLES: usize = 20_000;
 
-/// Largest coordinate of a sample's position (mm, either sign): a kilometre, far beyond any
-/// arm, and far below where the segmentation's squares would overflow.
-pub const MAX_POSITION_MM: f64 = 1e6;
-
-/// Largest weight of rotation against position (mm per radian).
-pub const MAX_ROTATION_MM_PER_RAD: f64 = 1e4;
+/// Largest coordinate of a sample's position and largest weight of rotation against position:
+/// the engine's bounds ([`segment::MAX_COORDINATE_MM`], [`segment::MAX_ROTATION_MM_PER_RAD`]).
+pub use segment::{MAX_COORDINATE_MM as MAX_POSITION_MM, MAX_ROTATION_MM_PER_RAD};
 
 /// Reproduced states the segmentation may compute for one request, over all its segments
 /// (48 bytes each): the memory a request may take for its reproduction.
@@ -261,12 +258,7 @@ fn segment_settings(s: &TrajectorySettings) -> Result<SegmentSettings> {
         out.min_step_mm = v;
     }
     if let Some(v) = s.rotation_mm_per_rad {
-        if v > MAX_ROTATION_MM_PER_RAD {
-            return Err(TrajectoryError::Settings(format!(
-                "rotation_mm_per_rad must be at most {MAX_ROTATION_MM_PER_RAD}, got {v}"
-            ))
-            .into());
-        }
+        // Its bound is checked with the others by `SegmentSettings::validate` below.
         out.rotation_mm_per_rad = v;
     }
     if let Some(v) = s.zeta_mm {
