@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# Checks that a change leaves the replay of the shared corpus as it was: the JSON reports of
+# `nextpose replay` (default profile; seed profile with the MAP comparison) of this checkout
+# against those of another revision, equal but for the timings (`us_per_waypoint`, `seconds`), which are
+# measured and never the same twice.
+#
+#   bash scripts/replay-unchanged.sh REV        # builds REV in a temporary worktree (release)
+#   bash scripts/replay-unchanged.sh DIR        # compares with reports saved earlier in DIR
+#   REPLAY_SAVE=DIR bash scripts/replay-unchanged.sh REV   # and keeps REV's reports in DIR
+#
+# Needs ../shared/corpus/json beside the checkout. Exits 1 and shows the first differences when
+# a report differs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+corpus=../shared/corpus/json
+if [ ! -d "$corpus" ]; then
+  echo "replay-unchanged: $corpus is missing (the shared corpus beside the checkout)" >&2
+  exit 2
+fi
+if [ $# -ne 1 ]; then
+  echo "usage: bash scripts/replay-unchanged.sh REV|DIR" >&2
+  exit 2
+fi
+
+work="$(mktemp -d)"
+cleanup() {
+  if [ -d "$work/tree" ]; then git worktree remove --force "$work/tree" > /dev/null 2>&1 || true; fi
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# The reports of one binary into a directory.
+reports() {
+  local bin="$1" out="$2"
+  mkdir -p "$out"
+  "$bin" replay "$corpus" --quiet --json "$out/default.json" > /dev/null
+  "$bin" replay "$corpus" --quiet --profile seed --map --json "$out/seed.json" \
+    --map-json "$out/seed-map.json" > /dev/null
+}
+
+if [ -d "$1" ]; then
+  base="$1"
+else
+  rev="$(git rev-parse --verify "$1^{commit}")"
+  git worktree add --detach "$work/tree" "$rev" > /dev/null
+  echo "replay-unchanged: building $rev" >&2
+  (cd "$work/tree" && CARGO_TARGET_DIR="$work/target" cargo build --release --locked --quiet)
+  base="${REPLAY_SAVE:-$work/base}"
+  reports "$work/target/release/nextpose" "$base"
+fi
+
+echo "replay-unchanged: building this checkout" >&2
+cargo build --release --locked --quiet
+reports target/release/nextpose "$work/new"
+
+status=0
+for f in default.json seed.json seed-map.json; do
+  if python3 - "$base/$f" "$work/new/$f" << 'EOF'; then
+import json, sys
+
+def strip(o):
+    if isinstance(o, dict):
+        return {k: strip(v) for k, v in o.items() if k not in ("us_per_waypoint", "seconds")}
+    if isinstance(o, list):
+        return [strip(v) for v in o]
+    return o
+
+# Keys in the order written: a reordered report is a changed report.
+a, b = (json.dumps(strip(json.load(open(p))), indent=1).splitlines() for p in sys.argv[1:])
+if a == b:
+    sys.exit(0)
+import difflib
+sys.stdout.writelines(l + "\n" for l in list(difflib.unified_diff(a, b, "before", "after", lineterm=""))[:60])
+sys.exit(1)
+EOF
+    echo "replay-unchanged: $f equal (timings aside)"
+  else
+    echo "replay-unchanged: $f DIFFERS" >&2
+    status=1
+  fi
+done
+exit $status
