@@ -145,9 +145,11 @@ fn modules_use_only_what_their_layer_allows() {
         ("storage", &[]),
         ("telemetry", &[]),
         ("transport", &[]),
+        ("api", &["engine", "export", "kinematics"]),
         (
             "app",
             &[
+                "api",
                 "engine",
                 "export",
                 "import",

@@ -28,6 +28,7 @@
 //! [`storage`], learned and predicted by [`engine`], and the prediction leaves through [`http`].
 //! The engine never imports the web or the database.
 
+pub mod api;
 pub mod app;
 #[cfg(test)]
 mod architecture;

@@ -17,11 +17,10 @@ use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use tokio::task::JoinSet;
 
-use crate::app::resources::{
-    CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest,
-    NewWaypointDto, PoseValues, PredictionDto, UploadedFile, Verdict,
+use crate::api::{
+    self, CellSettingsInput, CellStats, CreateCell, CreateProgram, CreateRoutine, ImportRequest,
+    NewWaypoint, PoseValues, Prediction, UploadedFile, Verdict,
 };
-use crate::app::settings::CellSettingsInput;
 use crate::client::Client;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
@@ -173,17 +172,17 @@ fn named(name: &str) -> CreateRoutine {
 }
 
 /// The operator's decision as the feedback the pendant sends.
-fn feedback_of(f: &Feedback) -> FeedbackDto {
+fn feedback_of(f: &Feedback) -> api::Feedback {
     match f {
-        Feedback::Accepted => FeedbackDto {
+        Feedback::Accepted => api::Feedback {
             verdict: Verdict::Accepted,
             pose: None,
         },
-        Feedback::Adjusted(p) => FeedbackDto {
+        Feedback::Adjusted(p) => api::Feedback {
             verdict: Verdict::Adjusted,
             pose: Some(p.into()),
         },
-        Feedback::Rejected => FeedbackDto {
+        Feedback::Rejected => api::Feedback {
             verdict: Verdict::Rejected,
             pose: None,
         },
@@ -198,14 +197,14 @@ async fn teach_exactly(client: &Client, cell: i64, program: &Program, name: &str
         let rid = client.create_routine(pid, &named(&r.name)).await?;
         teaching.start(rid).await?;
         for w in &r.waypoints {
-            teaching.waypoint(&NewWaypointDto::at(w)).await?;
+            teaching.waypoint(&NewWaypoint::at(w)).await?;
         }
         teaching.finish().await?;
     }
     Ok(())
 }
 
-fn suggestion_of(p: &PredictionDto) -> Result<Option<(i64, Suggestion)>> {
+fn suggestion_of(p: &Prediction) -> Result<Option<(i64, Suggestion)>> {
     if !p.offered {
         return Ok(None);
     }
@@ -303,7 +302,7 @@ pub async fn run_session(
                 None
             };
             let step = operator.teach(target, shown.map(|(_, s)| s), &mut rng);
-            let taught = teaching.waypoint(&NewWaypointDto::at(&step.pose)).await?;
+            let taught = teaching.waypoint(&NewWaypoint::at(&step.pose)).await?;
             if let (Some((id, _)), Some(fb)) = (shown, step.feedback.as_ref()) {
                 client.feedback(*id, &feedback_of(fb)).await?;
                 match fb {

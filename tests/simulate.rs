@@ -7,9 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use nextpose::app::resources::{
-    CreateProgram, CreateRoutine, NewWaypointDto, PredictQuery, PredictionDto,
-};
+use nextpose::api::{CreateProgram, CreateRoutine, NewWaypoint, PredictQuery, Prediction};
 use nextpose::client::{Client, RestClient, Transport};
 use nextpose::kinematics::ReachPolicy;
 use nextpose::kinematics::placement::{HeuristicSetup, PlacedArm, ReachCheck, ReachSetup};
@@ -97,7 +95,7 @@ fn time(o: &SessionOutcome) -> f64 {
 }
 
 /// A prediction without the id the server gave its record (a new record gets a new id).
-fn without_ids(mut ps: Vec<PredictionDto>) -> Vec<PredictionDto> {
+fn without_ids(mut ps: Vec<Prediction>) -> Vec<Prediction> {
     for p in &mut ps {
         p.id = None;
     }
@@ -179,7 +177,7 @@ async fn three_corpus_programs_end_to_end() {
         let first = &p.routines[0].waypoints;
         for w in first.iter().take(3.min(first.len())) {
             client
-                .append(rid, &NewWaypointDto::at(w))
+                .append(rid, &NewWaypoint::at(w))
                 .await
                 .expect("append");
         }
@@ -426,7 +424,7 @@ async fn rest_and_grpc_teach_the_same_session() {
 /// or the gRPC status, named by the call that failed.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_typed_client_reports_a_refusal_with_the_servers_reason() {
-    use nextpose::app::resources::CreateCell;
+    use nextpose::api::CreateCell;
     use nextpose::client::ClientError;
 
     let server = LocalServer::start().await.expect("server");

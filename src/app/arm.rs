@@ -4,10 +4,11 @@
 
 use super::error::AppError;
 use super::reach::CellArm;
-use super::resources::{ArmFrames, LinkFrame, ReachQuery, ReachabilityDto};
-use super::settings::{CellSettings, parse_settings};
+use super::settings::parse_settings;
 use super::{App, Result};
-use crate::engine::PoseValues;
+use crate::api::{
+    ArmFrames, CellSettings, FramesQuery, LinkFrame, PoseValues, ReachQuery, Reachability,
+};
 use crate::kinematics::{self, DOF, Joints, Mounting};
 
 /// Six finite joint values, from a list a client sent (`what` names it in the error).
@@ -25,6 +26,23 @@ fn joints_of(what: &str, values: &[f64]) -> Result<Joints> {
         )));
     }
     Ok(q)
+}
+
+/// The joint values of a frames query (`0,0.3,-0.2,0,0.8,0`), as numbers; `None` when none
+/// are given (the arm's ready position). [`App::arm_frames`] checks that there are six.
+pub fn frames_joints(query: &FramesQuery) -> Result<Option<Vec<f64>>> {
+    let Some(text) = &query.joints else {
+        return Ok(None);
+    };
+    text.split(',')
+        .enumerate()
+        .map(|(i, v)| {
+            v.trim().parse::<f64>().map_err(|_| {
+                AppError::Invalid(format!("joints: value {} ({v:?}) is not a number", i + 1))
+            })
+        })
+        .collect::<Result<Vec<f64>>>()
+        .map(Some)
 }
 
 impl App {
@@ -84,7 +102,7 @@ impl App {
     }
 
     /// Whether the cell's arm reaches `query.pose`, and the solution nearest `query.near`.
-    pub async fn reach(&self, cell_id: i64, query: ReachQuery) -> Result<ReachabilityDto> {
+    pub async fn reach(&self, cell_id: i64, query: ReachQuery) -> Result<Reachability> {
         let pose = query.pose.to_pose()?;
         let near = query
             .near

@@ -3,9 +3,9 @@
 
 use super::error::AppError;
 use super::reach::CellArm;
-use super::resources::ModelInfo;
 use super::robots::Robots;
 use super::settings::parse_settings;
+use crate::api::ModelInfo;
 use crate::engine::{Pose, Teacher};
 use crate::storage::{CellRow, CellState, PoseColumns, Store, WaypointRow};
 

@@ -2,9 +2,9 @@
 
 use super::cell_model::CellModel;
 use super::error::AppError;
-use super::resources::*;
 use super::settings::parse_settings;
 use super::{App, Result, check_name};
+use crate::api::{Cell, CellStats, CreateCell, FeedbackStats, ModelInfo};
 use crate::storage::CellRow;
 
 impl App {

@@ -14,9 +14,12 @@
 
 use super::error::AppError;
 use super::registry::{Locked, lock_map};
-use super::resources::*;
-use super::rows::{pose_columns, program, routine, waypoint};
+use super::rows::{program, routine, waypoint};
 use super::{App, Result, check_name};
+use crate::api::{
+    Cell, CellPatch, InsertWaypoint, NewWaypoint, PoseValues, Program, Rename, RoutineEdit,
+    RoutinePatch, Side, WaypointEdit, WaypointPatch,
+};
 use crate::storage::{CellWrite, RoutineRow, WaypointRow, WaypointValues};
 
 /// What an edit of a routine's waypoints does to the cell's model.
@@ -80,7 +83,7 @@ impl App {
 
     /// The stored values of a waypoint as a client gives them: checked (pose, joints against
     /// the arm, name) and with the arm's verdict on the pose.
-    fn waypoint_values(locked: &mut Locked, input: &NewWaypointDto) -> Result<WaypointValues> {
+    fn waypoint_values(locked: &mut Locked, input: &NewWaypoint) -> Result<WaypointValues> {
         let joints = Self::validate_waypoint(input)?;
         let pose = input.pose.to_pose()?;
         let stored = PoseValues::from(&pose);
@@ -90,7 +93,7 @@ impl App {
             arm.check_joints(j)?;
         }
         Ok(WaypointValues {
-            pose: pose_columns(&stored),
+            pose: stored.into(),
             joints,
             motion: input.motion.map(|m| m.as_str().to_string()),
             name: input.name.as_ref().map(|n| n.trim().to_string()),
@@ -113,7 +116,7 @@ impl App {
         // Under the lock: the waypoint as it is now (an edit may have moved or removed it).
         let (before, r) = self.waypoint_and_routine(id).await?;
         let old = waypoint(before.clone())?;
-        let input = NewWaypointDto {
+        let input = NewWaypoint {
             pose: patch.pose.unwrap_or(old.pose),
             joints: patch.joints.clone().unwrap_or(old.joints.clone()),
             motion: patch.motion.unwrap_or(old.motion),

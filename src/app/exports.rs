@@ -9,9 +9,9 @@ use std::str::FromStr;
 use super::cell_model::{stored_joints, stored_pose};
 use super::error::AppError;
 use super::registry::blocking;
-use super::resources::*;
 use super::settings::parse_settings;
 use super::{App, Result};
+use crate::api::{ExportQuery, ExportedFile, MotionType, ProgramExport};
 use crate::export::{self, ExportProgram, ExportRoutine, ExportWaypoint, Format, Motion};
 use crate::kinematics::{self, Joints};
 
@@ -83,7 +83,7 @@ impl App {
                 files: exported
                     .files
                     .into_iter()
-                    .map(|f| ExportedFileDto {
+                    .map(|f| ExportedFile {
                         file_name: f.file_name,
                         text: f.text,
                     })

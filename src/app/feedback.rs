@@ -2,17 +2,13 @@
 
 use super::cell_model;
 use super::error::AppError;
-use super::resources::*;
-use super::rows::pose_columns;
 use super::{App, Result};
+use crate::api::{Feedback, FeedbackRecorded, Verdict};
 use crate::storage::NewFeedback;
+use crate::storage::PoseColumns;
 
 impl App {
-    pub async fn feedback(
-        &self,
-        prediction_id: i64,
-        input: FeedbackDto,
-    ) -> Result<FeedbackRecorded> {
+    pub async fn feedback(&self, prediction_id: i64, input: Feedback) -> Result<FeedbackRecorded> {
         let final_pose = match (input.verdict, &input.pose) {
             (Verdict::Adjusted, Some(p)) => Some(p.to_pose()?),
             (Verdict::Adjusted, None) => {
@@ -48,7 +44,7 @@ impl App {
             .insert_feedback(&NewFeedback {
                 prediction_id,
                 verdict: input.verdict.as_str(),
-                pose: final_pose.as_ref().map(|p| pose_columns(&p.into())),
+                pose: final_pose.as_ref().map(PoseColumns::from),
                 adjustment_mm,
             })
             .await

@@ -3,9 +3,11 @@
 
 use super::error::AppError;
 use super::registry::blocking;
-use super::resources::*;
-use super::rows::{pose_columns, program};
+use super::rows::program;
 use super::{App, MAX_NAME, Result, check_name};
+use crate::api::{
+    ImportRequest, ImportResult, ImportedProgram, ModelInfo, MotionType, PoseValues, Skipped,
+};
 use crate::storage::{NewImportedRoutine, WaypointValues};
 
 /// The motion type of an imported instruction (`MoveL`, `ArcCStart`, `PTP`, `L`, `C`, ...).
@@ -74,7 +76,7 @@ impl App {
                     let stored = PoseValues::from(&w.pose);
                     taught.push(stored.to_pose()?);
                     waypoints.push(WaypointValues {
-                        pose: pose_columns(&stored),
+                        pose: stored.into(),
                         joints: None,
                         motion: Some(motion_of(&w.motion).as_str().to_string()),
                         name: Some(w.name.chars().take(MAX_NAME).collect()),
@@ -133,7 +135,7 @@ impl App {
         let out = stored
             .into_iter()
             .zip(&report.programs)
-            .map(|((row, _), p)| ImportedProgramDto {
+            .map(|((row, _), p)| ImportedProgram {
                 program: program(row),
                 language: format!("{:?}", p.language).to_lowercase(),
                 source: p.source.clone(),
@@ -144,7 +146,7 @@ impl App {
         let skipped = report
             .skipped
             .iter()
-            .map(|s| SkippedDto {
+            .map(|s| Skipped {
                 file: s.file.clone(),
                 line: s.line,
                 routine: s.routine.clone(),

@@ -4,9 +4,9 @@
 
 use super::cell_model::stored_pose;
 use super::error::AppError;
-use super::resources::{PlacementDto, PlacementSearch, Placements};
 use super::settings::parse_settings;
 use super::{App, Result};
+use crate::api::{self, PlacementSearch, Placements};
 use crate::engine::{Pose, PoseValues};
 use crate::kinematics::layout::{LayoutOptions, Placement, search_layout};
 
@@ -147,8 +147,8 @@ impl App {
     }
 }
 
-fn dto(p: &Placement, ids: Option<&[i64]>) -> PlacementDto {
-    PlacementDto {
+fn dto(p: &Placement, ids: Option<&[i64]>) -> api::Placement {
+    api::Placement {
         base: p.base.values(),
         reached: p.reached,
         total: p.total,

@@ -33,7 +33,6 @@ mod programs;
 pub mod reach;
 mod registry;
 mod replays;
-pub mod resources;
 mod retarget;
 pub mod robots;
 mod routines;
@@ -49,6 +48,7 @@ use tokio_util::task::TaskTracker;
 
 use crate::storage::Store;
 use crate::telemetry::Metrics;
+pub use arm::frames_joints;
 pub use error::AppError;
 use registry::Slot;
 pub(crate) use registry::blocking;

@@ -3,8 +3,7 @@
 
 use super::reach;
 use super::registry::OpenRoutine;
-use super::resources::*;
-use super::rows::pose_columns;
+use crate::api::{self, PoseValues};
 use crate::engine::{PredictOptions, Prediction, Teacher, Withheld};
 use crate::kinematics::{Joints, ReachPolicy, Reachability};
 use crate::storage::NewPrediction;
@@ -133,7 +132,7 @@ pub(super) fn record(
         cell_id: r.cell_id,
         routine_id: r.id,
         after_seq: after,
-        pose: pose_columns(&pose.into()),
+        pose: pose.into(),
         phi: p.phi,
         psi: p.psi,
         misfit: p.misfit,
@@ -149,18 +148,18 @@ pub(super) fn dto(
     id: Option<i64>,
     after: i64,
     version: i64,
-) -> PredictionDto {
+) -> api::Prediction {
     let p = &c.prediction;
     let reachability = match (arm, &c.reach) {
         (Some(arm), Some(r)) => Some(arm.dto(r)),
         _ => None,
     };
     let withheld = match (&p.withheld, &reachability) {
-        (Some(w), _) => Some(WithheldDto {
+        (Some(w), _) => Some(api::Withheld {
             reason: w.code().to_string(),
             message: describe(w, opts),
         }),
-        (None, Some(r)) if c.unreachable => Some(WithheldDto {
+        (None, Some(r)) if c.unreachable => Some(api::Withheld {
             reason: UNREACHABLE.to_string(),
             message: r
                 .unreachable
@@ -170,7 +169,7 @@ pub(super) fn dto(
         }),
         _ => None,
     };
-    PredictionDto {
+    api::Prediction {
         id,
         offered: c.offered(),
         withheld,

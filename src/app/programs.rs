@@ -1,9 +1,9 @@
 //! Programs of a cell: create, list, read.
 
 use super::error::AppError;
-use super::resources::*;
 use super::rows::program;
 use super::{App, Result, check_name};
+use crate::api::{CreateProgram, Program};
 
 impl App {
     pub async fn create_program(&self, cell_id: i64, input: CreateProgram) -> Result<Program> {

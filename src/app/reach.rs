@@ -5,14 +5,13 @@
 use std::sync::Arc;
 
 use super::error::AppError;
-use super::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
-use super::settings::CellSettings;
+use crate::api::{self, CellSettings, JointMargin};
 use crate::engine::Pose;
 use crate::kinematics::{
     self, Joints, Mounting, ReachConfig, ReachPolicy, Reachability, Robot, Unreachable, check_reach,
 };
 
-pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
+pub(crate) fn describe(why: &Unreachable) -> api::Unreachable {
     let (reason, message) = match why {
         Unreachable::OutsideReach => (
             "outside_reach",
@@ -32,7 +31,7 @@ pub(crate) fn describe(why: &Unreachable) -> UnreachableDto {
             format!("the arm would be at a singularity (σ_min = {sigma_min:.4})"),
         ),
     };
-    UnreachableDto {
+    api::Unreachable {
         reason: reason.to_string(),
         message,
     }
@@ -118,8 +117,8 @@ impl CellArm {
         self.trail.clear();
     }
 
-    pub fn dto(&self, r: &Reachability) -> ReachabilityDto {
-        ReachabilityDto {
+    pub fn dto(&self, r: &Reachability) -> api::Reachability {
+        api::Reachability {
             robot: self.robot.name().to_string(),
             reachable: r.is_reachable(),
             unreachable: r.unreachable.as_ref().map(describe),
@@ -127,7 +126,7 @@ impl CellArm {
             chosen: r.chosen.map(|q| q.to_vec()),
             sigma_min: r.sigma_min,
             manipulability: r.manipulability,
-            limiting_joint: r.limiting_joint.as_ref().map(|m| JointMarginDto {
+            limiting_joint: r.limiting_joint.as_ref().map(|m| JointMargin {
                 name: m.name.clone(),
                 margin_rad: m.margin_rad,
             }),

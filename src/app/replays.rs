@@ -4,9 +4,9 @@
 use super::cell_model;
 use super::error::AppError;
 use super::registry::blocking;
-use super::resources::*;
 use super::settings::MAX_HORIZON;
 use super::{App, Result};
+use crate::api::ReplayRequest;
 
 impl App {
     /// Replays programs (uploaded files or a cell's stored programs) through the engine and

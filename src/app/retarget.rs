@@ -10,10 +10,10 @@ use nalgebra::Isometry3;
 use super::cell_model::stored_pose;
 use super::error::AppError;
 use super::reach::CellArm;
-use super::resources::*;
-use super::rows::{pose_columns, program, routine, waypoint};
+use super::rows::{program, routine, waypoint};
 use super::settings::parse_settings;
 use super::{App, Result, check_name};
+use crate::api::{PoseValues, Retarget, Retargeted, RoutineDetail};
 use crate::kinematics::Joints;
 use crate::kinematics::fixture::{fixture_move, moved_pose};
 use crate::storage::{NewImportedRoutine, ProgramRow, WaypointRow, WaypointValues};
@@ -64,7 +64,7 @@ impl App {
                 *unreachable += 1;
             }
             out.push(WaypointValues {
-                pose: pose_columns(&stored),
+                pose: stored.into(),
                 joints: None,
                 motion: w.motion.clone(),
                 name: w.name.clone(),

@@ -7,15 +7,14 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, RwLock};
 
-use serde::{Deserialize, Serialize};
 use tokio::sync::Mutex as AsyncMutex;
-use utoipa::ToSchema;
 
 use super::error::AppError;
 use super::settings::parse_settings;
 use super::{App, Result, check_name};
+use crate::api::{self, RobotSource, RobotUpload};
 use crate::kinematics::catalog::{computed_reach_mm, load_catalog};
-use crate::kinematics::{self, KinematicsError, Robot, RobotModel};
+use crate::kinematics::{self, KinematicsError, Robot, SolverKind};
 use crate::storage::RobotRow;
 
 /// Longest robot name (letters, digits, `_` and `-`).
@@ -23,56 +22,20 @@ pub const MAX_ROBOT_NAME: usize = 64;
 /// Largest URDF text accepted (a plain six-joint URDF is a few kB; meshes are not read).
 pub const MAX_URDF_BYTES: usize = 256 * 1024;
 
-/// Where a model comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum RobotSource {
-    /// Shipped with the service (`robots/`).
-    Bundled,
-    /// Uploaded through the API (`POST /v1/robots`), kept in the database.
-    Uploaded,
-}
-
 /// What a data sheet says about an arm, where it is known.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Datasheet {
-    pub maker: Option<String>,
+#[derive(Debug, Clone, PartialEq)]
+struct Datasheet {
+    maker: Option<String>,
     /// The maker's designation (`IRB 2600-12/1.65`).
-    pub product: Option<String>,
-    pub payload_kg: Option<f64>,
+    product: Option<String>,
+    payload_kg: Option<f64>,
     /// The data sheet's reach, mm.
-    pub reach_mm: Option<f64>,
+    reach_mm: Option<f64>,
     /// The reach computed from the kinematics (axis-1 line to the wrist centre at full
     /// stretch; UR arms: to the flange), mm: known for every model.
-    pub computed_reach_mm: f64,
+    computed_reach_mm: f64,
     /// Program languages of the arm's controller (`rapid`, `krl`, `fanuc`, `urscript`).
-    pub languages: Vec<String>,
-}
-
-/// A model as the service lists it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RobotInfo {
-    pub model: RobotModel,
-    pub source: RobotSource,
-    pub datasheet: Datasheet,
-}
-
-/// An arm model to upload.
-#[derive(Debug, Clone, Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct RobotUpload {
-    /// The name cells will use: letters, digits, `_` and `-`, at most 64 characters, not one
-    /// the service already has.
-    pub name: String,
-    /// The URDF text: a serial chain of six revolute joints from the root link to `tool0`
-    /// (or the only leaf), each with `<limit lower upper velocity>`; lengths in metres.
-    pub urdf: String,
-    #[serde(default)]
-    pub maker: Option<String>,
-    #[serde(default)]
-    pub product: Option<String>,
-    #[serde(default)]
-    pub payload_kg: Option<f64>,
+    languages: Vec<String>,
 }
 
 #[derive(Debug, Clone)]
@@ -83,11 +46,36 @@ struct Entry {
 }
 
 impl Entry {
-    fn info(&self) -> RobotInfo {
-        RobotInfo {
-            model: self.robot.model(),
+    /// The model as the service lists it.
+    fn resource(&self) -> api::Robot {
+        let model = self.robot.model();
+        let sheet = self.datasheet.clone();
+        api::Robot {
+            name: model.name,
             source: self.source,
-            datasheet: self.datasheet.clone(),
+            maker: sheet.maker,
+            product: sheet.product,
+            payload_kg: sheet.payload_kg,
+            reach_mm: sheet.reach_mm,
+            computed_reach_mm: sheet.computed_reach_mm,
+            languages: sheet.languages,
+            solver: match model.solver {
+                SolverKind::Opw => "opw",
+                SolverKind::Ur => "ur",
+            }
+            .to_string(),
+            root: model.root,
+            tip: model.tip,
+            joints: model
+                .joints
+                .into_iter()
+                .map(|j| api::Joint {
+                    name: j.name,
+                    lower: j.lower,
+                    upper: j.upper,
+                    velocity: j.velocity,
+                })
+                .collect(),
         }
     }
 }
@@ -161,12 +149,12 @@ impl Robots {
         self.read().get(name).map(|e| e.robot.clone())
     }
 
-    pub fn info(&self, name: &str) -> Option<RobotInfo> {
-        self.read().get(name).map(Entry::info)
+    pub fn resource(&self, name: &str) -> Option<api::Robot> {
+        self.read().get(name).map(Entry::resource)
     }
 
-    pub fn infos(&self) -> Vec<RobotInfo> {
-        self.read().values().map(Entry::info).collect()
+    pub fn resources(&self) -> Vec<api::Robot> {
+        self.read().values().map(Entry::resource).collect()
     }
 
     /// The robot a cell names, or a 422 listing the known ones.
@@ -215,13 +203,13 @@ fn check_robot_name(name: &str) -> Result<()> {
 
 impl App {
     /// The robot models cells can use.
-    pub fn robots(&self) -> Vec<RobotInfo> {
-        self.robots.infos()
+    pub fn robots(&self) -> Vec<api::Robot> {
+        self.robots.resources()
     }
 
-    pub fn robot(&self, name: &str) -> Result<RobotInfo> {
+    pub fn robot(&self, name: &str) -> Result<api::Robot> {
         self.robots
-            .info(name)
+            .resource(name)
             .ok_or_else(|| AppError::NotFoundName {
                 what: "robot",
                 name: name.to_string(),
@@ -230,7 +218,7 @@ impl App {
 
     /// Uploads an arm model: checked like a bundled one (a 422 says what is wrong), stored, and
     /// from then on a cell may name it.
-    pub async fn upload_robot(&self, upload: RobotUpload) -> Result<RobotInfo> {
+    pub async fn upload_robot(&self, upload: RobotUpload) -> Result<api::Robot> {
         check_robot_name(&upload.name)?;
         for (what, v) in [("maker", &upload.maker), ("product", &upload.product)] {
             if let Some(v) = v {
@@ -270,15 +258,15 @@ impl App {
             )
             .await?;
         let entry = uploaded(robot, &row);
-        let info = entry.info();
+        let robot = entry.resource();
         self.robots.write().insert(row.name.clone(), entry);
-        Ok(info)
+        Ok(robot)
     }
 
     /// Deletes an uploaded model that no cell names. Bundled models stay.
     pub async fn delete_robot(&self, name: &str) -> Result<()> {
         let _changing = self.robots.changes.lock().await;
-        let source = self.robots.info(name).map(|i| i.source);
+        let source = self.robots.read().get(name).map(|e| e.source);
         match source {
             None => {
                 return Err(AppError::NotFoundName {

@@ -3,9 +3,9 @@
 
 use super::error::AppError;
 use super::registry::{lock_map, stale_check};
-use super::resources::*;
 use super::rows::{routine, waypoint};
 use super::{App, Result, check_name};
+use crate::api::{CreateRoutine, Finished, Routine, RoutineDetail};
 
 impl App {
     /// Starts a routine at the end of a program. The cell must not have another routine

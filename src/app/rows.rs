@@ -3,30 +3,59 @@
 use super::Result;
 use super::cell_model;
 use super::error::AppError;
-use super::resources::*;
+use crate::api::{MotionType, PoseValues, Program, Routine, Waypoint};
+use crate::engine::Pose;
 use crate::storage::{PoseColumns, ProgramRow, RoutineRow, WaypointRow};
 
-pub(super) fn pose_columns(p: &PoseValues) -> PoseColumns {
-    PoseColumns {
-        x: p.x,
-        y: p.y,
-        z: p.z,
-        qw: p.qw,
-        qx: p.qx,
-        qy: p.qy,
-        qz: p.qz,
+impl From<PoseValues> for PoseColumns {
+    fn from(p: PoseValues) -> PoseColumns {
+        let PoseValues {
+            x,
+            y,
+            z,
+            qw,
+            qx,
+            qy,
+            qz,
+        } = p;
+        PoseColumns {
+            x,
+            y,
+            z,
+            qw,
+            qx,
+            qy,
+            qz,
+        }
     }
 }
 
-pub(super) fn pose_dto(p: &PoseColumns) -> PoseValues {
-    PoseValues {
-        x: p.x,
-        y: p.y,
-        z: p.z,
-        qw: p.qw,
-        qx: p.qx,
-        qy: p.qy,
-        qz: p.qz,
+impl From<PoseColumns> for PoseValues {
+    fn from(p: PoseColumns) -> PoseValues {
+        let PoseColumns {
+            x,
+            y,
+            z,
+            qw,
+            qx,
+            qy,
+            qz,
+        } = p;
+        PoseValues {
+            x,
+            y,
+            z,
+            qw,
+            qx,
+            qy,
+            qz,
+        }
+    }
+}
+
+impl From<&Pose> for PoseColumns {
+    fn from(p: &Pose) -> PoseColumns {
+        PoseValues::from(p).into()
     }
 }
 
@@ -44,7 +73,7 @@ pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
         id: w.id,
         routine_id: w.routine_id,
         seq: w.seq,
-        pose: pose_dto(&w.pose),
+        pose: w.pose.into(),
         joints,
         motion,
         name: w.name,

@@ -4,16 +4,16 @@
 use super::error::AppError;
 use super::offer;
 use super::registry::{blocking, stale_check};
-use super::resources::*;
-use super::rows::{pose_columns, waypoint};
+use super::rows::waypoint;
 use super::settings::MAX_HORIZON;
 use super::{App, MAX_COMPLETION, Result, check_name};
+use crate::api::{self, PoseValues, PredictQuery, PredictionSet, Taught, Undone};
 use crate::engine::PredictOptions;
 use crate::kinematics::Reachability;
 use crate::storage::{Append, NewWaypoint};
 
 impl App {
-    pub(super) fn validate_waypoint(input: &NewWaypointDto) -> Result<Option<String>> {
+    pub(super) fn validate_waypoint(input: &api::NewWaypoint) -> Result<Option<String>> {
         if let Some(n) = &input.name {
             check_name("waypoint name", n)?;
         }
@@ -33,7 +33,11 @@ impl App {
     }
 
     /// Appends a taught waypoint to an open routine and predicts the next one.
-    pub async fn append_waypoint(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+    pub async fn append_waypoint(
+        &self,
+        routine_id: i64,
+        input: api::NewWaypoint,
+    ) -> Result<Taught> {
         self.following(move |app| {
             let input = input.clone();
             async move { app.append_waypoint_now(routine_id, input).await }
@@ -41,7 +45,11 @@ impl App {
         .await
     }
 
-    async fn append_waypoint_now(&self, routine_id: i64, input: NewWaypointDto) -> Result<Taught> {
+    async fn append_waypoint_now(
+        &self,
+        routine_id: i64,
+        input: api::NewWaypoint,
+    ) -> Result<Taught> {
         // Everything the client can get wrong is checked before anything changes.
         let joints = Self::validate_waypoint(&input)?;
         let pose = input.pose.to_pose()?;
@@ -65,7 +73,7 @@ impl App {
         let wp = NewWaypoint {
             routine_id,
             seq: after,
-            pose: pose_columns(&stored),
+            pose: stored.into(),
             joints,
             motion: input.motion.map(|m| m.as_str().to_string()),
             name: input.name.map(|n| n.trim().to_string()),

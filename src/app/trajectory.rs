@@ -23,9 +23,12 @@ use std::sync::Arc;
 use super::error::AppError;
 use super::offer;
 use super::registry::{blocking, stale_check};
-use super::resources::*;
-use super::rows::{pose_columns, waypoint};
+use super::rows::waypoint;
 use super::{App, Result};
+use crate::api::{
+    self, PoseValues, Taught, TrajectoryAnswer, TrajectoryPoint, TrajectoryRequest,
+    TrajectorySegment, TrajectorySettings,
+};
 use crate::engine::Pose;
 use crate::engine::segment::{self, SegmentSettings, Segmentation, TimedPose, TrajectoryError};
 use crate::kinematics::Reachability;
@@ -165,7 +168,7 @@ impl App {
             let wp = NewWaypoint {
                 routine_id,
                 seq: after,
-                pose: pose_columns(&PoseValues::from(&prepared.samples[i].pose)),
+                pose: (&prepared.samples[i].pose).into(),
                 joints,
                 motion: None,
                 name: None,
@@ -442,7 +445,7 @@ fn answer(
         start: point(prepared, 0, targets.first() == Some(&0)),
         attractors,
         waypoints,
-        segmentation: SegmentationDto {
+        segmentation: api::Segmentation {
             samples: seg.samples,
             kept: seg.kept,
             segments,
@@ -458,6 +461,7 @@ fn answer(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::api::TrajectorySample;
 
     fn sample(t: f64, x: f64, y: f64) -> TrajectorySample {
         TrajectorySample {

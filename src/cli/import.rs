@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use crate::api::{CreateCell, ImportRequest, UploadedFile};
 use anyhow::{Context, Result};
 use clap::Args;
 
@@ -26,7 +27,6 @@ pub struct ImportArgs {
 }
 
 pub(super) fn run_import(args: ImportArgs) -> Result<()> {
-    use crate::app::resources::{CreateCell, ImportRequest, UploadedFile};
     use crate::client::RestClient;
 
     let mut files = Vec::with_capacity(args.files.len());

@@ -11,9 +11,9 @@ use tonic::transport::Channel;
 use tonic::{Request, Streaming};
 
 use super::{ClientError, Result};
-use crate::app::resources::{
-    CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest, ModelInfo,
-    NewWaypointDto, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
+use crate::api::{
+    CellStats, CreateCell, CreateProgram, CreateRoutine, Feedback, ImportRequest, ModelInfo,
+    NewWaypoint, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
 };
 use crate::grpc::convert;
 use crate::grpc::pb;
@@ -109,7 +109,7 @@ impl GrpcClient {
     }
 
     /// Appends one waypoint by a unary call (teaching goes through [`TeachStream`]).
-    pub async fn append(&self, routine: i64, waypoint: &NewWaypointDto) -> Result<Taught> {
+    pub async fn append(&self, routine: i64, waypoint: &NewWaypoint) -> Result<Taught> {
         let r = self.request(pb::AppendWaypointRequest {
             routine_id: routine,
             waypoint: Some(convert::new_waypoint_out(waypoint.clone())),
@@ -131,7 +131,7 @@ impl GrpcClient {
         t.try_into().map_err(unexpected("AppendTrajectory"))
     }
 
-    pub async fn feedback(&self, prediction: i64, feedback: &FeedbackDto) -> Result<()> {
+    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<()> {
         let r = self.request(convert::feedback_request(prediction, feedback.clone()));
         self.inner
             .clone()
@@ -260,7 +260,7 @@ impl TeachStream {
         }
     }
 
-    pub async fn waypoint(&mut self, waypoint: &NewWaypointDto) -> Result<Taught> {
+    pub async fn waypoint(&mut self, waypoint: &NewWaypoint) -> Result<Taught> {
         let w = Command::Waypoint(convert::new_waypoint_out(waypoint.clone()));
         match self.call(w, "waypoint").await? {
             Event::Taught(t) => t.try_into().map_err(unexpected("Teach waypoint")),

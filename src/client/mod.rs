@@ -10,12 +10,12 @@
 pub mod grpc;
 pub mod rest;
 
+use crate::api::{
+    CellStats, CreateCell, CreateProgram, CreateRoutine, Feedback, ImportRequest, ModelInfo,
+    NewWaypoint, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
+};
 use serde::{Deserialize, Serialize};
 
-use crate::app::resources::{
-    CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, ImportRequest, ModelInfo,
-    NewWaypointDto, PredictQuery, PredictionSet, Taught, TrajectoryAnswer, TrajectoryRequest,
-};
 pub use grpc::{GrpcClient, TeachStream};
 pub use rest::RestClient;
 
@@ -145,7 +145,7 @@ impl Client {
     }
 
     /// Appends a waypoint by one call (for teaching many, see [`Client::teaching`]).
-    pub async fn append(&self, routine: i64, waypoint: &NewWaypointDto) -> Result<Taught> {
+    pub async fn append(&self, routine: i64, waypoint: &NewWaypoint) -> Result<Taught> {
         either!(self, c => c.append(routine, waypoint).await)
     }
 
@@ -166,7 +166,7 @@ impl Client {
         }
     }
 
-    pub async fn feedback(&self, prediction: i64, feedback: &FeedbackDto) -> Result<()> {
+    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<()> {
         match self {
             Client::Rest(c) => c.feedback(prediction, feedback).await.map(drop),
             Client::Grpc(c) => c.feedback(prediction, feedback).await,
@@ -231,7 +231,7 @@ impl Teaching {
     }
 
     /// Teaches a waypoint: the stored waypoint and the prediction for the next one.
-    pub async fn waypoint(&mut self, waypoint: &NewWaypointDto) -> Result<Taught> {
+    pub async fn waypoint(&mut self, waypoint: &NewWaypoint) -> Result<Taught> {
         match self {
             Teaching::Rest {
                 client,

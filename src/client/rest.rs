@@ -6,12 +6,12 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use super::{ClientError, Result};
-use crate::app::resources::{
-    Cell, CellStats, CreateCell, CreateProgram, CreateRoutine, FeedbackDto, FeedbackRecorded,
-    Finished, ImportRequest, ImportResult, ModelInfo, NewWaypointDto, PredictQuery, PredictionSet,
+use crate::api::ErrorBody;
+use crate::api::{
+    Cell, CellStats, CreateCell, CreateProgram, CreateRoutine, Feedback, FeedbackRecorded,
+    Finished, ImportRequest, ImportResult, ModelInfo, NewWaypoint, PredictQuery, PredictionSet,
     Program, ProgramExport, Routine, Taught, TrajectoryAnswer, TrajectoryRequest,
 };
-use crate::http::error::ErrorBody;
 
 /// A REST client of one server.
 #[derive(Debug, Clone)]
@@ -103,7 +103,7 @@ impl RestClient {
             .await
     }
 
-    pub async fn append(&self, routine: i64, waypoint: &NewWaypointDto) -> Result<Taught> {
+    pub async fn append(&self, routine: i64, waypoint: &NewWaypoint) -> Result<Taught> {
         self.post(&format!("/v1/routines/{routine}/waypoints"), waypoint)
             .await
     }
@@ -126,11 +126,7 @@ impl RestClient {
         .await
     }
 
-    pub async fn feedback(
-        &self,
-        prediction: i64,
-        feedback: &FeedbackDto,
-    ) -> Result<FeedbackRecorded> {
+    pub async fn feedback(&self, prediction: i64, feedback: &Feedback) -> Result<FeedbackRecorded> {
         self.post(&format!("/v1/predictions/{prediction}/feedback"), feedback)
             .await
     }

@@ -144,7 +144,7 @@ pub struct RecallGate {
 }
 
 /// Engine profile: a named configuration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Profile {
     /// The dissertation's engine as specified in ALGORITHM.md.

@@ -142,7 +142,7 @@ pub fn angle(a: &Observation, b: &Observation) -> f64 {
 
 /// How close two elements (or two guesses) must be to count as the same: translation in mm and
 /// rotation in rad, both bounds inclusive.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tolerance {
     /// mm

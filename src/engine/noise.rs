@@ -25,7 +25,7 @@ use super::pose::Pose;
 pub const MATCH_SIGMAS: f64 = 1.5;
 
 /// Teaching noise: one-sigma error per axis of a taught waypoint.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Noise {
     /// Position, mm per axis.

@@ -26,10 +26,9 @@ pub struct Pose {
     iso: Isometry3<f64>,
 }
 
-// The schema derive describes the wire form for the API's description; it does no I/O.
 /// A pose as plain numbers, as clients send and see it: position in mm and a unit quaternion
 /// `w, x, y, z`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PoseValues {
     /// mm

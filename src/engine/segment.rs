@@ -67,7 +67,7 @@ pub struct TimedPose {
 }
 
 /// How the prediction error of §5.7 is measured.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Criterion {
     /// Direction of the predicted step against the observed one (the default; see the module

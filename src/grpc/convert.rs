@@ -5,16 +5,22 @@
 use tonic::Status;
 
 use super::pb;
-use crate::app::resources::*;
-use crate::app::resources::{JointMarginDto, ReachabilityDto, UnreachableDto};
-use crate::app::resources::{PlacementSearch, Placements};
-use crate::app::robots::{RobotInfo, RobotSource, RobotUpload};
-use crate::app::settings::{CellSettings, CellSettingsInput, ScaleSettings};
+use crate::api::{
+    ArmFrames, Cell, CellPatch, CellSettings, CellSettingsInput, CellStats, CreateCell, Criterion,
+    Feedback, FeedbackRecorded, FeedbackStats, Finished, FixturePoints, ImportRequest,
+    ImportResult, InsertWaypoint, JointMargin, ModelInfo, MotionType, NewWaypoint, PlacementSearch,
+    Placements, PoseValues, PredictQuery, Prediction, PredictionSet, Program, ProgramExport,
+    ReachQuery, Reachability, ReplayRequest, Retarget, Retargeted, Robot, RobotUpload, Routine,
+    RoutineDetail, RoutineEdit, RoutinePatch, ScaleSettings, Segmentation, Side, Taught,
+    TrajectoryAnswer, TrajectoryPoint, TrajectoryRequest, TrajectorySample, TrajectorySegment,
+    TrajectorySettings, Undone, Unreachable, UploadedFile, Verdict, Waypoint, WaypointEdit,
+    WaypointPatch, Withheld,
+};
 use crate::engine::Profile;
 use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::export::ExportSettings;
-use crate::kinematics::{BaseMounting, ReachPolicy, SolverKind};
+use crate::kinematics::{BaseMounting, ReachPolicy};
 use crate::replay::metrics::Scores;
 use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 use crate::replay::report::{MethodMetrics, OracleSection, Report};
@@ -327,8 +333,8 @@ fn motion_out(m: Option<MotionType>) -> pb::Motion {
     }
 }
 
-pub fn new_waypoint(w: pb::NewWaypoint) -> In<NewWaypointDto> {
-    Ok(NewWaypointDto {
+pub fn new_waypoint(w: pb::NewWaypoint) -> In<NewWaypoint> {
+    Ok(NewWaypoint {
         pose: required(w.pose, "pose")?.into(),
         joints: (!w.joints.is_empty()).then_some(w.joints),
         motion: motion_in(w.motion)?,
@@ -352,22 +358,22 @@ impl From<Waypoint> for pb::Waypoint {
     }
 }
 
-fn unreachable_out(u: UnreachableDto) -> pb::Unreachable {
+fn unreachable_out(u: Unreachable) -> pb::Unreachable {
     pb::Unreachable {
         reason: u.reason,
         message: u.message,
     }
 }
 
-fn margin_out(m: JointMarginDto) -> pb::JointMargin {
+fn margin_out(m: JointMargin) -> pb::JointMargin {
     pb::JointMargin {
         name: m.name,
         margin_rad: m.margin_rad,
     }
 }
 
-impl From<ReachabilityDto> for pb::Reachability {
-    fn from(r: ReachabilityDto) -> pb::Reachability {
+impl From<Reachability> for pb::Reachability {
+    fn from(r: Reachability) -> pb::Reachability {
         pb::Reachability {
             robot: r.robot,
             reachable: r.reachable,
@@ -409,8 +415,8 @@ pub fn reach_query(r: pb::CheckReachRequest) -> In<ReachQuery> {
     })
 }
 
-impl From<PredictionDto> for pb::Prediction {
-    fn from(p: PredictionDto) -> pb::Prediction {
+impl From<Prediction> for pb::Prediction {
+    fn from(p: Prediction) -> pb::Prediction {
         pb::Prediction {
             id: p.id,
             offered: p.offered,
@@ -492,7 +498,7 @@ fn verdict_out(v: Verdict) -> pb::Verdict {
     }
 }
 
-pub fn feedback(r: pb::FeedbackRequest) -> In<FeedbackDto> {
+pub fn feedback(r: pb::FeedbackRequest) -> In<Feedback> {
     let verdict = match pb::Verdict::try_from(r.verdict) {
         Ok(pb::Verdict::Accepted) => Verdict::Accepted,
         Ok(pb::Verdict::Adjusted) => Verdict::Adjusted,
@@ -507,7 +513,7 @@ pub fn feedback(r: pb::FeedbackRequest) -> In<FeedbackDto> {
             )));
         }
     };
-    Ok(FeedbackDto {
+    Ok(Feedback {
         verdict,
         pose: r.pose.map(Into::into),
     })
@@ -525,28 +531,18 @@ impl From<FeedbackRecorded> for pb::FeedbackRecorded {
 
 // ---- robots -------------------------------------------------------------------------------------
 
-impl From<RobotInfo> for pb::Robot {
-    fn from(info: RobotInfo) -> pb::Robot {
-        let r = info.model;
-        let sheet = info.datasheet;
+impl From<Robot> for pb::Robot {
+    fn from(r: Robot) -> pb::Robot {
         pb::Robot {
             name: r.name,
-            source: match info.source {
-                RobotSource::Bundled => "bundled",
-                RobotSource::Uploaded => "uploaded",
-            }
-            .to_string(),
-            maker: sheet.maker,
-            product: sheet.product,
-            payload_kg: sheet.payload_kg,
-            reach_mm: sheet.reach_mm,
-            computed_reach_mm: sheet.computed_reach_mm,
-            languages: sheet.languages,
-            solver: match r.solver {
-                SolverKind::Opw => "opw",
-                SolverKind::Ur => "ur",
-            }
-            .to_string(),
+            source: r.source.as_str().to_string(),
+            maker: r.maker,
+            product: r.product,
+            payload_kg: r.payload_kg,
+            reach_mm: r.reach_mm,
+            computed_reach_mm: r.computed_reach_mm,
+            languages: r.languages,
+            solver: r.solver,
             root: r.root,
             tip: r.tip,
             joints: r
@@ -825,7 +821,7 @@ pub fn create_cell_request(c: CreateCell) -> pb::CreateCellRequest {
     }
 }
 
-pub fn new_waypoint_out(w: NewWaypointDto) -> pb::NewWaypoint {
+pub fn new_waypoint_out(w: NewWaypoint) -> pb::NewWaypoint {
     pb::NewWaypoint {
         pose: Some(w.pose.into()),
         joints: w.joints.unwrap_or_default(),
@@ -834,7 +830,7 @@ pub fn new_waypoint_out(w: NewWaypointDto) -> pb::NewWaypoint {
     }
 }
 
-pub fn feedback_request(prediction_id: i64, f: FeedbackDto) -> pb::FeedbackRequest {
+pub fn feedback_request(prediction_id: i64, f: Feedback) -> pb::FeedbackRequest {
     pb::FeedbackRequest {
         prediction_id,
         verdict: verdict_out(f.verdict).into(),
@@ -884,12 +880,12 @@ impl TryFrom<pb::Waypoint> for Waypoint {
     }
 }
 
-impl From<pb::Reachability> for ReachabilityDto {
-    fn from(r: pb::Reachability) -> ReachabilityDto {
-        ReachabilityDto {
+impl From<pb::Reachability> for Reachability {
+    fn from(r: pb::Reachability) -> Reachability {
+        Reachability {
             robot: r.robot,
             reachable: r.reachable,
-            unreachable: r.unreachable.map(|u| UnreachableDto {
+            unreachable: r.unreachable.map(|u| Unreachable {
                 reason: u.reason,
                 message: u.message,
             }),
@@ -897,7 +893,7 @@ impl From<pb::Reachability> for ReachabilityDto {
             chosen: (!r.chosen.is_empty()).then_some(r.chosen),
             sigma_min: r.sigma_min,
             manipulability: r.manipulability,
-            limiting_joint: r.limiting_joint.map(|m| JointMarginDto {
+            limiting_joint: r.limiting_joint.map(|m| JointMargin {
                 name: m.name,
                 margin_rad: m.margin_rad,
             }),
@@ -905,13 +901,13 @@ impl From<pb::Reachability> for ReachabilityDto {
     }
 }
 
-impl TryFrom<pb::Prediction> for PredictionDto {
+impl TryFrom<pb::Prediction> for Prediction {
     type Error = Status;
-    fn try_from(p: pb::Prediction) -> In<PredictionDto> {
-        Ok(PredictionDto {
+    fn try_from(p: pb::Prediction) -> In<Prediction> {
+        Ok(Prediction {
             id: p.id,
             offered: p.offered,
-            withheld: p.withheld.map(|w| WithheldDto {
+            withheld: p.withheld.map(|w| Withheld {
                 reason: w.reason,
                 message: w.message,
             }),
@@ -1304,7 +1300,7 @@ impl TryFrom<pb::TrajectoryAnswer> for TrajectoryAnswer {
                 .into_iter()
                 .map(TryInto::try_into)
                 .collect::<In<_>>()?,
-            segmentation: SegmentationDto {
+            segmentation: Segmentation {
                 samples: usize_from(s.samples, "samples")?,
                 kept: usize_from(s.kept, "kept")?,
                 segments: s

@@ -27,9 +27,7 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Code, Request, Response, Status, Streaming};
 use tower::ServiceExt;
 
-use crate::app::resources::CreateProgram;
-use crate::app::resources::CreateRoutine;
-use crate::app::resources::{ExportQuery, Rename};
+use crate::api::{CreateProgram, CreateRoutine, ExportQuery, Rename};
 use crate::app::{App, AppError};
 use crate::transport::TransportOptions;
 use crate::transport::auth::BearerToken;

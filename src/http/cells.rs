@@ -7,13 +7,13 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::{Id, Json, Path, Query};
-use super::error::{ApiError, ErrorBody};
-use crate::app::App;
-use crate::app::resources::{
-    ArmFrames, Cell, CellPatch, CellStats, CreateCell, FramesQuery, ModelInfo, ReachQuery,
-    ReachabilityDto,
+use crate::api::{
+    ArmFrames, Cell, CellPatch, CellStats, CreateCell, ErrorBody, FramesQuery, ModelInfo,
+    ReachQuery, Reachability,
 };
+use crate::app::{App, frames_joints};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
@@ -155,7 +155,9 @@ async fn arm_frames(
     Path(Id(cell_id)): Path<Id>,
     Query(q): Query<FramesQuery>,
 ) -> Result<axum::Json<ArmFrames>, ApiError> {
-    Ok(axum::Json(app.arm_frames(cell_id, q.values()?).await?))
+    Ok(axum::Json(
+        app.arm_frames(cell_id, frames_joints(&q)?).await?,
+    ))
 }
 
 /// Whether the cell's arm reaches a TCP pose, and the joint solution nearest where the arm is
@@ -164,7 +166,7 @@ async fn arm_frames(
     params(("cell_id" = i64, Path, description = "Cell id")),
     request_body = ReachQuery,
     responses(
-        (status = 200, description = "The verdict and the solution chosen", body = ReachabilityDto),
+        (status = 200, description = "The verdict and the solution chosen", body = Reachability),
         (status = 400, description = "Malformed id or JSON", body = ErrorBody),
         (status = 404, description = "No such cell", body = ErrorBody),
         (status = 409, description = "The cell's robot model is not installed", body = ErrorBody),
@@ -176,6 +178,6 @@ async fn reach(
     State(app): State<Arc<App>>,
     Path(Id(cell_id)): Path<Id>,
     Json(body): Json<ReachQuery>,
-) -> Result<axum::Json<ReachabilityDto>, ApiError> {
+) -> Result<axum::Json<Reachability>, ApiError> {
     Ok(axum::Json(app.reach(cell_id, body).await?))
 }

@@ -1,31 +1,12 @@
 //! The one place where application errors and request rejections become HTTP responses:
 //! `{ "error": { "code": "...", "message": "..." } }` with the matching status.
 
+use crate::api::{ErrorBody, ErrorDetail};
+use crate::app::AppError;
 use axum::Json;
 use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
-
-use crate::app::AppError;
-
-/// An error response body.
-#[derive(Debug, Serialize, Deserialize, ToSchema)]
-pub struct ErrorBody {
-    pub error: ErrorDetail,
-}
-
-#[derive(Debug, Serialize, Deserialize, ToSchema)]
-pub struct ErrorDetail {
-    /// Stable machine-readable code (`not_found`, `conflict`, `busy` (409: the cell was
-    /// written by another instance at the same time, again and again; nothing changed, send it
-    /// again), `invalid`, `invalid_pose`, `invalid_settings`, `invalid_trajectory`, `bad_request`, `unprocessable`,
-    /// `payload_too_large`, `unsupported_media_type`, `unauthorized`, `route_not_found`,
-    /// `method_not_allowed`, `timeout`, `internal`).
-    pub code: String,
-    pub message: String,
-}
 
 /// An error as the HTTP adapter answers it.
 #[derive(Debug)]

@@ -7,10 +7,10 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::{Id, Json, Path};
-use super::error::{ApiError, ErrorBody};
+use crate::api::{ErrorBody, ImportRequest, ImportResult};
 use crate::app::App;
-use crate::app::resources::{ImportRequest, ImportResult};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new().routes(routes!(import_programs))

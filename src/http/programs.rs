@@ -7,12 +7,12 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::{Id, Json, Path, Query};
-use super::error::{ApiError, ErrorBody};
-use crate::app::App;
-use crate::app::resources::{
-    CreateProgram, ExportQuery, Program, ProgramExport, Rename, Retarget, Retargeted,
+use crate::api::{
+    CreateProgram, ErrorBody, ExportQuery, Program, ProgramExport, Rename, Retarget, Retargeted,
 };
+use crate::app::App;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()

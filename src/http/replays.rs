@@ -6,10 +6,10 @@ use axum::extract::State;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::Json;
-use super::error::{ApiError, ErrorBody};
+use crate::api::{ErrorBody, ReplayRequest};
 use crate::app::App;
-use crate::app::resources::ReplayRequest;
 use crate::replay::report::Report;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {

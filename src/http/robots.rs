@@ -4,16 +4,13 @@ use std::sync::Arc;
 
 use axum::extract::State;
 use axum::http::StatusCode;
-use serde::Serialize;
-use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::{Json, Path};
-use super::error::{ApiError, ErrorBody};
+use crate::api::{ErrorBody, PlacementSearch, Placements, Robot, RobotUpload};
 use crate::app::App;
-use crate::app::resources::{PlacementSearch, Placements};
-use crate::app::robots::{RobotInfo, RobotSource, RobotUpload};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
@@ -22,91 +19,25 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         .routes(routes!(search_placements))
 }
 
-/// One joint: limits (rad) and velocity limit (rad/s).
-#[derive(Debug, Serialize, ToSchema)]
-pub struct JointDto {
-    pub name: String,
-    pub lower: f64,
-    pub upper: f64,
-    pub velocity: f64,
-}
-
-/// A robot model (a bundled URDF in `robots/`, or one uploaded).
-#[derive(Debug, Serialize, ToSchema)]
-pub struct RobotDto {
-    /// The name cells use (`abb_irb140`).
-    pub name: String,
-    pub source: RobotSource,
-    /// The maker and its designation (`ABB`, `IRB 2600-12/1.65`), when known.
-    pub maker: Option<String>,
-    pub product: Option<String>,
-    /// Rated payload (kg), from the data sheet, when known.
-    pub payload_kg: Option<f64>,
-    /// Reach (mm): the data sheet's, when known.
-    pub reach_mm: Option<f64>,
-    /// Reach (mm) computed from the kinematics: from the axis-1 line to the wrist centre at
-    /// full stretch (UR arms: to the flange).
-    pub computed_reach_mm: f64,
-    /// Program languages of the arm's controller (`rapid`, `krl`, `fanuc`, `urscript`).
-    pub languages: Vec<String>,
-    /// Inverse-kinematics solver: `opw` (spherical wrist) or `ur`.
-    pub solver: String,
-    pub root: String,
-    /// Poses are of this link (the flange) in the root frame, before the cell's tool frame.
-    pub tip: String,
-    pub joints: Vec<JointDto>,
-}
-
-fn dto(info: RobotInfo) -> RobotDto {
-    let m = info.model;
-    let sheet = info.datasheet;
-    RobotDto {
-        name: m.name,
-        source: info.source,
-        maker: sheet.maker,
-        product: sheet.product,
-        payload_kg: sheet.payload_kg,
-        reach_mm: sheet.reach_mm,
-        computed_reach_mm: sheet.computed_reach_mm,
-        languages: sheet.languages,
-        solver: serde_json::to_value(m.solver)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_string))
-            .unwrap_or_default(),
-        root: m.root,
-        tip: m.tip,
-        joints: m
-            .joints
-            .into_iter()
-            .map(|j| JointDto {
-                name: j.name,
-                lower: j.lower,
-                upper: j.upper,
-                velocity: j.velocity,
-            })
-            .collect(),
-    }
-}
-
 /// List the robot models.
 #[utoipa::path(get, path = "/v1/robots", tag = "robots",
-    responses((status = 200, description = "The robot models", body = [RobotDto])))]
-async fn list_robots(State(app): State<Arc<App>>) -> axum::Json<Vec<RobotDto>> {
-    axum::Json(app.robots().into_iter().map(dto).collect())
+    responses((status = 200, description = "The robot models", body = [Robot])))]
+async fn list_robots(State(app): State<Arc<App>>) -> axum::Json<Vec<Robot>> {
+    axum::Json(app.robots())
 }
 
 /// One robot model: joint names and limits.
 #[utoipa::path(get, path = "/v1/robots/{name}", tag = "robots",
     params(("name" = String, Path, description = "Robot model name")),
     responses(
-        (status = 200, description = "The robot model", body = RobotDto),
+        (status = 200, description = "The robot model", body = Robot),
         (status = 404, description = "No such robot", body = ErrorBody),
     ))]
 async fn get_robot(
     State(app): State<Arc<App>>,
     Path(name): Path<String>,
-) -> Result<axum::Json<RobotDto>, ApiError> {
-    Ok(axum::Json(dto(app.robot(&name)?)))
+) -> Result<axum::Json<Robot>, ApiError> {
+    Ok(axum::Json(app.robot(&name)?))
 }
 
 /// Upload an arm model (URDF). It is checked as the bundled ones are: a serial chain of six
@@ -115,7 +46,7 @@ async fn get_robot(
 #[utoipa::path(post, path = "/v1/robots", tag = "robots",
     request_body = RobotUpload,
     responses(
-        (status = 201, description = "Uploaded; cells may name it", body = RobotDto),
+        (status = 201, description = "Uploaded; cells may name it", body = Robot),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 409, description = "Name taken", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
@@ -125,9 +56,9 @@ async fn get_robot(
 async fn upload_robot(
     State(app): State<Arc<App>>,
     Json(body): Json<RobotUpload>,
-) -> Result<(StatusCode, axum::Json<RobotDto>), ApiError> {
-    let info = app.upload_robot(body).await?;
-    Ok((StatusCode::CREATED, axum::Json(dto(info))))
+) -> Result<(StatusCode, axum::Json<Robot>), ApiError> {
+    let robot = app.upload_robot(body).await?;
+    Ok((StatusCode::CREATED, axum::Json(robot)))
 }
 
 /// Delete an uploaded arm model that no cell names.

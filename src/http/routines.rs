@@ -9,14 +9,14 @@ use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use super::error::ApiError;
 use super::error::extract::{Id, Json, Path, Query};
-use super::error::{ApiError, ErrorBody};
-use crate::app::App;
-use crate::app::resources::{
-    CreateRoutine, FeedbackDto, FeedbackRecorded, Finished, InsertWaypoint, NewWaypointDto,
+use crate::api::{
+    CreateRoutine, ErrorBody, Feedback, FeedbackRecorded, Finished, InsertWaypoint, NewWaypoint,
     PredictQuery, PredictionSet, Retarget, Retargeted, Routine, RoutineDetail, RoutineEdit,
     RoutinePatch, Taught, TrajectoryAnswer, TrajectoryRequest, Undone, WaypointEdit, WaypointPatch,
 };
+use crate::app::App;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
@@ -108,7 +108,7 @@ async fn delete_routine(
 /// there is none).
 #[utoipa::path(post, path = "/v1/routines/{routine_id}/waypoints", tag = "teaching",
     params(("routine_id" = i64, Path, description = "Routine id")),
-    request_body = NewWaypointDto,
+    request_body = NewWaypoint,
     responses(
         (status = 201, description = "Stored; the prediction for the next waypoint", body = Taught),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
@@ -121,7 +121,7 @@ async fn delete_routine(
 async fn append_waypoint(
     State(app): State<Arc<App>>,
     Path(Id(routine_id)): Path<Id>,
-    Json(body): Json<NewWaypointDto>,
+    Json(body): Json<NewWaypoint>,
 ) -> Result<(StatusCode, axum::Json<Taught>), ApiError> {
     Ok((
         StatusCode::CREATED,
@@ -222,7 +222,7 @@ async fn predict(
 /// pose finally taught), or rejected. Once per prediction.
 #[utoipa::path(post, path = "/v1/predictions/{prediction_id}/feedback", tag = "teaching",
     params(("prediction_id" = i64, Path, description = "Prediction id (from a prediction's `id`)")),
-    request_body = FeedbackDto,
+    request_body = Feedback,
     responses(
         (status = 201, description = "Recorded", body = FeedbackRecorded),
         (status = 400, description = "Malformed request", body = ErrorBody),
@@ -235,7 +235,7 @@ async fn predict(
 async fn feedback(
     State(app): State<Arc<App>>,
     Path(Id(prediction_id)): Path<Id>,
-    Json(body): Json<FeedbackDto>,
+    Json(body): Json<Feedback>,
 ) -> Result<(StatusCode, axum::Json<FeedbackRecorded>), ApiError> {
     Ok((
         StatusCode::CREATED,

@@ -6,27 +6,18 @@ use axum::Extension;
 use axum::extract::State;
 use axum::http::{StatusCode, header};
 use axum::response::IntoResponse;
-use serde::Serialize;
-use utoipa::ToSchema;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
-use super::error::{ApiError, ErrorBody};
+use super::error::ApiError;
 use super::middleware::Authentication;
+use crate::api::{ErrorBody, Health};
 use crate::app::App;
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
         .routes(routes!(healthz))
         .routes(routes!(metrics))
-}
-
-#[derive(Debug, Serialize, ToSchema)]
-pub struct Health {
-    /// `ok`
-    pub status: String,
-    /// Whether the other routes want a bearer token (a page asks for it before calling them).
-    pub token_required: bool,
 }
 
 /// Liveness and readiness: the database answers. Never requires the bearer token.

@@ -192,7 +192,7 @@ async fn an_older_database_upgrades_with_its_ids_and_rows() {
         .run(&pool)
         .await
         .unwrap();
-    let settings = nextpose::app::settings::CellSettingsInput::default()
+    let settings = nextpose::api::CellSettingsInput::default()
         .resolve()
         .unwrap();
     let settings = serde_json::to_string(&settings).unwrap();

@@ -309,3 +309,54 @@ async fn exported_names_and_motions_survive_through_the_api() {
         }
     }
 }
+
+/// The files of an export's answer post back to an import as they come (`file_name` and
+/// `text` are read as an upload's `name` and `content`), and give the same waypoints; a file
+/// that names both `name` and `file_name` is refused.
+#[tokio::test]
+async fn exported_files_post_back_to_an_import_as_they_come() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("source").await;
+    let program = app.create_program(cell, "Square").await;
+    let r = app.create_routine(program).await;
+    for (x, y) in [(400.0, 0.0), (500.0, 0.0), (500.0, 100.0), (400.0, 100.0)] {
+        let pose =
+            json!({ "x": x, "y": y, "z": 500.0, "qw": 0.0, "qx": 0.0, "qy": 1.0, "qz": 0.0 });
+        app.post_ok(
+            &format!("/v1/routines/{r}/waypoints"),
+            &json!({ "pose": pose }),
+            StatusCode::CREATED,
+        )
+        .await;
+    }
+    app.finish(r).await;
+    for format in Format::ALL {
+        let target = app
+            .create_cell(&format!("target {}", format.as_str()))
+            .await;
+        let out = app
+            .get_ok(&format!(
+                "/v1/programs/{program}/export?format={}",
+                format.as_str()
+            ))
+            .await;
+        assert!(out["files"][0].get("file_name").is_some(), "{out}");
+        let imported = app
+            .post_ok(
+                &format!("/v1/cells/{target}/imports"),
+                &json!({ "files": out["files"], "learn": false }),
+                StatusCode::CREATED,
+            )
+            .await;
+        assert_eq!(
+            imported["programs"][0]["waypoints"], 4,
+            "{format:?}: {imported}"
+        );
+    }
+    let target = app.create_cell("target").await;
+    let both = json!({ "files": [{ "name": "a.mod", "file_name": "a.mod", "content": "" }] });
+    let refused = app
+        .post(&format!("/v1/cells/{target}/imports"), &both)
+        .await;
+    assert_eq!(refused.status(), StatusCode::UNPROCESSABLE_ENTITY);
+}

@@ -3,7 +3,7 @@
 //! answered with its prediction; `preview` stores nothing; a refused request changes nothing.
 
 use nalgebra::UnitQuaternion;
-use nextpose::app::resources::{TrajectoryAnswer, TrajectoryRequest};
+use nextpose::api::{TrajectoryAnswer, TrajectoryRequest};
 use nextpose::client::{GrpcClient, RestClient};
 use nextpose::grpc::pb;
 use nextpose::grpc::pb::nextpose_client::NextposeClient;

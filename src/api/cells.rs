@@ -1,0 +1,82 @@
+//! Cells: a robot work cell with its own model and settings, and what it has learned
+//! (`/v1/cells`).
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::settings::{CellSettings, CellSettingsInput};
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateCell {
+    /// Unique name of the work cell (not blank; at most 200 characters).
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: String,
+    /// Engine, robot and frame settings; anything left out takes the profile's default.
+    #[serde(default)]
+    pub settings: CellSettingsInput,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct Cell {
+    pub id: i64,
+    pub name: String,
+    pub settings: CellSettings,
+    pub created_at: String,
+    /// When the settings last changed (`null`: as created).
+    pub settings_changed_at: Option<String>,
+}
+
+/// Changes to a cell: its name, and settings given as at creation (only the fields given
+/// change; the rest keep their values, except that a new profile brings its own offer rule
+/// unless `offer_threshold` is given too). New settings are validated like a new cell's; the
+/// model is learned again with them and its version advances.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CellPatch {
+    /// Not blank; at most 200 characters; unique.
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: Option<String>,
+    pub settings: Option<CellSettingsInput>,
+}
+
+/// The learned model of a cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ModelInfo {
+    pub states: usize,
+    /// Distinct transitions between states.
+    pub edges: usize,
+    /// Mean out-degree (edges / states).
+    pub perplexity: f64,
+    /// Finished routines assimilated.
+    pub routines: u32,
+    /// Longest routine assimilated, in moves.
+    pub depth: usize,
+    /// Moves assimilated.
+    pub observations: u64,
+    /// Increases by one with every finished routine; predictions record it.
+    pub version: i64,
+}
+
+/// What operators did with the offered predictions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct FeedbackStats {
+    /// Predictions offered (recorded).
+    pub offered: i64,
+    pub accepted: i64,
+    pub adjusted: i64,
+    pub rejected: i64,
+    /// Offered predictions without feedback yet.
+    pub pending: i64,
+    /// (accepted + adjusted) / predictions with feedback; null without feedback.
+    pub acceptance: Option<f64>,
+    /// Median distance (mm) between adjusted predictions and the pose finally taught.
+    pub median_adjustment_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct CellStats {
+    pub cell_id: i64,
+    pub model: ModelInfo,
+    pub feedback: FeedbackStats,
+}

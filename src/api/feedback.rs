@@ -1,0 +1,43 @@
+//! What an operator did with an offered prediction (`POST /v1/predictions/{id}/feedback`).
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::PoseValues;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Accepted as is.
+    Accepted,
+    /// Accepted, then adjusted to the given pose.
+    Adjusted,
+    Rejected,
+}
+
+impl Verdict {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Accepted => "accepted",
+            Verdict::Adjusted => "adjusted",
+            Verdict::Rejected => "rejected",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+#[schema(as = FeedbackDto)]
+pub struct Feedback {
+    pub verdict: Verdict,
+    /// The pose finally taught; required when `adjusted`, refused otherwise.
+    pub pose: Option<PoseValues>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct FeedbackRecorded {
+    pub prediction_id: i64,
+    pub verdict: Verdict,
+    /// Distance (mm) from the prediction to the final pose (0 when accepted as is).
+    pub adjustment_mm: Option<f64>,
+}

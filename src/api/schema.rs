@@ -1,0 +1,161 @@
+//! The OpenAPI schemas of the engine's types that travel on the wire as they are (a pose's seven
+//! numbers, the teaching noise, the acceptance tolerance, the profile, the segmentation
+//! criterion).
+//!
+//! The engine is pure and knows nothing of the web: it derives `Serialize`/`Deserialize` for
+//! these types, not `utoipa::ToSchema`. Their schemas are described here instead, by a mirror of
+//! each type (same fields, same serde attributes, same docs, which become the schema's
+//! descriptions) whose derived schema the real type answers with. The tests below keep every
+//! mirror in step with its type: a value of either reads back as the other.
+
+use std::borrow::Cow;
+
+use utoipa::openapi::{RefOr, Schema};
+use utoipa::{PartialSchema, ToSchema};
+
+use crate::engine::frames::Tolerance;
+use crate::engine::noise::Noise;
+use crate::engine::segment::Criterion;
+use crate::engine::{PoseValues, Profile};
+
+/// `$ty` answers with the schema of its mirror `$mirror` (which carries the name).
+macro_rules! schema_of {
+    ($ty:ty, $mirror:ty) => {
+        impl PartialSchema for $ty {
+            fn schema() -> RefOr<Schema> {
+                <$mirror as PartialSchema>::schema()
+            }
+        }
+
+        impl ToSchema for $ty {
+            fn name() -> Cow<'static, str> {
+                <$mirror as ToSchema>::name()
+            }
+        }
+    };
+}
+
+schema_of!(PoseValues, mirror::PoseValues);
+schema_of!(Noise, mirror::Noise);
+schema_of!(Tolerance, mirror::Tolerance);
+schema_of!(Profile, mirror::Profile);
+schema_of!(Criterion, mirror::Criterion);
+
+/// Schema-only copies of the engine's wire types; never built outside the tests.
+#[allow(dead_code)]
+mod mirror {
+    use serde::{Deserialize, Serialize};
+    use utoipa::ToSchema;
+
+    /// A pose as plain numbers, as clients send and see it: position in mm and a unit quaternion
+    /// `w, x, y, z`.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct PoseValues {
+        /// mm
+        pub x: f64,
+        /// mm
+        pub y: f64,
+        /// mm
+        pub z: f64,
+        pub qw: f64,
+        pub qx: f64,
+        pub qy: f64,
+        pub qz: f64,
+    }
+
+    /// Teaching noise: one-sigma error per axis of a taught waypoint.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct Noise {
+        /// Position, mm per axis.
+        pub mm: f64,
+        /// Rotation, rad per axis.
+        pub rad: f64,
+    }
+
+    /// How close two elements (or two guesses) must be to count as the same: translation in mm and
+    /// rotation in rad, both bounds inclusive.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct Tolerance {
+        /// mm
+        pub mm: f64,
+        /// rad
+        pub rad: f64,
+    }
+
+    /// Engine profile: a named configuration.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Profile {
+        /// The dissertation's engine as specified in ALGORITHM.md.
+        Seed,
+        /// The best combination measured on the shared corpus.
+        Default,
+    }
+
+    /// How the prediction error of §5.7 is measured.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Criterion {
+        /// Direction of the predicted step against the observed one (the default; see the module
+        /// docs).
+        Direction,
+        /// Eq. 5.7 as written: error over step length.
+        Seed,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde::Serialize;
+    use serde::de::DeserializeOwned;
+
+    use super::*;
+
+    /// `value` reads back as `M` and that as `T`, unchanged: the mirror has the same fields (or
+    /// variants) under the same names.
+    fn same_wire<T, M>(value: T)
+    where
+        T: Serialize + DeserializeOwned + PartialEq + std::fmt::Debug,
+        M: Serialize + DeserializeOwned,
+    {
+        let json = serde_json::to_value(&value).expect("serialises");
+        let mirror: M = serde_json::from_value(json.clone()).expect("the mirror reads it");
+        let back = serde_json::to_value(&mirror).expect("serialises");
+        assert_eq!(back, json);
+        let again: T = serde_json::from_value(back).expect("the type reads the mirror's");
+        assert_eq!(again, value);
+    }
+
+    #[test]
+    fn every_mirror_matches_its_type() {
+        same_wire::<_, mirror::PoseValues>(PoseValues {
+            x: 1.0,
+            y: 2.0,
+            z: 3.0,
+            qw: 1.0,
+            qx: 0.0,
+            qy: 0.0,
+            qz: 0.0,
+        });
+        same_wire::<_, mirror::Noise>(Noise { mm: 0.5, rad: 0.01 });
+        same_wire::<_, mirror::Tolerance>(Tolerance { mm: 1.0, rad: 0.1 });
+        for p in [Profile::Seed, Profile::Default] {
+            same_wire::<_, mirror::Profile>(p);
+        }
+        for c in [Criterion::Direction, Criterion::Seed] {
+            same_wire::<_, mirror::Criterion>(c);
+        }
+    }
+
+    #[test]
+    fn the_names_are_the_published_ones() {
+        assert_eq!(<PoseValues as ToSchema>::name(), "PoseValues");
+        assert_eq!(<Noise as ToSchema>::name(), "Noise");
+        assert_eq!(<Tolerance as ToSchema>::name(), "Tolerance");
+        assert_eq!(<Profile as ToSchema>::name(), "Profile");
+        assert_eq!(<Criterion as ToSchema>::name(), "Criterion");
+    }
+}

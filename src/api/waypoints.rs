@@ -1,0 +1,152 @@
+//! Waypoints: taught, undone, edited and inserted; each answer carries the prediction that
+//! follows it.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::predictions::Prediction;
+use super::{PoseValues, present};
+
+/// How the arm moves to a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MotionType {
+    Joint,
+    Linear,
+    Circular,
+}
+
+impl MotionType {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MotionType::Joint => "joint",
+            MotionType::Linear => "linear",
+            MotionType::Circular => "circular",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<MotionType> {
+        match s {
+            "joint" => Some(MotionType::Joint),
+            "linear" => Some(MotionType::Linear),
+            "circular" => Some(MotionType::Circular),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+#[schema(as = NewWaypointDto)]
+pub struct NewWaypoint {
+    pub pose: PoseValues,
+    /// Taught joint values (rad), when the pendant sends them (1 to 12 values).
+    #[schema(min_items = 1, max_items = 12)]
+    pub joints: Option<Vec<f64>>,
+    pub motion: Option<MotionType>,
+    /// Not blank; at most 200 characters.
+    #[schema(min_length = 1, max_length = 200)]
+    pub name: Option<String>,
+}
+
+impl NewWaypoint {
+    /// A waypoint taught by its pose alone.
+    pub fn at(pose: &crate::engine::Pose) -> NewWaypoint {
+        NewWaypoint {
+            pose: pose.into(),
+            joints: None,
+            motion: None,
+            name: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Waypoint {
+    pub id: i64,
+    pub routine_id: i64,
+    /// Teaching order within the routine (1, 2, ...).
+    pub seq: i64,
+    pub pose: PoseValues,
+    pub joints: Option<Vec<f64>>,
+    pub motion: Option<MotionType>,
+    pub name: Option<String>,
+    /// Whether the cell's arm reaches this waypoint (stored and flagged either way: the
+    /// operator is the authority); null when not checked.
+    pub reachable: Option<bool>,
+    pub created_at: String,
+}
+
+/// A taught waypoint and the prediction for the next one.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct Taught {
+    pub waypoint: Waypoint,
+    pub prediction: Prediction,
+}
+
+/// The waypoint an undo removed and the prediction for the routine as it is now.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct Undone {
+    pub removed: Waypoint,
+    pub prediction: Prediction,
+}
+
+/// Changes to a waypoint ("modify position" and more): fields left out stay as they are;
+/// `joints`, `motion` and `name` may be cleared with `null`.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WaypointPatch {
+    pub pose: Option<PoseValues>,
+    /// Taught joint values (rad; 1 to 12 values), or `null` to clear them.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<Vec<f64>>, nullable, min_items = 1, max_items = 12)]
+    pub joints: Option<Option<Vec<f64>>>,
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<MotionType>, nullable)]
+    pub motion: Option<Option<MotionType>>,
+    /// Not blank; at most 200 characters; `null` to clear it.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200)]
+    pub name: Option<Option<String>>,
+}
+
+/// Where an inserted waypoint goes, next to an existing one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Side {
+    Before,
+    After,
+}
+
+/// A waypoint to insert before or after an existing one of any routine.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InsertWaypoint {
+    pub side: Side,
+    pub waypoint: NewWaypoint,
+}
+
+/// What an edit of a waypoint did, and what reverts it: `previous` holds the waypoint's
+/// values before a change or a delete (re-insert them at its `seq`; `null` after an insert,
+/// which a delete of `waypoint` reverts). `model_version` is the cell's model version after
+/// the edit: it advances when a learned (finished) routine changed; the model is rebuilt from
+/// the stored routines.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct WaypointEdit {
+    /// The waypoint as it is now (`null` after a delete).
+    pub waypoint: Option<Waypoint>,
+    pub previous: Option<Waypoint>,
+    pub model_version: i64,
+}
