@@ -146,12 +146,7 @@ pub(crate) fn write(
             src.push_str(&format!("  $APO.CDIS = {cdis}\n  $APO.CPTP = {cptp}\n"));
         }
         src.push_str(";ENDFOLD\n");
-        let uses = targets.uses.get(r).map_or(&[][..], Vec::as_slice);
-        let target = |i: usize| {
-            uses.get(i)
-                .and_then(|&d| targets.decls.get(d))
-                .map_or("", |(n, _)| n.as_str())
-        };
+        let target = |i: usize| targets.name(r, i);
         for step in steps(routine, warnings) {
             for t in unreachable_targets(routine, name, &step, |i| target(i).to_string(), warnings)
             {

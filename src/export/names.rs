@@ -310,6 +310,17 @@ pub(crate) struct Targets {
     pub uses: Vec<Vec<usize>>,
 }
 
+impl Targets {
+    /// The declared name of routine `routine`'s `index`-th waypoint ("" when there is none).
+    pub fn name(&self, routine: usize, index: usize) -> &str {
+        self.uses
+            .get(routine)
+            .and_then(|uses| uses.get(index))
+            .and_then(|&d| self.decls.get(d))
+            .map_or("", |(n, _)| n.as_str())
+    }
+}
+
 /// Names the targets of a program whose positions share one namespace (a RAPID module, a KRL
 /// data list). `value` is a waypoint's printed value: a waypoint whose original name and value
 /// were seen before reuses that declaration; a valid name is kept for its first value, and

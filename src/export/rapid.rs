@@ -135,12 +135,7 @@ pub(crate) fn write(
             .get(r)
             .map_or(routine.name.as_str(), String::as_str);
         out.push_str(&format!("\n    PROC {name}()\n"));
-        let uses = targets.uses.get(r).map_or(&[][..], Vec::as_slice);
-        let target = |i: usize| {
-            uses.get(i)
-                .and_then(|&d| targets.decls.get(d))
-                .map_or("", |(n, _)| n.as_str())
-        };
+        let target = |i: usize| targets.name(r, i);
         for step in steps(routine, warnings) {
             for t in unreachable_targets(routine, name, &step, |i| target(i).to_string(), warnings)
             {
