@@ -64,7 +64,43 @@ pub enum AppError {
     Internal(String),
 }
 
+/// What kind of failure an [`AppError`] is, the one classification both adapters map to their
+/// status codes (HTTP in `http::error`, gRPC in `grpc::status`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// The resource does not exist.
+    NotFound,
+    /// The name of a resource being created is taken.
+    Exists,
+    /// The request conflicts with the resource's state.
+    Conflict,
+    /// Written by another instance at the same time: nothing was done; send it again.
+    Stale,
+    /// The client's input cannot be used.
+    Invalid,
+    /// A failure of ours or of the database.
+    Internal,
+}
+
 impl AppError {
+    /// What kind of failure this is, for the adapters' status codes.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            AppError::NotFound { .. } | AppError::NotFoundName { .. } => ErrorKind::NotFound,
+            AppError::Exists(_) => ErrorKind::Exists,
+            AppError::Conflict(_) => ErrorKind::Conflict,
+            AppError::Stale(_) => ErrorKind::Stale,
+            AppError::Invalid(_)
+            | AppError::Import(_)
+            | AppError::Pose(_)
+            | AppError::Config(_)
+            | AppError::Trajectory(_)
+            | AppError::SamplePose { .. }
+            | AppError::Robot(_) => ErrorKind::Invalid,
+            AppError::Storage(_) | AppError::Internal(_) => ErrorKind::Internal,
+        }
+    }
+
     /// A short stable code for API clients.
     pub fn code(&self) -> &'static str {
         match self {

@@ -1,10 +1,13 @@
 //! The application service: what a pendant can ask of nextpose, independent of the wire.
 //!
-//! Both adapters (HTTP now, gRPC next) call these operations and nothing else. Each operation
-//! checks its input, writes to the database in one transaction, and keeps the cell's model in
-//! memory in step. The database is the source of truth: a cell's model is rebuilt from it on
-//! first use after start-up (and on request), and that rebuild gives the same model as the
-//! incremental updates.
+//! Both adapters, REST ([`crate::http`]) and gRPC ([`crate::grpc`]), call these operations and
+//! nothing else; they speak the wire types of [`crate::api`]. One file per use case (cells,
+//! programs, routines, teaching, editing, imports, exports, trajectory, feedback, replays, ...);
+//! the cell's model in memory ([`cell_model`]) owns its own state changes. Each operation
+//! checks its input, writes to the database ([`crate::storage`], SQLite or PostgreSQL) in one
+//! transaction, and keeps the cell's model in memory in step. The database is the source of
+//! truth: a cell's model is rebuilt from it on first use after start-up (and on request), and
+//! that rebuild gives the same model as the incremental updates.
 //!
 //! **Concurrency.** Requests on one cell are serialised by the cell's lock, held from the first
 //! read of the routine's state to the last write, so the model and the database never diverge;
@@ -49,7 +52,7 @@ use tokio_util::task::TaskTracker;
 use crate::storage::Store;
 use crate::telemetry::Metrics;
 pub use arm::frames_joints;
-pub use error::AppError;
+pub use error::{AppError, ErrorKind};
 use registry::Slot;
 pub(crate) use registry::blocking;
 use robots::Robots;

@@ -3,7 +3,7 @@
 
 use tonic::{Code, Status};
 
-use crate::app::AppError;
+use crate::app::{AppError, ErrorKind};
 
 /// The status code of an application error.
 ///
@@ -11,20 +11,13 @@ use crate::app::AppError;
 /// routine, nothing to undo) with 409; gRPC has a code for each: `ALREADY_EXISTS` and
 /// `FAILED_PRECONDITION`.
 pub fn code(e: &AppError) -> Code {
-    match e {
-        AppError::NotFound { .. } | AppError::NotFoundName { .. } => Code::NotFound,
-        AppError::Exists(_) => Code::AlreadyExists,
-        AppError::Conflict(_) => Code::FailedPrecondition,
-        // Changed by another instance at the same time: nothing was done; send it again.
-        AppError::Stale(_) => Code::Aborted,
-        AppError::Invalid(_)
-        | AppError::Import(_)
-        | AppError::Pose(_)
-        | AppError::Config(_)
-        | AppError::Trajectory(_)
-        | AppError::SamplePose { .. }
-        | AppError::Robot(_) => Code::InvalidArgument,
-        AppError::Storage(_) | AppError::Internal(_) => Code::Internal,
+    match e.kind() {
+        ErrorKind::NotFound => Code::NotFound,
+        ErrorKind::Exists => Code::AlreadyExists,
+        ErrorKind::Conflict => Code::FailedPrecondition,
+        ErrorKind::Stale => Code::Aborted,
+        ErrorKind::Invalid => Code::InvalidArgument,
+        ErrorKind::Internal => Code::Internal,
     }
 }
 

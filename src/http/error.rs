@@ -2,7 +2,7 @@
 //! `{ "error": { "code": "...", "message": "..." } }` with the matching status.
 
 use crate::api::{ErrorBody, ErrorDetail};
-use crate::app::AppError;
+use crate::app::{AppError, ErrorKind};
 use axum::Json;
 use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
 use axum::http::StatusCode;
@@ -46,19 +46,12 @@ pub fn for_status(status: StatusCode) -> ApiError {
 
 impl From<AppError> for ApiError {
     fn from(e: AppError) -> ApiError {
-        let status = match &e {
-            AppError::NotFound { .. } | AppError::NotFoundName { .. } => StatusCode::NOT_FOUND,
-            AppError::Conflict(_) | AppError::Exists(_) | AppError::Stale(_) => {
-                StatusCode::CONFLICT
-            }
-            AppError::Invalid(_)
-            | AppError::Import(_)
-            | AppError::Pose(_)
-            | AppError::Config(_)
-            | AppError::Trajectory(_)
-            | AppError::SamplePose { .. }
-            | AppError::Robot(_) => StatusCode::UNPROCESSABLE_ENTITY,
-            AppError::Storage(_) | AppError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        let status = match e.kind() {
+            ErrorKind::NotFound => StatusCode::NOT_FOUND,
+            // REST answers a name taken like any other conflict; gRPC tells them apart.
+            ErrorKind::Exists | ErrorKind::Conflict | ErrorKind::Stale => StatusCode::CONFLICT,
+            ErrorKind::Invalid => StatusCode::UNPROCESSABLE_ENTITY,
+            ErrorKind::Internal => StatusCode::INTERNAL_SERVER_ERROR,
         };
         if status.is_server_error() {
             tracing::error!(error = %e.chain(), "request failed");
