@@ -7,6 +7,7 @@ use super::robots::Robots;
 use super::settings::parse_settings;
 use crate::api::ModelInfo;
 use crate::engine::{Pose, Teacher};
+use crate::kinematics::Reachability;
 use crate::storage::{CellRow, CellState, PoseColumns, Store, WaypointRow};
 
 #[derive(Debug)]
@@ -116,14 +117,7 @@ impl CellModel {
                 }
                 teacher.finish_routine();
             }
-            let mut arm = arm;
-            for (pose, joints) in &taught {
-                teacher.teach(*pose);
-                if let Some(arm) = arm.as_mut() {
-                    arm.taught(pose, joints.as_deref());
-                }
-            }
-            Ok(CellModel {
+            let mut model = CellModel {
                 arm,
                 teacher,
                 open,
@@ -132,7 +126,11 @@ impl CellModel {
                 open_ids,
                 last_finish_seq,
                 needs_check: false,
-            })
+            };
+            for (pose, joints) in &taught {
+                model.teach(*pose, joints.as_deref());
+            }
+            Ok(model)
         })
         .await?
     }
@@ -158,13 +156,7 @@ impl CellModel {
                 return Ok(Behind::Reload);
             }
             self.follow_open(store, r.id).await?;
-            self.teacher.finish_routine();
-            if let Some(arm) = self.arm.as_mut() {
-                arm.clear();
-            }
-            self.open = None;
-            self.open_ids.clear();
-            self.last_finish_seq = r.finish_seq.unwrap_or(self.last_finish_seq);
+            self.learn_open(r.finish_seq);
         }
         match store.open_routine(state.id).await? {
             Some(r) if self.open.is_none() || self.open == Some(r.id) => {
@@ -195,21 +187,86 @@ impl CellModel {
             .take_while(|(a, b)| a == b)
             .count();
         for _ in common..self.open_ids.len() {
-            self.teacher.undo();
-            if let Some(arm) = self.arm.as_mut() {
-                arm.undo();
-            }
+            self.take_back();
         }
         self.open_ids.truncate(common);
         for w in store.waypoints_after(id, common as i64).await? {
-            let pose = stored_pose(&w)?;
-            self.teacher.teach(pose);
-            if let Some(arm) = self.arm.as_mut() {
-                arm.taught(&pose, stored_joints(&w)?.as_deref());
-            }
+            self.teach(stored_pose(&w)?, stored_joints(&w)?.as_deref());
             self.open_ids.push(w.id);
         }
         Ok(())
+    }
+
+    /// Teaches a pose of the open routine: the teacher learns it and the arm extends its joint
+    /// trail (what it says of the pose's reach, when the cell has an arm).
+    pub fn teach(&mut self, pose: Pose, joints: Option<&[f64]>) -> Option<Reachability> {
+        self.teacher.teach(pose);
+        self.arm.as_mut().map(|arm| arm.taught(&pose, joints))
+    }
+
+    /// Takes the open routine's last pose back (an undo, or a write that did not happen).
+    pub fn take_back(&mut self) {
+        self.teacher.undo();
+        if let Some(arm) = self.arm.as_mut() {
+            arm.undo();
+        }
+    }
+
+    /// A write of ours moved the cell to `revision` without changing what the model holds.
+    pub fn moved_to(&mut self, revision: i64) {
+        self.revision = revision;
+    }
+
+    /// Routine `id` was created to be taught (at `revision`).
+    pub fn opened(&mut self, id: i64, revision: i64) {
+        self.open = Some(id);
+        self.open_ids.clear();
+        self.revision = revision;
+    }
+
+    /// The open routine was finished (`finish_seq`, leaving the cell at `state`): the teacher
+    /// learns it.
+    pub fn finished(&mut self, finish_seq: i64, state: &CellState) {
+        self.revision = state.revision;
+        self.learn_open(Some(finish_seq));
+        self.version = state.model_version;
+    }
+
+    /// The open routine was deleted (at `revision`): the teacher forgets it as if never taught.
+    pub fn abandoned(&mut self, revision: i64) {
+        self.revision = revision;
+        self.teacher.abandon_routine();
+        self.close_open();
+    }
+
+    /// Finished routines were added (imported) and learned in order, leaving the cell at
+    /// `state`; `last_finish` is the `finish_seq` of the last (None: none was learned).
+    pub fn learned(&mut self, routines: &[Vec<Pose>], state: &CellState, last_finish: Option<i64>) {
+        for routine in routines {
+            for pose in routine {
+                self.teacher.teach(*pose);
+            }
+            self.teacher.finish_routine();
+        }
+        self.version = state.model_version;
+        self.revision = state.revision;
+        self.last_finish_seq = last_finish.unwrap_or(self.last_finish_seq);
+    }
+
+    /// The teacher learns the open routine (finished with `finish_seq`, if known).
+    fn learn_open(&mut self, finish_seq: Option<i64>) {
+        self.teacher.finish_routine();
+        self.close_open();
+        self.last_finish_seq = finish_seq.unwrap_or(self.last_finish_seq);
+    }
+
+    /// No routine is open any more: the arm's joint trail starts again.
+    fn close_open(&mut self) {
+        self.open_ids.clear();
+        if let Some(arm) = self.arm.as_mut() {
+            arm.clear();
+        }
+        self.open = None;
     }
 
     /// What a rebuild from the database must reproduce: the learned model, the routine being

@@ -6,8 +6,11 @@ use super::registry::blocking;
 use super::rows::program;
 use super::{App, MAX_NAME, Result, check_name};
 use crate::api::{
-    ImportRequest, ImportResult, ImportedProgram, ModelInfo, MotionType, PoseValues, Skipped,
+    ImportRequest, ImportResult, ImportedProgram, ModelInfo, MotionType, PoseValues, Program,
+    Skipped,
 };
+use crate::engine::Pose;
+use crate::import;
 use crate::storage::{NewImportedRoutine, WaypointValues};
 
 /// The motion type of an imported instruction (`MoveL`, `ArcCStart`, `PTP`, `L`, `C`, ...).
@@ -37,64 +40,13 @@ impl App {
     }
 
     async fn import_now(&self, cell_id: i64, input: ImportRequest) -> Result<ImportResult> {
-        if input.files.is_empty() {
-            return Err(AppError::Invalid("no files to import".into()));
-        }
-        for f in &input.files {
-            check_name("file name", &f.name)?;
-        }
+        check_upload(&input)?;
         let learn = input.learn.unwrap_or(true);
-        // Parsing is CPU work (seconds for large uploads): off the async workers.
-        let n_files = input.files.len();
-        tracing::info!(cell = cell_id, files = n_files, "parsing an upload");
-        let report = blocking(move || {
-            let files: Vec<(&str, &str)> = input
-                .files
-                .iter()
-                .map(|f| (f.name.as_str(), f.content.as_str()))
-                .collect();
-            // Two files of the upload that give programs of one name are refused here, naming
-            // both (the database would only say that a name is taken).
-            crate::import::parse_upload(&files)
-        })
-        .await??;
-        tracing::info!(
-            cell = cell_id,
-            files = n_files,
-            programs = report.programs.len(),
-            skipped = report.skipped.len(),
-            "parsed an upload"
-        );
-        let mut programs = Vec::with_capacity(report.programs.len());
-        let mut poses = Vec::new();
-        for p in &report.programs {
-            let mut routines = Vec::with_capacity(p.routines.len());
-            for r in &p.routines {
-                let mut waypoints = Vec::with_capacity(r.waypoints.len());
-                let mut taught = Vec::with_capacity(r.waypoints.len());
-                for w in &r.waypoints {
-                    let stored = PoseValues::from(&w.pose);
-                    taught.push(stored.to_pose()?);
-                    waypoints.push(WaypointValues {
-                        pose: stored.into(),
-                        joints: None,
-                        motion: Some(motion_of(&w.motion).as_str().to_string()),
-                        name: Some(w.name.chars().take(MAX_NAME).collect()),
-                        reachable: None,
-                    });
-                }
-                poses.push(taught);
-                routines.push(NewImportedRoutine {
-                    name: r.name.chars().take(MAX_NAME).collect(),
-                    waypoints,
-                });
-            }
-            programs.push((p.name.chars().take(MAX_NAME).collect::<String>(), routines));
-        }
+        let report = parse(cell_id, input).await?;
+        let upload = Upload::of(&report)?;
         self.cell_row(cell_id).await?;
         let mut locked = self.lock_cell_id(cell_id).await?;
-        let model = locked.model()?;
-        if learn && model.open.is_some() {
+        if learn && locked.model()?.open.is_some() {
             return Err(AppError::Conflict(format!(
                 "cell {cell_id} is teaching a routine; finish or delete it before importing \
                  with learn"
@@ -102,65 +54,151 @@ impl App {
         }
         let (stored, state, last_finish) = self
             .store
-            .import_programs(cell_id, &programs, learn)
+            .import_programs(cell_id, &upload.programs, learn)
             .await
             .map_err(|e| match AppError::from(e) {
                 AppError::Conflict(_) => AppError::Exists(format!(
                     "cell {cell_id} already has a program with one of the names {:?}",
-                    programs.iter().map(|p| p.0.as_str()).collect::<Vec<_>>()
+                    upload
+                        .programs
+                        .iter()
+                        .map(|p| p.0.as_str())
+                        .collect::<Vec<_>>()
                 )),
                 other => other,
             })?;
-        // Learning is CPU work too: on a blocking thread, with the cell's lock.
         let info = if learn {
+            // Learning is CPU work too: on a blocking thread, with the cell's lock.
+            let poses = upload.poses;
             blocking(move || -> Result<ModelInfo> {
                 let mut locked = locked;
                 let model = locked.model()?;
-                for routine in &poses {
-                    for pose in routine {
-                        model.teacher.teach(*pose);
-                    }
-                    model.teacher.finish_routine();
-                }
-                model.version = state.model_version;
-                model.revision = state.revision;
-                model.last_finish_seq = last_finish.unwrap_or(model.last_finish_seq);
+                model.learned(&poses, &state, last_finish);
                 Ok(model.info())
             })
             .await??
         } else {
-            model.revision = state.revision;
+            let model = locked.model()?;
+            model.moved_to(state.revision);
             model.info()
         };
-        let out = stored
+        let programs = stored
             .into_iter()
             .zip(&report.programs)
-            .map(|((row, _), p)| ImportedProgram {
-                program: program(row),
-                language: format!("{:?}", p.language).to_lowercase(),
-                source: p.source.clone(),
-                routines: p.routines.len(),
-                waypoints: p.routines.iter().map(|r| r.waypoints.len()).sum(),
-            })
-            .collect();
-        let skipped = report
-            .skipped
-            .iter()
-            .map(|s| Skipped {
-                file: s.file.clone(),
-                line: s.line,
-                routine: s.routine.clone(),
-                reason: serde_json::to_value(s.reason)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_else(|| format!("{:?}", s.reason)),
-                text: s.text.clone(),
-            })
+            .map(|((row, _), p)| imported(program(row), p))
             .collect();
         Ok(ImportResult {
-            programs: out,
-            skipped,
+            programs,
+            skipped: report.skipped.iter().map(skipped).collect(),
             model: info,
         })
+    }
+}
+
+/// What is checked of an upload before anything is parsed.
+fn check_upload(input: &ImportRequest) -> Result<()> {
+    if input.files.is_empty() {
+        return Err(AppError::Invalid("no files to import".into()));
+    }
+    for f in &input.files {
+        check_name("file name", &f.name)?;
+    }
+    Ok(())
+}
+
+/// Parses an upload. Parsing is CPU work (seconds for large uploads): off the async workers.
+async fn parse(cell_id: i64, input: ImportRequest) -> Result<import::ImportReport> {
+    let n_files = input.files.len();
+    tracing::info!(cell = cell_id, files = n_files, "parsing an upload");
+    let report = blocking(move || {
+        let files: Vec<(&str, &str)> = input
+            .files
+            .iter()
+            .map(|f| (f.name.as_str(), f.content.as_str()))
+            .collect();
+        // Two files of the upload that give programs of one name are refused here, naming
+        // both (the database would only say that a name is taken).
+        import::parse_upload(&files)
+    })
+    .await??;
+    tracing::info!(
+        cell = cell_id,
+        files = n_files,
+        programs = report.programs.len(),
+        skipped = report.skipped.len(),
+        "parsed an upload"
+    );
+    Ok(report)
+}
+
+/// A parsed upload in the two shapes it is used in: the rows to store (programs by name, with
+/// their routines) and, routine by routine, the poses the model learns — as they will be read
+/// back from the database, so that a rebuild gives bit-identical results.
+struct Upload {
+    programs: Vec<(String, Vec<NewImportedRoutine>)>,
+    poses: Vec<Vec<Pose>>,
+}
+
+impl Upload {
+    fn of(report: &import::ImportReport) -> Result<Upload> {
+        let mut programs = Vec::with_capacity(report.programs.len());
+        let mut poses = Vec::new();
+        for p in &report.programs {
+            let mut routines = Vec::with_capacity(p.routines.len());
+            for r in &p.routines {
+                let (waypoints, taught) = r
+                    .waypoints
+                    .iter()
+                    .map(|w| {
+                        let stored = PoseValues::from(&w.pose);
+                        let pose = stored.to_pose()?;
+                        Ok((waypoint(w, stored), pose))
+                    })
+                    .collect::<Result<(Vec<_>, Vec<_>)>>()?;
+                poses.push(taught);
+                routines.push(NewImportedRoutine {
+                    name: truncated(&r.name),
+                    waypoints,
+                });
+            }
+            programs.push((truncated(&p.name), routines));
+        }
+        Ok(Upload { programs, poses })
+    }
+}
+
+/// The stored values of an imported waypoint.
+fn waypoint(w: &import::ImportedWaypoint, pose: PoseValues) -> WaypointValues {
+    WaypointValues {
+        pose: pose.into(),
+        joints: None,
+        motion: Some(motion_of(&w.motion).as_str().to_string()),
+        name: Some(truncated(&w.name)),
+        reachable: None,
+    }
+}
+
+/// A name from a program, cut to the longest name stored.
+fn truncated(name: &str) -> String {
+    name.chars().take(MAX_NAME).collect()
+}
+
+fn imported(program: Program, p: &import::ImportedProgram) -> ImportedProgram {
+    ImportedProgram {
+        program,
+        language: p.language.as_str().to_string(),
+        source: p.source.clone(),
+        routines: p.routines.len(),
+        waypoints: p.routines.iter().map(|r| r.waypoints.len()).sum(),
+    }
+}
+
+fn skipped(s: &import::Skipped) -> Skipped {
+    Skipped {
+        file: s.file.clone(),
+        line: s.line,
+        routine: s.routine.clone(),
+        reason: s.reason.as_str().to_string(),
+        text: s.text.clone(),
     }
 }

@@ -36,10 +36,7 @@ impl App {
             .insert_routine(&p, input.name.as_deref().map(str::trim), expected)
             .await
             .inspect_err(|e| stale_check(&mut locked, e))?;
-        let model = locked.model()?;
-        model.open = Some(id);
-        model.open_ids.clear();
-        model.revision = state.revision;
+        locked.model()?.opened(id, state.revision);
         Ok(routine(self.routine_row(id).await?))
     }
 
@@ -102,14 +99,7 @@ impl App {
             .await
             .inspect_err(|e| stale_check(&mut locked, e))?;
         lock_map(&self.routine_cells).remove(&r.id);
-        let model = locked.model()?;
-        model.revision = state.revision;
-        model.open_ids.clear();
-        model.teacher.abandon_routine();
-        if let Some(arm) = model.arm.as_mut() {
-            arm.clear();
-        }
-        model.open = None;
+        locked.model()?.abandoned(state.revision);
         Ok(())
     }
 
@@ -129,15 +119,7 @@ impl App {
             .await
             .inspect_err(|e| stale_check(&mut locked, e))?;
         let model = locked.model()?;
-        model.revision = state.revision;
-        model.last_finish_seq = finish_seq;
-        model.open_ids.clear();
-        model.teacher.finish_routine();
-        if let Some(arm) = model.arm.as_mut() {
-            arm.clear();
-        }
-        model.open = None;
-        model.version = state.model_version;
+        model.finished(finish_seq, &state);
         let info = model.info();
         Ok(Finished {
             routine: routine(self.routine_row(id).await?),

@@ -62,11 +62,7 @@ impl App {
         if let (Some(arm), Some(j)) = (&model.arm, &input.joints) {
             arm.check_joints(j)?;
         }
-        model.teacher.teach(pose);
-        let taught_reach = model
-            .arm
-            .as_mut()
-            .map(|arm| arm.taught(&pose, input.joints.as_deref()));
+        let taught_reach = model.teach(pose, input.joints.as_deref());
         let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let record = offer::record(&r, after, model.version, &checked);
@@ -88,15 +84,12 @@ impl App {
         let done = match self.store.append_waypoint(append).await {
             Ok(done) => done,
             Err(e) => {
-                model.teacher.undo();
-                if let Some(arm) = model.arm.as_mut() {
-                    arm.undo();
-                }
+                model.take_back();
                 stale_check(&mut locked, &e);
                 return Err(e.into());
             }
         };
-        model.revision = done.revision;
+        model.moved_to(done.revision);
         model.open_ids.push(done.row.id);
         let (row, id) = (done.row, done.prediction_id);
         let version = model.version;
@@ -128,12 +121,9 @@ impl App {
             )));
         };
         let model = locked.model()?;
-        model.revision = state.revision;
+        model.moved_to(state.revision);
         model.open_ids.pop();
-        model.teacher.undo();
-        if let Some(arm) = model.arm.as_mut() {
-            arm.undo();
-        }
+        model.take_back();
         let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let version = model.version;

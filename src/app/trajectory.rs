@@ -139,8 +139,7 @@ impl App {
             for &i in &order {
                 let pose = work.samples[i].pose;
                 let joints = work.joints[i].as_deref();
-                model.teacher.teach(pose);
-                let reach = model.arm.as_mut().map(|arm| arm.taught(&pose, joints));
+                let reach = model.teach(pose, joints);
                 let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
                 taught.push(Step {
                     sample: i,
@@ -186,17 +185,14 @@ impl App {
             Err(e) => {
                 // Nothing was stored: the model takes every waypoint back.
                 for _ in &taught {
-                    model.teacher.undo();
-                    if let Some(arm) = model.arm.as_mut() {
-                        arm.undo();
-                    }
+                    model.take_back();
                 }
                 stale_check(&mut locked, &e);
                 return Err(e.into());
             }
         };
         if let Some(last) = stored.last() {
-            model.revision = last.revision;
+            model.moved_to(last.revision);
         }
         model.open_ids.extend(stored.iter().map(|done| done.row.id));
         let mut waypoints = Vec::with_capacity(stored.len());

@@ -182,6 +182,20 @@ pub enum SkipReason {
 }
 
 impl SkipReason {
+    /// The reason's name on the wire and in reports (`joint-move`, `unresolved-name`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SkipReason::JointMove => "joint-move",
+            SkipReason::UnresolvedName => "unresolved-name",
+            SkipReason::ComputedAtRunTime => "computed-at-run-time",
+            SkipReason::InErrorHandler => "in-error-handler",
+            SkipReason::InvalidTarget => "invalid-target",
+            SkipReason::ShortRoutine => "short-routine",
+            SkipReason::DataOnly => "data-only",
+            SkipReason::NoRoutines => "no-routines",
+        }
+    }
+
     pub fn describe(self) -> &'static str {
         match self {
             SkipReason::JointMove => "joint-space move",
@@ -503,6 +517,27 @@ mod tests {
         assert_eq!(Language::from_file_name("UP001.LS"), Some(Language::Fanuc));
         assert_eq!(Language::from_file_name("x.json"), None);
         assert_eq!(Language::from_file_name("noext"), None);
+    }
+
+    #[test]
+    fn names_are_what_serde_writes() {
+        use SkipReason::*;
+        let reasons = [
+            JointMove,
+            UnresolvedName,
+            ComputedAtRunTime,
+            InErrorHandler,
+            InvalidTarget,
+            ShortRoutine,
+            DataOnly,
+            NoRoutines,
+        ];
+        for r in reasons {
+            assert_eq!(serde_json::to_value(r).unwrap(), r.as_str(), "{r:?}");
+        }
+        for l in [Language::Rapid, Language::Krl, Language::Fanuc] {
+            assert_eq!(serde_json::to_value(l).unwrap(), l.as_str(), "{l:?}");
+        }
     }
 
     #[test]
