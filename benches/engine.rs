@@ -1,7 +1,7 @@
 //! Engine cost: learn + predict per taught waypoint at ~1,000 and ~10,000 states (synthetic
 //! programs), and the whole shared corpus replayed through the default profile.
 //!
-//! Run: `cargo bench --bench engine` (figures in the README).
+//! Run: `cargo bench --bench engine` (figures in docs/results/performance.md).
 
 use std::hint::black_box;
 use std::path::PathBuf;

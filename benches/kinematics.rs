@@ -3,7 +3,7 @@
 //! service runs on every offered prediction. Poses are random reachable targets in a cell with
 //! a base placement and a tool.
 //!
-//! Run: `cargo bench --bench kinematics` (figures in the README).
+//! Run: `cargo bench --bench kinematics` (figures in docs/results/performance.md).
 
 use std::hint::black_box;
 

@@ -6,8 +6,9 @@
 //! The two stages are measured in two passes: `CHOSEN_PRIOR` is counted with the engine's own
 //! `PRIOR`, so refit `PRIOR` first, build, and run again for `CHOSEN_PRIOR`.
 //!
-//! `cargo run --release --example calibration_prior -- FILES…` (the README says which half of
-//! the shared corpus the engine's table was measured on).
+//! `cargo run --release --example calibration_prior -- FILES…` (docs/results/scoreboard.md,
+//! "The offer threshold by halves", says which half of the shared corpus the engine's table was
+//! measured on).
 
 use std::collections::BTreeMap;
 

@@ -5,7 +5,7 @@
 # Installs that package in a throw-away venv, writes the 210 demonstrations as trajectory CSVs
 # into target/lasa/ (scripts/lasa_export.py), and runs `nextpose segment --summary` over them
 # (extra arguments go to `nextpose segment`, e.g. `--epsilon-max 0.3 --criterion seed`).
-#   bash scripts/lasa.sh                 # the README's table row at the default settings
+#   bash scripts/lasa.sh                 # docs/results/lead-through.md's first row (default settings)
 #   LASA_ONLY_EXPORT=1 bash scripts/lasa.sh   # only the CSVs (tests/lead_through.rs reads them)
 set -euo pipefail
 cd "$(dirname "$0")/.."

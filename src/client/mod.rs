@@ -1,5 +1,5 @@
 //! A typed client of a nextpose server, over REST ([`RestClient`]) or gRPC ([`GrpcClient`]),
-//! speaking the application's own resource types ([`crate::app::resources`]): the same types
+//! speaking the service's own wire types ([`crate::api`]): the same types
 //! the server answers with, so a client cannot drift from the API. [`Client`] is the calls both
 //! transports make, for code (the simulator, the CLI) that should not care which one is used;
 //! [`Teaching`] teaches routines one after another (over gRPC on one `Teach` stream).

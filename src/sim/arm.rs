@@ -24,7 +24,7 @@ use crate::engine::Pose;
 use crate::kinematics::urdf::{DOF, Joints};
 use crate::kinematics::{Mounting, Robot, pose_to_metres};
 
-/// Speed limits of jogging. See the README's "Simulation" section for the sources.
+/// Speed limits of jogging. See docs/simulation.md, "The arm", for the sources.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct JogLimits {
     /// TCP speed, mm/s. ISO 10218-1 limits manual (T1) jogging to 250 mm/s.
