@@ -18,11 +18,12 @@ use tokio::sync::{mpsc, oneshot};
 
 use std::collections::HashMap;
 
+use super::backend::Backend;
 use super::binds::Binds;
-use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow};
-use super::{
-    Backend, CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell,
-};
+use super::cell_write::CellWrite;
+use super::error::{Result, StorageError, classify};
+use super::rows::{CellState, NewPrediction, NewWaypoint, PoseColumns, Stored, WaypointRow};
+use super::transaction::{Tx, insert_prediction, insert_waypoint, touch_cell};
 
 /// Most appends in one transaction: bounds the latency of the first append of a long queue and
 /// the number of statement shapes (one per power of two up to it) each connection prepares
@@ -247,7 +248,7 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
          INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
            reachable) {} RETURNING {};",
         waypoints.join(" UNION ALL "),
-        Store::WAYPOINT_COLUMNS
+        WaypointRow::COLUMNS
     );
     sql.push_str(&format!(
         " INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
@@ -320,7 +321,7 @@ fn empty_append() -> Append {
         waypoint: NewWaypoint {
             routine_id: 0,
             seq: 0,
-            pose: super::PoseColumns {
+            pose: PoseColumns {
                 x: 0.0,
                 y: 0.0,
                 z: 0.0,
@@ -419,7 +420,7 @@ async fn insert_waypoint_rows(
         "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
          reachable) VALUES {} RETURNING {}",
         values.join(", "),
-        Store::WAYPOINT_COLUMNS
+        WaypointRow::COLUMNS
     );
     let mut q = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql));
     for a in appends {
@@ -487,7 +488,7 @@ async fn alone(pool: &AnyPool, append: &Append) -> Result<Appended> {
 /// prediction made after it.
 async fn store(tx: &mut Tx<'_>, a: &Append) -> Result<Appended> {
     let state = touch_cell(tx, a.cell_id, CellWrite::following(a.expected_revision)).await?;
-    let row = super::insert_waypoint_row(tx, &a.waypoint).await?;
+    let row = insert_waypoint(tx, &a.waypoint).await?;
     let prediction_id = match &a.prediction {
         Some(p) => Some(insert_prediction(tx, p, Some(row.id)).await?),
         None => None,
