@@ -15,8 +15,8 @@
 //! [`Store`]'s methods are spread by table: [`cells`], [`programs`], [`routines`],
 //! [`waypoints`], [`predictions`], [`feedback`], [`robots`]. What they share is written once:
 //! the reads by id ([`query`]), the statements a write makes in its transaction
-//! ([`transaction`]), the rows and their columns ([`rows`]) and the order values are bound in
-//! ([`binds`]).
+//! ([`transaction`]), the rows and their columns ([`rows`]), the order values are bound in
+//! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
 
 mod backend;
 mod binds;
@@ -31,6 +31,7 @@ mod query;
 mod robots;
 mod routines;
 mod rows;
+mod slots;
 mod transaction;
 mod waypoints;
 

@@ -9,6 +9,7 @@ use super::error::{Result, StorageError, classify};
 use super::rows::{
     CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues, flag,
 };
+use super::slots::Params;
 
 pub(super) type Tx<'c> = sqlx::Transaction<'c, sqlx::Any>;
 
@@ -54,15 +55,23 @@ pub(super) async fn touch_cell(
 
 /// Inserts a waypoint at its place; returns it as stored.
 pub(super) async fn insert_waypoint(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<WaypointRow> {
+    let mut params = Params::default();
+    let values = params.run(|p| {
+        p.value(wp.routine_id).value(wp.seq).waypoint_values(
+            &wp.pose,
+            &wp.joints,
+            &wp.motion,
+            &wp.name,
+            wp.reachable,
+        );
+    });
     let sql = format!(
         "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
-         reachable) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13) RETURNING {}",
+         reachable) VALUES ({values}) RETURNING {}",
         WaypointRow::COLUMNS
     );
-    sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
-        .bind(wp.routine_id)
-        .bind(wp.seq)
-        .waypoint_values(&wp.pose, &wp.joints, &wp.motion, &wp.name, wp.reachable)
+    params
+        .query_as::<WaypointRow>(sql)?
         .fetch_one(&mut **tx)
         .await
         .map_err(classify)
@@ -87,19 +96,24 @@ pub(super) async fn insert_prediction(
     pr: &NewPrediction,
     after_waypoint: Option<i64>,
 ) -> Result<i64> {
-    let (id,): (i64,) = sqlx::query_as(
+    let mut params = Params::default();
+    let values = params.run(|p| {
+        p.value(pr.cell_id)
+            .value(pr.routine_id)
+            .value(pr.after_seq)
+            .value(after_waypoint)
+            .prediction_values(pr);
+    });
+    let sql = format!(
         "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
            qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) \
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16) RETURNING id",
-    )
-    .bind(pr.cell_id)
-    .bind(pr.routine_id)
-    .bind(pr.after_seq)
-    .bind(after_waypoint)
-    .prediction_values(pr)
-    .fetch_one(&mut **tx)
-    .await
-    .map_err(classify)?;
+         VALUES ({values}) RETURNING id"
+    );
+    let (id,): (i64,) = params
+        .query_as(sql)?
+        .fetch_one(&mut **tx)
+        .await
+        .map_err(classify)?;
     Ok(id)
 }
 
