@@ -1,5 +1,6 @@
 //! The two database engines behind [`super::Store`]: where a `--db` setting points, how a pool
-//! is opened on it, its migrations, and the little SQL that differs between them.
+//! is opened on it (and how hard its commits try to reach the disk), its migrations, and the
+//! little SQL that differs between them.
 //!
 //! Every query is written once, with `$1`-style parameters (SQLite reads them as numbered
 //! parameters too), flags as 0/1 integers and `IS NOT DISTINCT FROM` for null-safe equality;
@@ -13,7 +14,18 @@ use sqlx::ConnectOptions;
 use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
 use sqlx::sqlite::SqliteConnectOptions;
 
-use super::{Durability, Result, StorageError};
+use super::error::{Result, StorageError};
+
+/// How hard commits try to reach the disk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Durability {
+    /// Survives a crash of the process (WAL, `synchronous = NORMAL`).
+    #[default]
+    Process,
+    /// Survives a power loss too (`synchronous = FULL`), at the cost of an fsync per commit.
+    /// (PostgreSQL: as the server is configured; its default survives a power loss.)
+    Full,
+}
 
 /// Where the database lives, as `--db` / `NEXTPOSE_DB` give it.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -8,9 +8,11 @@
 //!
 //! Whatever its size, a batch is one script on SQLite ([`in_one_trip`]: one wake-up of the
 //! connection's thread) and three multi-row statements on PostgreSQL ([`together`]: the cells'
-//! revisions, the waypoints, the predictions). A failing statement rolls back the whole batch
-//! (PostgreSQL aborts the transaction), so the writer then commits the batch's appends one by
-//! one, each with its own answer. A stale cell ([`StorageError::Stale`]) is not a failure: that
+//! revisions, the waypoints, the predictions). Both are built to the batch's size with named
+//! parameter slots ([`super::slots`]): each value is bound where the SQL names it, so nothing
+//! counts positions; the script's rows say which of its statements returned them (a `returned`
+//! column). A failing statement rolls back the whole batch (PostgreSQL aborts the transaction),
+//! so the writer then commits the batch's appends one by one, each with its own answer. A stale cell ([`StorageError::Stale`]) is not a failure: that
 //! append is left out and the rest commit.
 
 use sqlx::AnyPool;
@@ -18,11 +20,13 @@ use tokio::sync::{mpsc, oneshot};
 
 use std::collections::HashMap;
 
+use super::backend::Backend;
 use super::binds::Binds;
-use super::rows::{CellState, NewPrediction, NewWaypoint, WaypointRow};
-use super::{
-    Backend, CellWrite, Result, StorageError, Store, Tx, classify, insert_prediction, touch_cell,
-};
+use super::cell_write::CellWrite;
+use super::error::{Result, StorageError, classify};
+use super::rows::{CellState, NewPrediction, NewWaypoint, PoseColumns, Stored, WaypointRow};
+use super::slots::{Params, Run, Slot};
+use super::transaction::{Tx, insert_prediction, insert_waypoint, touch_cell};
 
 /// Most appends in one transaction: bounds the latency of the first append of a long queue and
 /// the number of statement shapes (one per power of two up to it) each connection prepares
@@ -201,83 +205,69 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     let filled: Vec<&Append> = (0..slots)
         .map(|i| appends.get(i).copied().unwrap_or(&empty))
         .collect();
-    // Per append: the waypoint's 13 values, then the cell and the revision expected.
-    const PER: usize = 15;
-    let fresh = |i: usize| {
+    let mut params = Params::default();
+    let waypoints: Vec<WaypointSlots> = filled
+        .iter()
+        .map(|a| WaypointSlots::bind(&mut params, a))
+        .collect();
+    // Each append's prediction after all the waypoints, whether it has one or not (the SQL
+    // then depends on the batch's size only, so it is prepared once per size).
+    let predictions: Vec<PredictionSlots> = filled
+        .iter()
+        .map(|a| PredictionSlots::bind(&mut params, a))
+        .collect();
+
+    // Each append's rows are inserted only while its cell is at the revision expected.
+    let fresh = |w: &WaypointSlots| {
         format!(
-            "FROM cells WHERE id = ${} AND revision = ${}",
-            i * PER + 14,
-            i * PER + 15
+            "FROM cells WHERE id = {} AND revision = {}",
+            w.cell, w.revision
         )
     };
-    let waypoints: Vec<String> = (0..slots)
-        .map(|i| {
-            let values: Vec<String> = (1..=13).map(|k| format!("${}", i * PER + k)).collect();
-            format!("SELECT {} {}", values.join(", "), fresh(i))
-        })
+    let waypoint_rows: Vec<String> = waypoints
+        .iter()
+        .map(|w| format!("SELECT {}, {}, {} {}", w.routine, w.seq, w.values, fresh(w)))
         .collect();
-    // Per append again, for its prediction: whether there is one (the SQL then depends on the
-    // batch's size only, so it is prepared once per size), after_seq, pose and scores.
-    const PRED: usize = 14;
-    let base = slots * PER;
-    let predictions: Vec<String> = (0..slots)
-        .map(|i| {
-            let own: Vec<String> = (1..=PRED)
-                .map(|k| format!("${}", base + i * PRED + k))
-                .collect();
+    let prediction_rows: Vec<String> = waypoints
+        .iter()
+        .zip(&predictions)
+        .map(|(w, p)| {
             format!(
-                "SELECT ${cell}, ${routine}, {after_seq}, \
-                   (SELECT id FROM waypoints WHERE routine_id = ${routine} AND seq = ${seq}), \
-                   {rest} {from} AND {has} = 1",
-                cell = i * PER + 14,
-                routine = i * PER + 1,
-                seq = i * PER + 2,
-                has = own[0],
-                after_seq = own[1],
-                rest = own[2..].join(", "),
-                from = fresh(i),
+                "SELECT {cell}, {routine}, {after_seq}, \
+                   (SELECT id FROM waypoints WHERE routine_id = {routine} AND seq = {seq}), \
+                   {values} {from} AND {has} = 1",
+                cell = w.cell,
+                routine = w.routine,
+                seq = w.seq,
+                after_seq = p.after_seq,
+                values = p.values,
+                has = p.has,
+                from = fresh(w),
             )
         })
         .collect();
-    let cells: Vec<String> = (0..slots)
-        .map(|i| format!("(id = ${} AND revision = ${})", i * PER + 14, i * PER + 15))
+    let cells: Vec<String> = waypoints
+        .iter()
+        .map(|w| format!("(id = {} AND revision = {})", w.cell, w.revision))
         .collect();
-    let mut sql = format!(
+    // Every row the script answers with says first which statement returned it.
+    let sql = format!(
         "BEGIN IMMEDIATE; \
          INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
-           reachable) {} RETURNING {};",
-        waypoints.join(" UNION ALL "),
-        Store::WAYPOINT_COLUMNS
+           reachable) {waypoints} RETURNING '{WAYPOINT}' AS returned, {columns}; \
+         INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
+           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) {predictions} \
+           RETURNING '{PREDICTION}' AS returned, id, after_waypoint_id; \
+         UPDATE cells SET revision = revision + 1 WHERE {cells} \
+           RETURNING '{CELL}' AS returned, {state}; \
+         COMMIT;",
+        waypoints = waypoint_rows.join(" UNION ALL "),
+        columns = WaypointRow::COLUMNS,
+        predictions = prediction_rows.join(" UNION ALL "),
+        cells = cells.join(" OR "),
+        state = CellState::COLUMNS,
     );
-    sql.push_str(&format!(
-        " INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
-           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) {} \
-         RETURNING id, after_waypoint_id;",
-        predictions.join(" UNION ALL ")
-    ));
-    sql.push_str(&format!(
-        " UPDATE cells SET revision = revision + 1 WHERE {} \
-         RETURNING id, revision, reload_revision, model_version; COMMIT;",
-        cells.join(" OR ")
-    ));
-
-    let mut q = sqlx::query(sqlx::AssertSqlSafe(sql));
-    for a in &filled {
-        let w = &a.waypoint;
-        q = q
-            .bind(w.routine_id)
-            .bind(w.seq)
-            .waypoint_values(&w.pose, &w.joints, &w.motion, &w.name, w.reachable)
-            .bind(a.cell_id)
-            .bind(a.expected_revision);
-    }
-    for a in &filled {
-        let (has, pr) = match &a.prediction {
-            Some(pr) => (1, pr.clone()),
-            None => (0, placeholder_prediction(a)),
-        };
-        q = q.bind(has).bind(pr.after_seq).prediction_values(&pr);
-    }
+    let q = params.query(sql)?;
 
     let mut conn = pool.acquire().await?;
     let mut rows: HashMap<(i64, i64), WaypointRow> = HashMap::new();
@@ -286,18 +276,23 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     let outcome: std::result::Result<(), sqlx::Error> = async {
         let mut results = q.fetch(&mut *conn);
         while let Some(row) = results.try_next().await? {
-            // The three kinds of rows tell themselves apart by their columns.
-            match row.columns().len() {
-                2 => {
-                    predictions.insert(row.try_get(1)?, row.try_get(0)?);
+            let returned: String = row.try_get("returned")?;
+            match returned.as_str() {
+                WAYPOINT => {
+                    let w = WaypointRow::from_row(&row)?;
+                    rows.insert((w.routine_id, w.seq), w);
                 }
-                4 => {
+                PREDICTION => {
+                    predictions.insert(row.try_get("after_waypoint_id")?, row.try_get("id")?);
+                }
+                CELL => {
                     let s = CellState::from_row(&row)?;
                     states.insert(s.id, s);
                 }
-                _ => {
-                    let w = WaypointRow::from_row(&row)?;
-                    rows.insert((w.routine_id, w.seq), w);
+                other => {
+                    return Err(sqlx::Error::Protocol(format!(
+                        "the batch script returned a row of {other:?}"
+                    )));
                 }
             }
         }
@@ -312,6 +307,69 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     Ok(answers(&appends, &states, rows, predictions))
 }
 
+/// The tags of the script's rows (its `returned` column).
+const WAYPOINT: &str = "waypoint";
+const PREDICTION: &str = "prediction";
+const CELL: &str = "cell";
+
+/// Where an append's waypoint and cell check are bound in the script.
+struct WaypointSlots {
+    routine: Slot,
+    seq: Slot,
+    /// `x` to `reachable`, as in [`Binds::waypoint_values`].
+    values: Run,
+    cell: Slot,
+    revision: Slot,
+}
+
+impl WaypointSlots {
+    fn bind(params: &mut Params, a: &Append) -> WaypointSlots {
+        let w = &a.waypoint;
+        let routine = params.push(w.routine_id);
+        let seq = params.push(w.seq);
+        let values = params.run(|p| {
+            p.waypoint_values(&w.pose, &w.joints, &w.motion, &w.name, w.reachable);
+        });
+        let cell = params.push(a.cell_id);
+        let revision = params.push(a.expected_revision);
+        WaypointSlots {
+            routine,
+            seq,
+            values,
+            cell,
+            revision,
+        }
+    }
+}
+
+/// Where an append's prediction is bound in the script (placeholder values when it has none).
+struct PredictionSlots {
+    /// 1 when the append has a prediction to store, else 0.
+    has: Slot,
+    after_seq: Slot,
+    /// `x` to `model_version`, as in [`Binds::prediction_values`].
+    values: Run,
+}
+
+impl PredictionSlots {
+    fn bind(params: &mut Params, a: &Append) -> PredictionSlots {
+        let (has, pr) = match &a.prediction {
+            Some(pr) => (1, pr.clone()),
+            None => (0, placeholder_prediction(a)),
+        };
+        let has = params.push(has);
+        let after_seq = params.push(pr.after_seq);
+        let values = params.run(|p| {
+            p.prediction_values(&pr);
+        });
+        PredictionSlots {
+            has,
+            after_seq,
+            values,
+        }
+    }
+}
+
 /// What fills a spare slot of a batch: an append to no cell (ids start at 1), never stored.
 fn empty_append() -> Append {
     Append {
@@ -320,7 +378,7 @@ fn empty_append() -> Append {
         waypoint: NewWaypoint {
             routine_id: 0,
             seq: 0,
-            pose: super::PoseColumns {
+            pose: PoseColumns {
                 x: 0.0,
                 y: 0.0,
                 z: 0.0,
@@ -353,50 +411,41 @@ fn placeholder_prediction(a: &Append) -> NewPrediction {
     }
 }
 
-/// `$first, $first+1, …` for `n` values, in parentheses.
-fn placeholders(first: usize, n: usize) -> String {
-    let list: Vec<String> = (first..first + n).map(|i| format!("${i}")).collect();
-    format!("({})", list.join(", "))
-}
-
 /// Advances the revision of each append's cell that is still at the revision the append was
 /// made from; returns the states of those cells (the others are stale). A cell that does not
 /// exist any more is an error for the whole batch (committed one by one, it gets its 404).
 async fn advance_cells(tx: &mut Tx<'_>, appends: &[&Append]) -> Result<HashMap<i64, CellState>> {
-    let terms: Vec<String> = (0..appends.len())
-        .map(|i| format!("(id = ${} AND revision = ${})", 2 * i + 1, 2 * i + 2))
+    let mut params = Params::default();
+    let terms: Vec<String> = appends
+        .iter()
+        .map(|a| {
+            let cell = params.push(a.cell_id);
+            let revision = params.push(a.expected_revision);
+            format!("(id = {cell} AND revision = {revision})")
+        })
         .collect();
     let sql = format!(
-        "UPDATE cells SET revision = revision + 1 WHERE {} \
-         RETURNING id, revision, reload_revision, model_version",
-        terms.join(" OR ")
+        "UPDATE cells SET revision = revision + 1 WHERE {} RETURNING {}",
+        terms.join(" OR "),
+        CellState::COLUMNS
     );
-    let mut q = sqlx::query_as::<_, CellState>(sqlx::AssertSqlSafe(sql));
-    for a in appends {
-        q = q.bind(a.cell_id).bind(a.expected_revision);
-    }
-    let states: HashMap<i64, CellState> = q
+    let states: HashMap<i64, CellState> = params
+        .query_as::<CellState>(sql)?
         .fetch_all(&mut **tx)
         .await?
         .into_iter()
         .map(|s| (s.id, s))
         .collect();
     if states.len() < appends.len() {
-        let missing: Vec<i64> = appends
-            .iter()
-            .map(|a| a.cell_id)
-            .filter(|c| !states.contains_key(c))
-            .collect();
-        let sql = format!(
-            "SELECT COUNT(*) FROM cells WHERE id IN {}",
-            placeholders(1, missing.len())
-        );
-        let mut q = sqlx::query_as::<_, (i64,)>(sqlx::AssertSqlSafe(sql));
-        for c in &missing {
-            q = q.bind(*c);
-        }
-        let (present,) = q.fetch_one(&mut **tx).await?;
-        if present < missing.len() as i64 {
+        let mut params = Params::default();
+        let missing = params.run(|p| {
+            for a in appends.iter().filter(|a| !states.contains_key(&a.cell_id)) {
+                p.push(a.cell_id);
+            }
+        });
+        let sql = format!("SELECT COUNT(*) FROM cells WHERE id IN ({missing})");
+        let (present,): (i64,) = params.query_as(sql)?.fetch_one(&mut **tx).await?;
+        if present < missing.count() as i64 {
             return Err(StorageError::NotFound);
         }
     }
@@ -411,28 +460,32 @@ async fn insert_waypoint_rows(
     if appends.is_empty() {
         return Ok(HashMap::new());
     }
-    const COLUMNS: usize = 13;
-    let values: Vec<String> = (0..appends.len())
-        .map(|i| placeholders(i * COLUMNS + 1, COLUMNS))
+    let mut params = Params::default();
+    let values: Vec<String> = appends
+        .iter()
+        .map(|a| {
+            let w = &a.waypoint;
+            let row = params.run(|p| {
+                p.value(w.routine_id).value(w.seq).waypoint_values(
+                    &w.pose,
+                    &w.joints,
+                    &w.motion,
+                    &w.name,
+                    w.reachable,
+                );
+            });
+            format!("({row})")
+        })
         .collect();
     let sql = format!(
         "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
          reachable) VALUES {} RETURNING {}",
         values.join(", "),
-        Store::WAYPOINT_COLUMNS
+        WaypointRow::COLUMNS
     );
-    let mut q = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql));
-    for a in appends {
-        let w = &a.waypoint;
-        q = q.bind(w.routine_id).bind(w.seq).waypoint_values(
-            &w.pose,
-            &w.joints,
-            &w.motion,
-            &w.name,
-            w.reachable,
-        );
-    }
-    Ok(q.fetch_all(&mut **tx)
+    Ok(params
+        .query_as::<WaypointRow>(sql)?
+        .fetch_all(&mut **tx)
         .await
         .map_err(classify)?
         .into_iter()
@@ -449,9 +502,19 @@ async fn insert_prediction_rows(
     if predictions.is_empty() {
         return Ok(HashMap::new());
     }
-    const COLUMNS: usize = 16;
-    let values: Vec<String> = (0..predictions.len())
-        .map(|i| placeholders(i * COLUMNS + 1, COLUMNS))
+    let mut params = Params::default();
+    let values: Vec<String> = predictions
+        .iter()
+        .map(|(pr, after)| {
+            let row = params.run(|p| {
+                p.value(pr.cell_id)
+                    .value(pr.routine_id)
+                    .value(pr.after_seq)
+                    .value(*after)
+                    .prediction_values(pr);
+            });
+            format!("({row})")
+        })
         .collect();
     let sql = format!(
         "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
@@ -459,16 +522,9 @@ async fn insert_prediction_rows(
          VALUES {} RETURNING id, after_waypoint_id",
         values.join(", ")
     );
-    let mut q = sqlx::query_as::<_, (i64, i64)>(sqlx::AssertSqlSafe(sql));
-    for (pr, after) in predictions {
-        q = q
-            .bind(pr.cell_id)
-            .bind(pr.routine_id)
-            .bind(pr.after_seq)
-            .bind(*after)
-            .prediction_values(pr);
-    }
-    Ok(q.fetch_all(&mut **tx)
+    Ok(params
+        .query_as::<(i64, i64)>(sql)?
+        .fetch_all(&mut **tx)
         .await
         .map_err(classify)?
         .into_iter()
@@ -487,7 +543,7 @@ async fn alone(pool: &AnyPool, append: &Append) -> Result<Appended> {
 /// prediction made after it.
 async fn store(tx: &mut Tx<'_>, a: &Append) -> Result<Appended> {
     let state = touch_cell(tx, a.cell_id, CellWrite::following(a.expected_revision)).await?;
-    let row = super::insert_waypoint_row(tx, &a.waypoint).await?;
+    let row = insert_waypoint(tx, &a.waypoint).await?;
     let prediction_id = match &a.prediction {
         Some(p) => Some(insert_prediction(tx, p, Some(row.id)).await?),
         None => None,

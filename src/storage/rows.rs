@@ -1,6 +1,7 @@
-//! Rows as stored. Poses are flat columns: position in mm, quaternion `w, x, y, z`.
+//! Rows as stored, and the columns each is read from. Poses are flat columns: position in mm,
+//! quaternion `w, x, y, z`.
 
-use sqlx::any::Any;
+use sqlx::any::{Any, AnyRow};
 use sqlx::decode::Decode;
 use sqlx::error::BoxDynError;
 use sqlx::types::Type;
@@ -96,6 +97,15 @@ pub(super) fn flag(b: bool) -> i64 {
     i64::from(b)
 }
 
+/// A row type and where it is read from: `SELECT {COLUMNS} FROM {FROM} …` reads one, and a
+/// write that answers with the row it made says `RETURNING {COLUMNS}` (where `FROM` is its table).
+pub(super) trait Stored: for<'r> FromRow<'r, AnyRow> + Send + Unpin {
+    /// The columns, in the order and with the names the row type reads.
+    const COLUMNS: &'static str;
+    /// The table (or join) they come from.
+    const FROM: &'static str;
+}
+
 /// A pose as seven columns.
 #[derive(Debug, Clone, Copy, PartialEq, FromRow)]
 pub struct PoseColumns {
@@ -119,6 +129,11 @@ pub struct RobotRow {
     pub created_at: String,
 }
 
+impl Stored for RobotRow {
+    const COLUMNS: &'static str = "name, urdf, maker, product, payload_kg, created_at";
+    const FROM: &'static str = "robots";
+}
+
 #[derive(Debug, Clone, FromRow)]
 pub struct CellRow {
     pub id: i64,
@@ -135,6 +150,12 @@ pub struct CellRow {
     pub reload_revision: i64,
 }
 
+impl Stored for CellRow {
+    const COLUMNS: &'static str = "id, name, settings, created_at, model_version, settings_changed_at, \
+        revision, reload_revision";
+    const FROM: &'static str = "cells";
+}
+
 /// Where a cell's writes stand: every write to the cell advances `revision`; one after which a
 /// model in memory cannot follow incrementally (an edit, new settings, an import) also sets
 /// `reload_revision` to it.
@@ -146,12 +167,22 @@ pub struct CellState {
     pub model_version: i64,
 }
 
+impl Stored for CellState {
+    const COLUMNS: &'static str = "id, revision, reload_revision, model_version";
+    const FROM: &'static str = "cells";
+}
+
 #[derive(Debug, Clone, FromRow)]
 pub struct ProgramRow {
     pub id: i64,
     pub cell_id: i64,
     pub name: String,
     pub created_at: String,
+}
+
+impl Stored for ProgramRow {
+    const COLUMNS: &'static str = "id, cell_id, name, created_at";
+    const FROM: &'static str = "programs";
 }
 
 #[derive(Debug, Clone, FromRow)]
@@ -169,6 +200,13 @@ pub struct RoutineRow {
     pub imported: bool,
     /// Number of waypoints.
     pub waypoints: i64,
+}
+
+impl Stored for RoutineRow {
+    const COLUMNS: &'static str = "r.id, r.program_id, r.cell_id, r.position, r.name, \
+        r.finish_seq, r.finished_at, r.created_at, r.imported, \
+        (SELECT COUNT(*) FROM waypoints w WHERE w.routine_id = r.id) AS waypoints";
+    const FROM: &'static str = "routines r";
 }
 
 impl RoutineRow {
@@ -207,6 +245,12 @@ pub struct WaypointRow {
     pub created_at: String,
 }
 
+impl Stored for WaypointRow {
+    const COLUMNS: &'static str = "id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+        reachable, created_at";
+    const FROM: &'static str = "waypoints";
+}
+
 /// A waypoint's values as an edit sets them (its routine and place stay).
 #[derive(Debug, Clone)]
 pub struct WaypointValues {
@@ -215,6 +259,21 @@ pub struct WaypointValues {
     pub motion: Option<String>,
     pub name: Option<String>,
     pub reachable: Option<bool>,
+}
+
+impl WaypointValues {
+    /// These values at place `seq` of a routine, ready to insert.
+    pub(super) fn at(&self, routine_id: i64, seq: i64) -> NewWaypoint {
+        NewWaypoint {
+            routine_id,
+            seq,
+            pose: self.pose,
+            joints: self.joints.clone(),
+            motion: self.motion.clone(),
+            name: self.name.clone(),
+            reachable: self.reachable,
+        }
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -257,6 +316,13 @@ pub struct PredictionRow {
     pub created_at: String,
     /// The feedback verdict, when there is one.
     pub verdict: Option<String>,
+}
+
+impl Stored for PredictionRow {
+    const COLUMNS: &'static str = "p.id, p.cell_id, p.routine_id, p.after_seq, \
+        p.x, p.y, p.z, p.qw, p.qx, p.qy, p.qz, p.phi, p.psi, p.misfit, \
+        p.end_probability, p.model_version, p.created_at, f.verdict";
+    const FROM: &'static str = "predictions p LEFT JOIN feedback f ON f.prediction_id = p.id";
 }
 
 #[derive(Debug, Clone)]

@@ -1,0 +1,50 @@
+//! The `robots` table: arm models uploaded through the API (URDF and what the maker says of
+//! it), beside the built-in ones, by name.
+
+use super::Store;
+use super::error::{Result, classify};
+use super::query::found;
+use super::rows::{RobotRow, Stored, real};
+
+impl Store {
+    /// Stores an uploaded arm model; a name already taken is a
+    /// [`super::StorageError::Conflict`].
+    pub async fn insert_robot(
+        &self,
+        name: &str,
+        urdf: &str,
+        maker: Option<&str>,
+        product: Option<&str>,
+        payload_kg: Option<f64>,
+    ) -> Result<RobotRow> {
+        let sql = format!(
+            "INSERT INTO robots (name, urdf, maker, product, payload_kg) \
+             VALUES ($1, $2, $3, $4, $5) RETURNING {}",
+            RobotRow::COLUMNS
+        );
+        sqlx::query_as::<_, RobotRow>(sqlx::AssertSqlSafe(sql))
+            .bind(name)
+            .bind(urdf)
+            .bind(maker)
+            .bind(product)
+            .bind(real(payload_kg))
+            .fetch_one(&self.pool)
+            .await
+            .map_err(classify)
+    }
+
+    /// The uploaded arm models, by name.
+    pub async fn robots(&self) -> Result<Vec<RobotRow>> {
+        self.list("ORDER BY name", &[]).await
+    }
+
+    /// Deletes an uploaded arm model.
+    pub async fn delete_robot(&self, name: &str) -> Result<()> {
+        found(
+            sqlx::query("DELETE FROM robots WHERE name = $1")
+                .bind(name)
+                .execute(&self.pool)
+                .await?,
+        )
+    }
+}

@@ -1,0 +1,173 @@
+//! The statements that several writes make inside their own transaction: opening the write on
+//! its cell ([`touch_cell`], always first), storing a waypoint or a prediction, and keeping a
+//! list's places 1, 2, … when one is taken out or put in ([`shift`]). Each is written once here,
+//! so a table's file says what a write does, not how a row is spelled.
+
+use super::binds::Binds;
+use super::cell_write::CellWrite;
+use super::error::{Result, StorageError, classify};
+use super::rows::{
+    CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues, flag,
+};
+use super::slots::Params;
+
+pub(super) type Tx<'c> = sqlx::Transaction<'c, sqlx::Any>;
+
+/// Opens a write on a cell (see [`CellWrite`]): the first statement of the write's transaction,
+/// so the cell's row is held until it commits. Returns the cell's state after the write.
+pub(super) async fn touch_cell(
+    tx: &mut Tx<'_>,
+    cell_id: i64,
+    write: CellWrite,
+) -> Result<CellState> {
+    let state = sqlx::query_as::<_, CellState>(
+        "UPDATE cells SET revision = revision + 1, model_version = model_version + $2, \
+           reload_revision = CASE WHEN $3 = 1 THEN revision + 1 ELSE reload_revision END \
+         WHERE id = $1 AND ($4 IS NULL OR revision = $4) \
+         RETURNING id, revision, reload_revision, model_version",
+    )
+    .bind(cell_id)
+    .bind(write.advance)
+    .bind(flag(write.reload))
+    .bind(write.expected)
+    .fetch_optional(&mut **tx)
+    .await?;
+    if let Some(state) = state {
+        return Ok(state);
+    }
+    match write.expected {
+        Some(expected) => {
+            let exists: Option<(i64,)> = sqlx::query_as("SELECT id FROM cells WHERE id = $1")
+                .bind(cell_id)
+                .fetch_optional(&mut **tx)
+                .await?;
+            match exists {
+                Some(_) => Err(StorageError::Stale {
+                    cell: cell_id,
+                    expected,
+                }),
+                None => Err(StorageError::NotFound),
+            }
+        }
+        None => Err(StorageError::NotFound),
+    }
+}
+
+/// Inserts a waypoint at its place; returns it as stored.
+pub(super) async fn insert_waypoint(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<WaypointRow> {
+    let mut params = Params::default();
+    let values = params.run(|p| {
+        p.value(wp.routine_id).value(wp.seq).waypoint_values(
+            &wp.pose,
+            &wp.joints,
+            &wp.motion,
+            &wp.name,
+            wp.reachable,
+        );
+    });
+    let sql = format!(
+        "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
+         reachable) VALUES ({values}) RETURNING {}",
+        WaypointRow::COLUMNS
+    );
+    params
+        .query_as::<WaypointRow>(sql)?
+        .fetch_one(&mut **tx)
+        .await
+        .map_err(classify)
+}
+
+/// Stores a new routine's waypoints, numbered 1, 2, … in order.
+pub(super) async fn insert_waypoints(
+    tx: &mut Tx<'_>,
+    routine_id: i64,
+    waypoints: &[WaypointValues],
+) -> Result<()> {
+    for (i, v) in waypoints.iter().enumerate() {
+        insert_waypoint(tx, &v.at(routine_id, i as i64 + 1)).await?;
+    }
+    Ok(())
+}
+
+/// Records a prediction made after the waypoint `after_waypoint` (None: before the first);
+/// returns its id.
+pub(super) async fn insert_prediction(
+    tx: &mut Tx<'_>,
+    pr: &NewPrediction,
+    after_waypoint: Option<i64>,
+) -> Result<i64> {
+    let mut params = Params::default();
+    let values = params.run(|p| {
+        p.value(pr.cell_id)
+            .value(pr.routine_id)
+            .value(pr.after_seq)
+            .value(after_waypoint)
+            .prediction_values(pr);
+    });
+    let sql = format!(
+        "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
+           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) \
+         VALUES ({values}) RETURNING id"
+    );
+    let (id,): (i64,) = params
+        .query_as(sql)?
+        .fetch_one(&mut **tx)
+        .await
+        .map_err(classify)?;
+    Ok(id)
+}
+
+/// A numbered list: a routine's waypoints (`seq`) or a program's routines (`position`), whose
+/// places stay 1, 2, … through every edit.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Places {
+    /// The waypoints of a routine, by `seq`.
+    Waypoints,
+    /// The routines of a program, by `position`.
+    Routines,
+}
+
+/// Which way the places from a point on move.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Move {
+    /// One place down (`+ 1`): making room.
+    Down,
+    /// One place up (`- 1`): closing a gap.
+    Up,
+}
+
+/// Moves the places of `parent`'s list from `from` on one place down or up. Through negative
+/// values, since SQLite checks `UNIQUE` per row: first each moved row to minus its new place,
+/// then all of them back.
+pub(super) async fn shift(
+    tx: &mut Tx<'_>,
+    places: Places,
+    parent: i64,
+    from: i64,
+    by: Move,
+) -> Result<()> {
+    let (table, place, parent_column) = match places {
+        Places::Waypoints => ("waypoints", "seq", "routine_id"),
+        Places::Routines => ("routines", "position", "program_id"),
+    };
+    let step = match by {
+        Move::Down => "+ 1",
+        Move::Up => "- 1",
+    };
+    let away = format!(
+        "UPDATE {table} SET {place} = -({place} {step}) \
+         WHERE {parent_column} = $1 AND {place} >= $2"
+    );
+    sqlx::query(sqlx::AssertSqlSafe(away))
+        .bind(parent)
+        .bind(from)
+        .execute(&mut **tx)
+        .await?;
+    let back =
+        format!("UPDATE {table} SET {place} = -{place} WHERE {parent_column} = $1 AND {place} < 0");
+    sqlx::query(sqlx::AssertSqlSafe(back))
+        .bind(parent)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}

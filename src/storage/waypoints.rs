@@ -1,0 +1,191 @@
+//! The `waypoints` table: a routine's taught poses in order (`seq`), appended while teaching
+//! (through the group commit, [`super::group_commit`]) and edited in place afterwards.
+
+use super::Store;
+use super::binds::Binds;
+use super::cell_write::CellWrite;
+use super::error::{Result, StorageError, classify};
+use super::group_commit::{Append, Appended};
+use super::query::select;
+use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues};
+use super::transaction::{self, Move, Places, insert_prediction, shift, touch_cell};
+
+impl Store {
+    pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
+        self.list("WHERE routine_id = $1 ORDER BY seq", &[routine_id])
+            .await
+    }
+
+    /// The ids of a routine's waypoints in order.
+    pub async fn waypoint_ids(&self, routine_id: i64) -> Result<Vec<i64>> {
+        let rows: Vec<(i64,)> =
+            sqlx::query_as("SELECT id FROM waypoints WHERE routine_id = $1 ORDER BY seq")
+                .bind(routine_id)
+                .fetch_all(&self.pool)
+                .await?;
+        Ok(rows.into_iter().map(|(id,)| id).collect())
+    }
+
+    /// A routine's waypoints after the first `seq` ones.
+    pub async fn waypoints_after(&self, routine_id: i64, seq: i64) -> Result<Vec<WaypointRow>> {
+        self.list(
+            "WHERE routine_id = $1 AND seq > $2 ORDER BY seq",
+            &[routine_id, seq],
+        )
+        .await
+    }
+
+    pub async fn waypoint(&self, id: i64) -> Result<Option<WaypointRow>> {
+        self.find("WHERE id = $1", &[id]).await
+    }
+
+    // ---- teaching ----------------------------------------------------------------------------
+
+    /// Appends a waypoint and, when one is offered, the prediction made after it, in one
+    /// transaction shared with other cells' appends queued at the same time (group commit).
+    /// Answers once committed.
+    pub async fn append_waypoint(&self, append: Append) -> Result<Appended> {
+        self.appends.append(append).await
+    }
+
+    /// Appends several waypoints to a routine of `cell_id`, each with the prediction offered
+    /// after it (when one was), in one transaction of their own, all or nothing: a trajectory
+    /// taught at once. The model in memory made them at revision `expected` (refused with
+    /// [`StorageError::Stale`] when the cell has moved on); the revision advances once. Not
+    /// through the group-commit writer: its batches hold one append per cell.
+    pub async fn append_waypoints(
+        &self,
+        cell_id: i64,
+        expected: i64,
+        appends: &[(NewWaypoint, Option<NewPrediction>)],
+    ) -> Result<Vec<Appended>> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
+        let mut out = Vec::with_capacity(appends.len());
+        for (waypoint, prediction) in appends {
+            let row = transaction::insert_waypoint(&mut tx, waypoint).await?;
+            let prediction_id = match prediction {
+                Some(p) => Some(insert_prediction(&mut tx, p, Some(row.id)).await?),
+                None => None,
+            };
+            out.push(Appended {
+                row,
+                prediction_id,
+                revision: state.revision,
+                batch: 1,
+            });
+        }
+        tx.commit().await?;
+        Ok(out)
+    }
+
+    /// Deletes the last waypoint of a routine; returns it. Predictions made after it stay
+    /// recorded: they were offered, and feedback may refer to them.
+    pub async fn delete_last_waypoint(
+        &self,
+        routine_id: i64,
+        cell_id: i64,
+        expected: i64,
+    ) -> Result<(Option<WaypointRow>, CellState)> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
+        let sql = format!(
+            "DELETE FROM waypoints WHERE id = (SELECT id FROM waypoints WHERE routine_id = $1 \
+             ORDER BY seq DESC LIMIT 1) RETURNING {}",
+            WaypointRow::COLUMNS
+        );
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(routine_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        if row.is_none() {
+            // Nothing to undo: nothing changed (the revision stays).
+            return Ok((None, state));
+        }
+        tx.commit().await?;
+        Ok((row, state))
+    }
+
+    // ---- edits -------------------------------------------------------------------------------
+    //
+    // Every edit is one transaction; one that changes a learned routine advances the cell's
+    // model version in it (`advance`). Places stay 1, 2, … ([`shift`]).
+
+    /// Sets a waypoint's values. Returns the row before and after, and the model version.
+    pub async fn update_waypoint(
+        &self,
+        id: i64,
+        v: &WaypointValues,
+        cell_id: i64,
+        write: CellWrite,
+    ) -> Result<(WaypointRow, WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, write).await?;
+        let before = select::<WaypointRow>("WHERE id = $1", &[id])
+            .fetch_optional(&mut *tx)
+            .await?
+            .ok_or(StorageError::NotFound)?;
+        let sql = format!(
+            "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, qx = $5, qy = $6, qz = $7, \
+             joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12 RETURNING {}",
+            WaypointRow::COLUMNS
+        );
+        let after = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
+            .bind(id)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(classify)?;
+        tx.commit().await?;
+        Ok((before, after, state.model_version))
+    }
+
+    /// Inserts a waypoint at place `seq` of a routine (1 = first); the waypoints from there on
+    /// move one place down. Returns the stored row and the model version.
+    pub async fn insert_waypoint(
+        &self,
+        routine_id: i64,
+        seq: i64,
+        v: &WaypointValues,
+        cell_id: i64,
+        write: CellWrite,
+    ) -> Result<(WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, write).await?;
+        shift(&mut tx, Places::Waypoints, routine_id, seq, Move::Down).await?;
+        let row = transaction::insert_waypoint(&mut tx, &v.at(routine_id, seq)).await?;
+        tx.commit().await?;
+        Ok((row, state.model_version))
+    }
+
+    /// Deletes a waypoint; the ones after it move one place up. Returns the deleted row and
+    /// the model version.
+    pub async fn delete_waypoint(
+        &self,
+        id: i64,
+        cell_id: i64,
+        write: CellWrite,
+    ) -> Result<(WaypointRow, i64)> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, write).await?;
+        let sql = format!(
+            "DELETE FROM waypoints WHERE id = $1 RETURNING {}",
+            WaypointRow::COLUMNS
+        );
+        let row = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?
+            .ok_or(StorageError::NotFound)?;
+        shift(
+            &mut tx,
+            Places::Waypoints,
+            row.routine_id,
+            row.seq + 1,
+            Move::Up,
+        )
+        .await?;
+        tx.commit().await?;
+        Ok((row, state.model_version))
+    }
+}
