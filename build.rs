@@ -1,16 +1,41 @@
 //! Generates the gRPC code from `proto/` with protox (no system `protoc`) and writes the
 //! encoded file descriptor set that the reflection service serves.
+//!
+//! It also tells the tests whether the shared corpus of real programs is beside the checkout:
+//! the corpus stays out of the repository (its programs carry no licence), so a fresh clone has
+//! none, and the tests that read it are then reported as ignored, with the reason, instead of
+//! failing. `cfg(corpus)` is set when `../shared/corpus/json` exists.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use prost::Message;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let proto = "proto/nextpose/v1/nextpose.proto";
-    println!("cargo:rerun-if-changed={proto}");
+    println!("cargo::rerun-if-changed={proto}");
     let fds = protox::compile([proto], ["proto"])?;
     let out = PathBuf::from(std::env::var("OUT_DIR")?);
     std::fs::write(out.join("nextpose_descriptor.bin"), fds.encode_to_vec())?;
     tonic_prost_build::configure().compile_fds(fds)?;
+
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR")?);
+    corpus(&manifest.join("../shared"));
     Ok(())
+}
+
+/// Sets `cfg(corpus)` when `<shared>/corpus/json` exists, and asks to be rerun when that
+/// changes. Cargo reruns a build script on every build while a path it watches is missing, so
+/// only a path that exists is watched: the corpus folder itself, or the nearest of its parents
+/// up to `shared`. With no `../shared` at all nothing is watched; after putting it in place,
+/// `touch build.rs` (or any change to the proto) makes the tests see it.
+fn corpus(shared: &Path) {
+    println!("cargo::rustc-check-cfg=cfg(corpus)");
+    let json = shared.join("corpus/json");
+    if json.is_dir() {
+        println!("cargo::rustc-cfg=corpus");
+    }
+    let watched = [json.clone(), shared.join("corpus"), shared.to_path_buf()];
+    if let Some(path) = watched.iter().find(|p| p.exists()) {
+        println!("cargo::rerun-if-changed={}", path.display());
+    }
 }

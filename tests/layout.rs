@@ -128,6 +128,10 @@ fn span_mm(poses: &[Pose]) -> f64 {
 }
 
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_where_it_fits() {
     let programs = corpus();
     assert_eq!(programs.len(), 36, "the shared corpus has 36 programs");
@@ -235,6 +239,10 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
 /// the welding cell's serial number (IRB 2600, for all of that repository's programs), the
 /// corpus note and the repository name of the IRB 140 lab program.
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn the_arms_the_corpus_names_are_found() {
     let programs = corpus();
     let named = |prefix: &str| -> Vec<(String, String)> {
@@ -276,6 +284,10 @@ fn the_arms_the_corpus_names_are_found() {
 /// `nextpose layout`: the search over program files, locally; best first, as JSON; an arm
 /// that is not in the library is refused by name.
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn the_layout_command_places_an_arm_for_program_files() {
     let file = corpus_dir()
         .join("json")

@@ -110,6 +110,10 @@ fn map_is_a_scoreboard_method_and_its_comparison_is_computed() {
 }
 
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn map_runs_on_a_corpus_program() {
     let file = PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),

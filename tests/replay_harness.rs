@@ -57,6 +57,10 @@ fn temp_path(name: &str) -> PathBuf {
 }
 
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn whole_corpus_loads() {
     let programs = load_paths(&[Path::new(CORPUS)]).unwrap();
     assert_eq!(programs.len(), 36);
@@ -547,6 +551,10 @@ fn work_frame_offset_under_a_turning_tool_is_a_work_frame_repeat() {
 /// The whole corpus: the oracles' shares as issue 13 measured them, the union at least each
 /// kind, and the absolute-pose predictor of the issue (`abs_seq_within_gated`).
 #[test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 fn corpus_oracles_and_the_absolute_predictor() {
     let programs = load_paths(&[Path::new(CORPUS)]).unwrap();
     let config = EngineConfig::default();

@@ -77,6 +77,10 @@ fn uploads() -> Vec<(String, Vec<Value>)> {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn every_corpus_program_survives_import_store_export_import_in_all_three_formats() {
     let app = spawn_app().await;
     let mut programs = 0;

@@ -768,6 +768,10 @@ fn pb_files(files: &[Value]) -> Vec<pb::UploadedFile> {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn an_import_through_grpc_teaches_what_the_rest_import_teaches() {
     let app = spawn_app().await;
     let mut c = client(&app).await;
@@ -1025,6 +1029,10 @@ fn assert_same_scoreboard(rest: &Value, grpc: &pb::ReplayReport) {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn a_replay_through_grpc_is_the_rest_replay() {
     let app = spawn_app().await;
     let mut c = client(&app).await;
@@ -1081,6 +1089,10 @@ async fn a_replay_through_grpc_is_the_rest_replay() {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn import_and_replay_errors_map_to_status_codes() {
     let app = spawn_app().await;
     let mut c = client(&app).await;

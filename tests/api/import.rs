@@ -32,6 +32,10 @@ pub(crate) fn upload(dir: &str) -> Vec<Value> {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn imported_programs_seed_the_model_and_predictions_follow() {
     let app = spawn_app().await;
     let cell = app.create_cell("imported").await;
@@ -125,6 +129,10 @@ async fn imported_programs_seed_the_model_and_predictions_follow() {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn import_errors() {
     let app = spawn_app().await;
     let cell = app.create_cell("import-errors").await;
@@ -177,6 +185,10 @@ async fn import_errors() {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn nextpose_import_uploads_files_to_a_running_server() {
     let app = spawn_app().await;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -270,6 +282,10 @@ fn without_timing(mut report: Value) -> Value {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
     let app = spawn_app().await;
     let files = upload("ravenorb__abb-robot-welder");
@@ -426,6 +442,10 @@ mod phases {
 /// (the server's too), a request is answered between the server's "parsing" and "parsed" log
 /// events. When the parse ran on the runtime's thread, nothing could be answered in between.
 #[tokio::test(flavor = "current_thread")]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn a_large_import_does_not_stall_other_requests() {
     use std::sync::atomic::Ordering;
     let phases = phases::phases();
@@ -488,6 +508,10 @@ async fn a_large_import_does_not_stall_other_requests() {
 /// named (the message blamed the cell: "already has a program with one of the names
 /// [MainModule, MainModule]" although it was empty), and nothing is imported.
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn two_files_declaring_one_module_are_named() {
     let app = spawn_app().await;
     let cell = app.create_cell("clash").await;

@@ -2,7 +2,8 @@
 //! alternate between two real `nextpose serve` processes, one of them killed with SIGKILL and
 //! restarted midway, stores and predicts exactly what one instance does; appends to one cell
 //! sent to both at once are serialised. Needs the cluster of `scripts/with-postgres.sh`
-//! (`bash scripts/test.sh` runs these with `--ignored`).
+//! (`bash scripts/test.sh` runs these with `--ignored`); the teaching session teaches a corpus
+//! program, so it also needs the shared corpus.
 
 use std::process::Child;
 
@@ -137,7 +138,14 @@ async fn session(servers: &mut Servers) -> (Vec<Value>, i64, i64) {
 }
 
 #[tokio::test]
-#[ignore = "needs PostgreSQL: scripts/test.sh runs it beside a throwaway cluster"]
+#[cfg_attr(
+    corpus,
+    ignore = "needs PostgreSQL: scripts/test.sh runs it beside a throwaway cluster"
+)]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs PostgreSQL and the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn two_instances_alternating_with_a_kill_match_one_instance() {
     let mut alone = Servers::start(1, None).await;
     let (expected, cell, open) = session(&mut alone).await;

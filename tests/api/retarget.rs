@@ -14,6 +14,10 @@ fn waypoints(detail: &Value) -> Vec<Value> {
 }
 
 #[tokio::test]
+#[cfg_attr(
+    not(corpus),
+    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
+)]
 async fn a_corpus_program_follows_its_moved_fixture_with_reach_checked() {
     let app = spawn_app().await;
     let cell = app
