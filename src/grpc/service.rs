@@ -34,6 +34,17 @@ fn reply<T, U: From<T>>(r: Result<T, AppError>) -> Reply<U> {
     r.map(|v| Response::new(v.into())).map_err(status::status)
 }
 
+/// A call whose answer says only that it was done (a deletion).
+fn done<T, U: Default>(r: Result<T, AppError>) -> Reply<U> {
+    r.map(|_| Response::new(U::default()))
+        .map_err(status::status)
+}
+
+/// The items of a list answer.
+fn each<T, U: From<T>>(items: Vec<T>) -> Vec<U> {
+    items.into_iter().map(Into::into).collect()
+}
+
 #[tonic::async_trait]
 impl Nextpose for Service {
     async fn create_cell(&self, r: Request<pb::CreateCellRequest>) -> Reply<pb::Cell> {
@@ -42,10 +53,8 @@ impl Nextpose for Service {
     }
 
     async fn list_cells(&self, _: Request<pb::ListCellsRequest>) -> Reply<pb::ListCellsResponse> {
-        let cells = self.app.cells().await.map_err(status::status)?;
-        Ok(Response::new(pb::ListCellsResponse {
-            cells: cells.into_iter().map(Into::into).collect(),
-        }))
+        let cells = self.app.cells().await;
+        reply(cells.map(|cells| pb::ListCellsResponse { cells: each(cells) }))
     }
 
     async fn get_cell(&self, r: Request<pb::GetCellRequest>) -> Reply<pb::Cell> {
@@ -73,13 +82,9 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::ListProgramsRequest>,
     ) -> Reply<pb::ListProgramsResponse> {
-        let programs = self
-            .app
-            .programs(r.into_inner().cell_id)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::ListProgramsResponse {
-            programs: programs.into_iter().map(Into::into).collect(),
+        let programs = self.app.programs(r.into_inner().cell_id).await;
+        reply(programs.map(|programs| pb::ListProgramsResponse {
+            programs: each(programs),
         }))
     }
 
@@ -100,13 +105,9 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::ListRoutinesRequest>,
     ) -> Reply<pb::ListRoutinesResponse> {
-        let routines = self
-            .app
-            .routines(r.into_inner().program_id)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::ListRoutinesResponse {
-            routines: routines.into_iter().map(Into::into).collect(),
+        let routines = self.app.routines(r.into_inner().program_id).await;
+        reply(routines.map(|routines| pb::ListRoutinesResponse {
+            routines: each(routines),
         }))
     }
 
@@ -118,11 +119,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::DeleteRoutineRequest>,
     ) -> Reply<pb::DeleteRoutineResponse> {
-        self.app
-            .delete_routine(r.into_inner().routine_id)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::DeleteRoutineResponse {}))
+        done(self.app.delete_routine(r.into_inner().routine_id).await)
     }
 
     async fn edit_routine(&self, r: Request<pb::EditRoutineRequest>) -> Reply<pb::RoutineEdit> {
@@ -153,11 +150,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::DeleteProgramRequest>,
     ) -> Reply<pb::DeleteProgramResponse> {
-        self.app
-            .delete_program(r.into_inner().program_id)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::DeleteProgramResponse {}))
+        done(self.app.delete_program(r.into_inner().program_id).await)
     }
 
     async fn update_cell(&self, r: Request<pb::UpdateCellRequest>) -> Reply<pb::Cell> {
@@ -171,11 +164,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::DeleteCellRequest>,
     ) -> Reply<pb::DeleteCellResponse> {
-        self.app
-            .delete_cell(r.into_inner().cell_id)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::DeleteCellResponse {}))
+        done(self.app.delete_cell(r.into_inner().cell_id).await)
     }
 
     async fn modify_waypoint(
@@ -264,7 +253,7 @@ impl Nextpose for Service {
         _: Request<pb::ListRobotsRequest>,
     ) -> Reply<pb::ListRobotsResponse> {
         Ok(Response::new(pb::ListRobotsResponse {
-            robots: self.app.robots().into_iter().map(Into::into).collect(),
+            robots: each(self.app.robots()),
         }))
     }
 
@@ -302,11 +291,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::DeleteRobotRequest>,
     ) -> Reply<pb::DeleteRobotResponse> {
-        self.app
-            .delete_robot(&r.into_inner().name)
-            .await
-            .map_err(status::status)?;
-        Ok(Response::new(pb::DeleteRobotResponse {}))
+        done(self.app.delete_robot(&r.into_inner().name).await)
     }
 
     async fn import_programs(

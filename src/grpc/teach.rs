@@ -72,6 +72,8 @@ struct Session {
     routine: Option<i64>,
 }
 
+/// An application error as the stream answers a command: its gRPC code, reason and message,
+/// as a unary call would have failed.
 fn app_error(e: AppError) -> pb::TeachError {
     pb::TeachError {
         code: status::code(&e) as i32,
@@ -80,6 +82,8 @@ fn app_error(e: AppError) -> pb::TeachError {
     }
 }
 
+/// A command the adapter refuses before the application sees it (unreadable, or no routine
+/// started).
 fn adapter_error(s: Status) -> pb::TeachError {
     let reason = match s.code() {
         Code::InvalidArgument => "invalid",

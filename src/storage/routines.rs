@@ -6,7 +6,7 @@ use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::query::found;
 use super::rows::{CellState, ProgramRow, RoutineRow, WaypointValues, flag};
-use super::transaction::{Move, Places, Tx, insert_waypoints, shift, touch_cell};
+use super::transaction::{Places, Tx, close_gap, insert_waypoints, make_room, touch_cell};
 
 /// Adds a routine at the end of `program` (`imported`: one that takes no teaching); returns
 /// its id.
@@ -178,7 +178,7 @@ impl Store {
     // ---- edits -------------------------------------------------------------------------------
     //
     // Every edit is one transaction; one that changes a learned routine advances the cell's
-    // model version in it (`advance`). Places stay 1, 2, … ([`shift`]).
+    // model version in it (`advance`). Places stay 1, 2, … ([`make_room`], [`close_gap`]).
 
     /// Renames a routine (None: no name).
     pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
@@ -213,8 +213,8 @@ impl Store {
             .bind(id)
             .execute(&mut *tx)
             .await?;
-        shift(&mut tx, Places::Routines, program_id, from + 1, Move::Up).await?;
-        shift(&mut tx, Places::Routines, program_id, to, Move::Down).await?;
+        close_gap(&mut tx, Places::Routines, program_id, from).await?;
+        make_room(&mut tx, Places::Routines, program_id, to).await?;
         sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
             .bind(to)
             .bind(id)
@@ -235,14 +235,7 @@ impl Store {
                 .fetch_optional(&mut *tx)
                 .await?
                 .ok_or(StorageError::NotFound)?;
-        shift(
-            &mut tx,
-            Places::Routines,
-            program_id,
-            position + 1,
-            Move::Up,
-        )
-        .await?;
+        close_gap(&mut tx, Places::Routines, program_id, position).await?;
         tx.commit().await?;
         Ok(state.model_version)
     }

@@ -1,6 +1,6 @@
 //! The statements that several writes make inside their own transaction: opening the write on
 //! its cell ([`touch_cell`], always first), storing a waypoint or a prediction, and keeping a
-//! list's places 1, 2, … when one is taken out or put in ([`shift`]). Each is written once here,
+//! list's places 1, 2, … when one is put in or taken out ([`make_room`], [`close_gap`]). Each is written once here,
 //! so a table's file says what a write does, not how a row is spelled.
 
 use super::binds::Binds;
@@ -127,32 +127,29 @@ pub(super) enum Places {
     Routines,
 }
 
-/// Which way the places from a point on move.
-#[derive(Debug, Clone, Copy)]
-pub(super) enum Move {
-    /// One place down (`+ 1`): making room.
-    Down,
-    /// One place up (`- 1`): closing a gap.
-    Up,
+/// Makes room at place `at` of `parent`'s list: the places from there on move one down.
+pub(super) async fn make_room(tx: &mut Tx<'_>, places: Places, parent: i64, at: i64) -> Result<()> {
+    shift(tx, places, parent, at, "+ 1").await
 }
 
-/// Moves the places of `parent`'s list from `from` on one place down or up. Through negative
-/// values, since SQLite checks `UNIQUE` per row: first each moved row to minus its new place,
-/// then all of them back.
-pub(super) async fn shift(
+/// Closes the gap a row left at place `at` of `parent`'s list: the places after it move one up.
+pub(super) async fn close_gap(tx: &mut Tx<'_>, places: Places, parent: i64, at: i64) -> Result<()> {
+    shift(tx, places, parent, at + 1, "- 1").await
+}
+
+/// Moves the places of `parent`'s list from `from` on by `step` (`+ 1` or `- 1`). Through
+/// negative values, since SQLite checks `UNIQUE` per row: first each moved row to minus its
+/// new place, then all of them back.
+async fn shift(
     tx: &mut Tx<'_>,
     places: Places,
     parent: i64,
     from: i64,
-    by: Move,
+    step: &'static str,
 ) -> Result<()> {
     let (table, place, parent_column) = match places {
         Places::Waypoints => ("waypoints", "seq", "routine_id"),
         Places::Routines => ("routines", "position", "program_id"),
-    };
-    let step = match by {
-        Move::Down => "+ 1",
-        Move::Up => "- 1",
     };
     let away = format!(
         "UPDATE {table} SET {place} = -({place} {step}) \

@@ -8,7 +8,7 @@ use super::error::{Result, StorageError, classify};
 use super::group_commit::{Append, Appended};
 use super::query::select;
 use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues};
-use super::transaction::{self, Move, Places, insert_prediction, shift, touch_cell};
+use super::transaction::{self, Places, close_gap, insert_prediction, make_room, touch_cell};
 
 impl Store {
     pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
@@ -109,7 +109,7 @@ impl Store {
     // ---- edits -------------------------------------------------------------------------------
     //
     // Every edit is one transaction; one that changes a learned routine advances the cell's
-    // model version in it (`advance`). Places stay 1, 2, … ([`shift`]).
+    // model version in it (`advance`). Places stay 1, 2, … ([`make_room`], [`close_gap`]).
 
     /// Sets a waypoint's values. Returns the row before and after, and the model version.
     pub async fn update_waypoint(
@@ -152,7 +152,7 @@ impl Store {
     ) -> Result<(WaypointRow, i64)> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, write).await?;
-        shift(&mut tx, Places::Waypoints, routine_id, seq, Move::Down).await?;
+        make_room(&mut tx, Places::Waypoints, routine_id, seq).await?;
         let row = transaction::insert_waypoint(&mut tx, &v.at(routine_id, seq)).await?;
         tx.commit().await?;
         Ok((row, state.model_version))
@@ -177,14 +177,7 @@ impl Store {
             .fetch_optional(&mut *tx)
             .await?
             .ok_or(StorageError::NotFound)?;
-        shift(
-            &mut tx,
-            Places::Waypoints,
-            row.routine_id,
-            row.seq + 1,
-            Move::Up,
-        )
-        .await?;
+        close_gap(&mut tx, Places::Waypoints, row.routine_id, row.seq).await?;
         tx.commit().await?;
         Ok((row, state.model_version))
     }
