@@ -10,8 +10,8 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::error::ConfigError;
-use super::frames::Tolerance;
-use super::noise::Noise;
+use super::experts::frames::Tolerance;
+use super::experts::noise::Noise;
 
 /// How the learner decides that a move joins an existing node (ALGORITHM §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -108,7 +108,7 @@ pub struct EngineConfig {
     pub offer: Option<OfferRule>,
     /// The cell's teaching noise (one sigma per axis of a taught waypoint; exact by default).
     /// The experts match contexts within the offer rule's tolerance widened by it
-    /// ([`super::noise`]).
+    /// ([`super::experts::noise`]).
     #[serde(default)]
     pub noise: Noise,
 }

@@ -16,9 +16,9 @@ use crate::api::{
     TrajectorySettings, Undone, Unreachable, UploadedFile, Verdict, Waypoint, WaypointEdit,
     WaypointPatch, Withheld,
 };
+use crate::engine::Noise;
 use crate::engine::Profile;
-use crate::engine::frames::Tolerance;
-use crate::engine::noise::Noise;
+use crate::engine::Tolerance;
 use crate::export::ExportSettings;
 use crate::kinematics::{BaseMounting, ReachPolicy};
 use crate::replay::metrics::Scores;

@@ -2,8 +2,8 @@
 //! `N(mean_j, I)`), found by mean-shift from the heaviest components.
 
 use super::forward::log_sum_exp;
-use super::hmm::Hmm;
-use super::pose::Observation;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::pose::Observation;
 
 /// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
 const MODE_STARTS: usize = 16;

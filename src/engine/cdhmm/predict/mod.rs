@@ -9,19 +9,26 @@
 //! `gates`, each reported with its figure; an ambiguous next state may be settled by `recall`.
 //! A window that matches nothing is shortened (backoff).
 
+pub(in crate::engine) mod forward;
+mod gates;
+mod mixture;
+mod recall;
+pub mod scale;
+mod transitions;
+
 use serde::Serialize;
 
-use super::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
-use super::experts::Expert;
-use super::forward::{Prior, next_state};
-use super::gates::{self, Figures};
-use super::hmm::Hmm;
-use super::learner::ObservationGraph;
-use super::mixture::mixture_mode;
-use super::pose::{Move, Observation, Pose, scale_translation};
-use super::recall::recall;
-use super::scale::forward_with_scale;
-use super::transitions::Transitions;
+use forward::{Prior, next_state};
+use gates::Figures;
+use mixture::mixture_mode;
+use recall::recall;
+use scale::forward_with_scale;
+use transitions::Transitions;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::cdhmm::learner::ObservationGraph;
+use crate::engine::config::{EngineConfig, RecallGate, ScaleConfig, WindowPrior};
+use crate::engine::experts::Expert;
+use crate::engine::pose::{Move, Observation, Pose, scale_translation};
 
 /// Per-prediction settings (a cell's configuration, possibly overridden per request).
 #[derive(Debug, Clone, PartialEq)]
@@ -134,7 +141,7 @@ pub struct Prediction {
     /// Why the prediction is not offered; None when it is.
     pub withheld: Option<Withheld>,
     /// With the experts' offer rule (`EngineConfig::offer`): the estimated probability that the
-    /// proposal is within the cell's tolerance of the next waypoint ([`super::calibration`]).
+    /// proposal is within the cell's tolerance of the next waypoint ([`crate::engine::experts::calibration`]).
     pub p_useful: Option<f64>,
     /// With the experts' offer rule: who proposed it.
     pub expert: Option<Expert>,

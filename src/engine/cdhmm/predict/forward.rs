@@ -8,10 +8,10 @@
 
 use std::collections::HashMap;
 
-use super::hmm::Hmm;
-use super::pose::Observation;
-use super::predict::PredictOptions;
+use super::PredictOptions;
 use super::transitions::Transitions;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::pose::Observation;
 
 /// Where the forward recursion starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -15,10 +15,10 @@
 //!   matched states agree with the proposal.
 
 use super::forward::log_sum_exp;
-use super::hmm::Hmm;
-use super::pose::Observation;
-use super::predict::{PredictOptions, Withheld};
 use super::transitions::Transitions;
+use super::{PredictOptions, Withheld};
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::pose::Observation;
 
 /// The figures the gates read.
 #[derive(Debug, Clone, Copy)]

@@ -24,10 +24,10 @@
 use kiddo::{MutableKdTree, SquaredEuclidean};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use super::config::MergeRule;
-use super::error::ConfigError;
-use super::metric::Metric;
-use super::pose::Observation;
+use crate::engine::config::MergeRule;
+use crate::engine::error::ConfigError;
+use crate::engine::metric::Metric;
+use crate::engine::pose::Observation;
 
 /// Degrees of freedom of an observation.
 pub const DIMENSION: usize = 7;
