@@ -113,6 +113,40 @@ pub struct EngineConfig {
     pub noise: Noise,
 }
 
+/// Per-prediction settings (a cell's configuration, possibly overridden per request).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictOptions {
+    pub horizon: usize,
+    pub phi_min: f64,
+    pub max_misfit: Option<f64>,
+    pub max_spread: Option<f64>,
+    pub max_end_prob: Option<f64>,
+    pub match_radius: Option<f64>,
+    pub backoff: bool,
+    pub backoff_min_support: f64,
+    pub recall: Option<RecallGate>,
+    pub window_prior: WindowPrior,
+    pub scale: ScaleConfig,
+}
+
+impl PredictOptions {
+    pub fn from_config(c: &EngineConfig) -> PredictOptions {
+        PredictOptions {
+            horizon: c.horizon,
+            phi_min: c.phi_min,
+            max_misfit: c.max_misfit,
+            max_spread: c.max_spread,
+            max_end_prob: c.max_end_prob,
+            match_radius: c.match_radius,
+            backoff: c.backoff,
+            backoff_min_support: c.backoff_min_support,
+            recall: c.recall,
+            window_prior: c.window_prior,
+            scale: c.scale,
+        }
+    }
+}
+
 /// When the experts' best candidate is offered (see [`EngineConfig::offer`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct OfferRule {

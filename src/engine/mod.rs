@@ -28,8 +28,8 @@ pub mod teach;
 /// `map_merge` reads the learner at its old path until it moves to `replay/`.
 use cdhmm::learner;
 
-pub use cdhmm::predict::{PredictOptions, Prediction, Withheld};
-pub use config::{EngineConfig, Profile};
+pub use cdhmm::predict::{Prediction, Withheld};
+pub use config::{EngineConfig, PredictOptions, Profile};
 pub use error::{ConfigError, PoseError};
 pub use experts::frames::Tolerance;
 pub use experts::noise::Noise;

@@ -21,8 +21,8 @@
 use super::cdhmm::hmm::Hmm;
 use super::cdhmm::learner::{ModelStats, ObservationGraph};
 use super::cdhmm::predict::scale;
-use super::cdhmm::predict::{PredictOptions, Prediction, Withheld, predict_move};
-use super::config::{EngineConfig, OfferRule};
+use super::cdhmm::predict::{Prediction, Withheld, predict_move};
+use super::config::{EngineConfig, OfferRule, PredictOptions};
 use super::error::ConfigError;
 use super::experts::calibration::Calibration;
 use super::experts::template::TemplateExpert;

@@ -1,7 +1,7 @@
 //! The proposed move: the mode of the next-state mixture `Σ_j ν_j N(mean_j, C⁻¹)` (whitened, so
 //! `N(mean_j, I)`), found by mean-shift from the heaviest components.
 
-use super::forward::log_sum_exp;
+use super::log_space::log_sum_exp;
 use crate::engine::cdhmm::hmm::Hmm;
 use crate::engine::pose::Observation;
 

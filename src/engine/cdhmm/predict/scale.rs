@@ -15,10 +15,9 @@
 //! best by EM. A prediction takes the ψ found only when it gains at least `min_gain` in
 //! log-likelihood over ψ = 1 and the scaled window still fits.
 
-use super::PredictOptions;
 use super::forward::{Forward, Prior, forward};
 use super::transitions::Transitions;
-use crate::engine::config::ScaleConfig;
+use crate::engine::config::{PredictOptions, ScaleConfig};
 use crate::engine::pose::{Observation, scale_translation};
 
 /// Points of the coarse grid over `[ψ_min, ψ_max]` (log-spaced).
