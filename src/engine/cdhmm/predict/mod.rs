@@ -22,7 +22,7 @@ pub use prediction::{Prediction, Withheld};
 
 use crate::engine::cdhmm::hmm::Hmm;
 use crate::engine::cdhmm::learner::ObservationGraph;
-use crate::engine::config::{PredictOptions, ScaleConfig, WindowPrior};
+use crate::engine::config::{PredictOptions, RecallGate, ScaleConfig, WindowPrior};
 use crate::engine::pose::{Move, Observation, scale_translation};
 use forward::{Prior, next_state};
 use gates::Figures;
@@ -76,26 +76,48 @@ pub fn predict_move(
     }
 }
 
-/// Prediction conditioned on the last `h` moves, from a model of at least two states.
-fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOptions) -> Prediction {
-    let graph = hmm.graph();
-    let states = hmm.states();
+/// What is known of the next state before any gate, however the window was read (the first
+/// move of a routine, or a forward pass over its last moves).
+struct NextState<'h, 'g> {
+    /// ν, the pmf over the next state as (state, mass), not yet normalised.
+    nu: Vec<(usize, f64)>,
+    /// The scale the window was read at (1 for the first move).
+    psi: f64,
+    /// The window's mean squared misfit (None for the first move).
+    misfit: Option<f64>,
+    /// Probability that the routine ends after the matched states.
+    end_probability: f64,
+    /// The forward variables after the last window move, (state, log α); none for the first move.
+    matched: Vec<(usize, f64)>,
+    /// The transitions the window was read over (less its own edges).
+    own: Transitions<'h, 'g>,
+}
 
-    let (nu, psi, misfit, end_probability, matched, own) = if moves.is_empty() {
-        // First move of a routine: ν = π.
-        let nu: Vec<(usize, f64)> = (0..states)
+impl<'h, 'g> NextState<'h, 'g> {
+    /// First move of a routine: ν = π.
+    fn first_move(hmm: &'h Hmm<'g>) -> NextState<'h, 'g> {
+        let nu: Vec<(usize, f64)> = (0..hmm.states())
             .map(|i| (i, hmm.initial(i)))
             .filter(|(_, p)| *p > 0.0)
             .collect();
-        (
+        NextState {
             nu,
-            1.0,
-            None,
-            0.0,
-            Vec::new(),
-            Transitions::new(hmm, Vec::new()),
-        )
-    } else {
+            psi: 1.0,
+            misfit: None,
+            end_probability: 0.0,
+            matched: Vec::new(),
+            own: Transitions::new(hmm, Vec::new()),
+        }
+    }
+
+    /// After the last `h` of `moves` (at least one): the forward pass at the ψ that fits; None
+    /// when no learned sequence of states can produce the window.
+    fn after_window(
+        hmm: &'h Hmm<'g>,
+        moves: &[Observation],
+        h: usize,
+        opts: &PredictOptions,
+    ) -> Option<NextState<'h, 'g>> {
         let window = &moves[moves.len() - h.min(moves.len())..];
         let prior = if window.len() == moves.len() {
             Prior::Initial
@@ -105,20 +127,84 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
                 WindowPrior::Uniform => Prior::Uniform,
             }
         };
-        let trans = Transitions::for_window(hmm, graph.open_path(), moves.len(), window.len());
-        let Some((fwd, psi)) = forward_with_scale(&trans, window, prior, opts) else {
-            return Prediction::withheld(Withheld::NoMatch, states);
-        };
+        let trans =
+            Transitions::for_window(hmm, hmm.graph().open_path(), moves.len(), window.len());
+        let (fwd, psi) = forward_with_scale(&trans, window, prior, opts)?;
         let (nu, cont) = next_state(&trans, &fwd.last);
-        (
+        Some(NextState {
             nu,
             psi,
-            Some(fwd.misfit),
-            (1.0 - cont).clamp(0.0, 1.0),
-            fwd.last,
-            trans,
-        )
+            misfit: Some(fwd.misfit),
+            end_probability: (1.0 - cont).clamp(0.0, 1.0),
+            matched: fwd.last,
+            own: trans,
+        })
+    }
+}
+
+/// The proposed move (whitened) and the verdict of the gates on it, before it is placed.
+struct Proposal {
+    mode: Observation,
+    /// The recalled context's mean squared distance to the window, when recall settled it.
+    recalled: Option<f64>,
+    withheld: Option<Withheld>,
+}
+
+impl Proposal {
+    /// The HMM merges contexts into states, so an ambiguous next state may still be settled by
+    /// where this exact context was seen last (what the nearest-sequence baselines do): with the
+    /// recall gate on, a verdict recall may lift, a window read at ψ = 1 and long enough, and
+    /// every earlier place of the context followed by the same move, that move is offered.
+    fn settle_by_recall(
+        &mut self,
+        hmm: &Hmm,
+        window: &[Observation],
+        psi: f64,
+        gate: Option<RecallGate>,
+    ) {
+        let Some(gate) = gate else {
+            return;
+        };
+        if !(gates::recallable(self.withheld)
+            && psi == 1.0
+            && window.len() >= gate.min_window.max(1))
+        {
+            return;
+        }
+        let graph = hmm.graph();
+        let metric = graph.metric();
+        let zs: Vec<Observation> = window.iter().map(|x| metric.whiten(x)).collect();
+        if let Some(r) = recall(graph, &zs, gate.max_cost)
+            && r.agree == r.seen
+        {
+            self.mode = *hmm.node(r.next).mean();
+            self.recalled = Some(r.cost);
+            self.withheld = None;
+        }
+    }
+}
+
+/// Prediction conditioned on the last `h` moves, from a model of at least two states.
+fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOptions) -> Prediction {
+    let graph = hmm.graph();
+    let states = hmm.states();
+
+    let next = if moves.is_empty() {
+        NextState::first_move(hmm)
+    } else {
+        match NextState::after_window(hmm, moves, h, opts) {
+            Some(next) => next,
+            None => return Prediction::withheld(Withheld::NoMatch, states),
+        }
     };
+    let NextState {
+        nu,
+        psi,
+        misfit,
+        end_probability,
+        matched,
+        own,
+    } = next;
     let window_moves = h.min(moves.len());
 
     let total: f64 = nu.iter().map(|(_, p)| p).sum();
@@ -137,8 +223,7 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
     let nu: Vec<(usize, f64)> = nu.into_iter().map(|(j, p)| (j, p / total)).collect();
     let phi = gates::confidence(&nu, states);
 
-    let mut mode = mixture_mode(hmm, &nu);
-    let mut recalled = None;
+    let mode = mixture_mode(hmm, &nu);
     let spread = gates::spread(hmm, &nu, &mode);
     let support = if moves.is_empty() {
         gates::first_move_support(hmm, &nu, &mode)
@@ -154,27 +239,17 @@ fn predict_window(hmm: &Hmm, moves: &[Observation], h: usize, opts: &PredictOpti
         window: window_moves,
         moves: moves.len(),
     };
-    let mut withheld = gates::first_failed(opts, &figures);
-    // The HMM merges contexts into states, so an ambiguous next state may still be settled by
-    // where this exact context was seen last (what the nearest-sequence baselines do).
-    if let Some(gate) = opts.recall
-        && gates::recallable(withheld)
-        && psi == 1.0
-        && window_moves >= gate.min_window.max(1)
-    {
-        let metric = graph.metric();
-        let zs: Vec<Observation> = moves[moves.len() - window_moves..]
-            .iter()
-            .map(|x| metric.whiten(x))
-            .collect();
-        if let Some(r) = recall(graph, &zs, gate.max_cost)
-            && r.agree == r.seen
-        {
-            mode = *hmm.node(r.next).mean();
-            recalled = Some(r.cost);
-            withheld = None;
-        }
-    }
+    let mut proposal = Proposal {
+        mode,
+        recalled: None,
+        withheld: gates::first_failed(opts, &figures),
+    };
+    proposal.settle_by_recall(hmm, &moves[moves.len() - window_moves..], psi, opts.recall);
+    let Proposal {
+        mode,
+        recalled,
+        mut withheld,
+    } = proposal;
     // Back to raw units in the taught routine's scale; canonical quaternion.
     let relative = scale_translation(&graph.metric().unwhiten(&mode), 1.0 / psi);
     let relative = Move::from_observation(&relative)
