@@ -1,4 +1,4 @@
-//! The counts behind `engine::calibration::PRIOR` and `CHOSEN_PRIOR`: the programs given are
+//! The counts behind `engine::experts::calibration::PRIOR` and `CHOSEN_PRIOR`: the programs given are
 //! taught through the engine (default profile), each in a fresh cell, and the outcomes of every
 //! candidate are summed per coarse class of evidence, and those of the chosen candidates per
 //! band of their first-stage estimate. Printed as the Rust tables the engine holds.
@@ -12,7 +12,7 @@
 
 use std::collections::BTreeMap;
 
-use nextpose::engine::calibration::{BANDS, Count};
+use nextpose::engine::experts::calibration::{BANDS, Count};
 use nextpose::engine::{EngineConfig, Teacher};
 use nextpose::replay::load_paths;
 

@@ -24,7 +24,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use nextpose::engine::experts::SequenceExpert;
-use nextpose::engine::frames::{Frame, Tolerance, angle, distance};
+use nextpose::engine::experts::frames::{Frame, Tolerance, angle, distance};
 use nextpose::engine::{EngineConfig, Observation, Pose, Teacher};
 use nextpose::replay::load_paths;
 

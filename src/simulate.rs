@@ -22,8 +22,8 @@ use crate::api::{
     NewWaypoint, PoseValues, Prediction, UploadedFile, Verdict,
 };
 use crate::client::Client;
-use crate::engine::frames::Tolerance;
-use crate::engine::noise::Noise;
+use crate::engine::Noise;
+use crate::engine::Tolerance;
 use crate::engine::{Pose, Profile};
 use crate::kinematics::placement::{PlacedArm, ProgramArm};
 use crate::kinematics::{ReachPolicy, bundled_robots_dir};

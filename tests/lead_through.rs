@@ -5,8 +5,8 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 use nextpose::engine::Pose;
-use nextpose::engine::lds::{Fit, FitSettings, State};
-use nextpose::engine::segment::{
+use nextpose::engine::lead_through::lds::{Fit, FitSettings, State};
+use nextpose::engine::lead_through::segment::{
     Criterion, SegmentSettings, Segmentation, TimedPose, TrajectoryError, segment,
 };
 use nextpose::sim::operator::normal;

@@ -13,9 +13,9 @@ use std::borrow::Cow;
 use utoipa::openapi::{RefOr, Schema};
 use utoipa::{PartialSchema, ToSchema};
 
-use crate::engine::frames::Tolerance;
-use crate::engine::noise::Noise;
-use crate::engine::segment::Criterion;
+use crate::engine::Noise;
+use crate::engine::Tolerance;
+use crate::engine::lead_through::segment::Criterion;
 use crate::engine::{PoseValues, Profile};
 
 /// `$ty` answers with the schema of its mirror `$mirror` (which carries the name).

@@ -7,9 +7,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::PoseValues;
+use crate::engine::Noise;
 use crate::engine::Profile;
-use crate::engine::frames::Tolerance;
-use crate::engine::noise::Noise;
+use crate::engine::Tolerance;
 use crate::export::ExportSettings;
 use crate::kinematics::ReachPolicy;
 

@@ -6,7 +6,7 @@ use utoipa::ToSchema;
 
 use super::PoseValues;
 use super::waypoints::Taught;
-pub use crate::engine::segment::Criterion;
+pub use crate::engine::lead_through::segment::Criterion;
 
 /// One sample of a hand-guided (lead-through) recording: the TCP pose at time `t`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]

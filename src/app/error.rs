@@ -1,7 +1,7 @@
 //! The application's errors. Adapters (HTTP, gRPC) map them to their status codes once, at the
 //! edge; nothing here knows about either.
 
-use crate::engine::segment::TrajectoryError;
+use crate::engine::lead_through::segment::TrajectoryError;
 use crate::engine::{ConfigError, PoseError};
 use crate::import::ImportError;
 use crate::kinematics::KinematicsError;

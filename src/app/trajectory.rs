@@ -1,5 +1,5 @@
 //! Hand-guided (lead-through) teaching: a recorded TCP trajectory is cut into linear dynamical
-//! systems ([`crate::engine::segment`]) whose attractors are appended to the open routine as
+//! systems ([`crate::engine::lead_through::segment`]) whose attractors are appended to the open routine as
 //! taught waypoints, each with the prediction that follows it, as single appends are; with
 //! `preview`, the attractors and the segmentation are only shown.
 //!
@@ -30,7 +30,9 @@ use crate::api::{
     TrajectorySegment, TrajectorySettings,
 };
 use crate::engine::Pose;
-use crate::engine::segment::{self, SegmentSettings, Segmentation, TimedPose, TrajectoryError};
+use crate::engine::lead_through::segment::{
+    self, SegmentSettings, Segmentation, TimedPose, TrajectoryError,
+};
 use crate::kinematics::Reachability;
 use crate::storage::{NewPrediction, NewWaypoint};
 

@@ -11,7 +11,9 @@ use clap::{Args, ValueEnum};
 use serde::Serialize;
 
 use super::write_json;
-use crate::engine::segment::{Criterion, SegmentSettings, Segmentation, TimedPose, segment};
+use crate::engine::lead_through::segment::{
+    Criterion, SegmentSettings, Segmentation, TimedPose, segment,
+};
 use crate::import::trajectory::{TrajectorySample, parse_trajectory};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -73,7 +75,7 @@ impl SegmentArgs {
             rotation_mm_per_rad: self.rotation_mm_per_rad,
             zeta_mm: self.zeta_mm,
             persistence: self.persistence,
-            fit: crate::engine::lds::FitSettings {
+            fit: crate::engine::lead_through::lds::FitSettings {
                 kappa_max: self.kappa_max,
                 ..d.fit
             },
@@ -260,7 +262,7 @@ mod figure {
     use plotters::coord::Shift;
     use plotters::prelude::*;
 
-    use crate::engine::segment::Segmentation;
+    use crate::engine::lead_through::segment::Segmentation;
     use crate::import::trajectory::TrajectorySample;
     use crate::replay::plots::{FONT, register_font};
 

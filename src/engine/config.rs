@@ -10,8 +10,8 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::error::ConfigError;
-use super::frames::Tolerance;
-use super::noise::Noise;
+use super::experts::frames::Tolerance;
+use super::experts::noise::Noise;
 
 /// How the learner decides that a move joins an existing node (ALGORITHM §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -108,9 +108,43 @@ pub struct EngineConfig {
     pub offer: Option<OfferRule>,
     /// The cell's teaching noise (one sigma per axis of a taught waypoint; exact by default).
     /// The experts match contexts within the offer rule's tolerance widened by it
-    /// ([`super::noise`]).
+    /// ([`super::experts::noise`]).
     #[serde(default)]
     pub noise: Noise,
+}
+
+/// Per-prediction settings (a cell's configuration, possibly overridden per request).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictOptions {
+    pub horizon: usize,
+    pub phi_min: f64,
+    pub max_misfit: Option<f64>,
+    pub max_spread: Option<f64>,
+    pub max_end_prob: Option<f64>,
+    pub match_radius: Option<f64>,
+    pub backoff: bool,
+    pub backoff_min_support: f64,
+    pub recall: Option<RecallGate>,
+    pub window_prior: WindowPrior,
+    pub scale: ScaleConfig,
+}
+
+impl PredictOptions {
+    pub fn from_config(c: &EngineConfig) -> PredictOptions {
+        PredictOptions {
+            horizon: c.horizon,
+            phi_min: c.phi_min,
+            max_misfit: c.max_misfit,
+            max_spread: c.max_spread,
+            max_end_prob: c.max_end_prob,
+            match_radius: c.match_radius,
+            backoff: c.backoff,
+            backoff_min_support: c.backoff_min_support,
+            recall: c.recall,
+            window_prior: c.window_prior,
+            scale: c.scale,
+        }
+    }
 }
 
 /// When the experts' best candidate is offered (see [`EngineConfig::offer`]).

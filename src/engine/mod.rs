@@ -15,32 +15,23 @@
 //! trajectory; [`segment`] cuts a recorded trajectory into a sequence of them, whose attractors
 //! are the waypoints the model then learns like taught ones.
 
-pub mod calibration;
+pub mod cdhmm;
 pub mod config;
 pub mod error;
 pub mod experts;
-mod forward;
-pub mod frames;
-mod gates;
-pub mod hmm;
-pub mod lds;
-pub mod learner;
+pub mod lead_through;
 pub mod map_merge;
 pub mod metric;
-mod mixture;
-pub mod noise;
 pub mod pose;
-pub mod predict;
-mod recall;
-pub mod scale;
-pub mod segment;
 pub mod teach;
-pub mod template;
-mod transitions;
 
-pub use config::{EngineConfig, Profile};
+/// `map_merge` reads the learner at its old path until it moves to `replay/`.
+use cdhmm::learner;
+
+pub use cdhmm::predict::{Prediction, Withheld};
+pub use config::{EngineConfig, PredictOptions, Profile};
 pub use error::{ConfigError, PoseError};
+pub use experts::frames::Tolerance;
+pub use experts::noise::Noise;
 pub use pose::{Move, Observation, Pose, PoseValues};
-
-pub use predict::{PredictOptions, Prediction, Withheld};
 pub use teach::Teacher;

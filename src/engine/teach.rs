@@ -18,17 +18,17 @@
 //! the routine's moves, not of the model) and the remaining settled moves are learned again, so
 //! the model after an undo is exactly the model a rebuild from the stored waypoints gives.
 
-use super::calibration::Calibration;
-use super::config::{EngineConfig, OfferRule};
+use super::cdhmm::hmm::Hmm;
+use super::cdhmm::learner::{ModelStats, ObservationGraph};
+use super::cdhmm::predict::scale;
+use super::cdhmm::predict::{Prediction, Withheld, predict_move};
+use super::config::{EngineConfig, OfferRule, PredictOptions};
 use super::error::ConfigError;
+use super::experts::calibration::Calibration;
+use super::experts::template::TemplateExpert;
 use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
-use super::hmm::Hmm;
-use super::learner::{ModelStats, ObservationGraph};
 use super::metric::Metric;
 use super::pose::{Move, Observation, Pose, scale_translation};
-use super::predict::{PredictOptions, Prediction, Withheld, predict_move};
-use super::scale;
-use super::template::TemplateExpert;
 
 /// The engine for one work cell.
 #[derive(Debug, Clone)]
@@ -443,7 +443,7 @@ impl Teacher {
                 .iter()
                 .map(|x| scale_translation(x, psi))
                 .collect();
-            super::forward::window_log_likelihood(&hmm, &scaled, &opts)
+            super::cdhmm::predict::forward::window_log_likelihood(&hmm, &scaled, &opts)
         };
         let base = objective(1.0);
         match scale::maximise(sc.psi_min, sc.psi_max, objective) {
@@ -456,7 +456,7 @@ impl Teacher {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::Profile;
+    use crate::engine::config::Profile;
     use nalgebra::UnitQuaternion;
 
     fn pose(p: [f64; 3], yaw: f64) -> Pose {

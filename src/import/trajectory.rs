@@ -9,7 +9,7 @@
 use thiserror::Error;
 
 use crate::engine::Pose;
-use crate::engine::segment::TimedPose;
+use crate::engine::lead_through::segment::TimedPose;
 
 /// One sample of the file.
 #[derive(Debug, Clone, PartialEq)]

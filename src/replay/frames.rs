@@ -1,11 +1,11 @@
-//! The three frames of the engine ([`crate::engine::frames`]), judged at the scoreboard's
+//! The three frames of the engine ([`crate::engine::experts::frames`]), judged at the scoreboard's
 //! useful tolerance.
 
-pub use crate::engine::frames::{Frame, angle, distance, pose_vector, work_move};
+pub use crate::engine::experts::frames::{Frame, angle, distance, pose_vector, work_move};
 
 use super::metrics::{USEFUL_MAX_MM, USEFUL_MAX_RAD};
 use crate::engine::Observation;
-use crate::engine::frames::Tolerance;
+use crate::engine::Tolerance;
 
 /// The scoreboard's useful tolerance ([`USEFUL_MAX_MM`], [`USEFUL_MAX_RAD`]).
 pub const USEFUL: Tolerance = Tolerance {

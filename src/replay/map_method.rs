@@ -74,8 +74,12 @@ impl Method for MapMethod {
         if self.moves.len() + 1 != taught.len() {
             self.moves = Self::moves_of(taught);
         }
-        let p = crate::engine::predict::predict_move(self.learner.graph(), &self.moves, &self.opts)
-            .place(last);
+        let p = crate::engine::cdhmm::predict::predict_move(
+            self.learner.graph(),
+            &self.moves,
+            &self.opts,
+        )
+        .place(last);
         if !p.offered() {
             return None;
         }

@@ -8,8 +8,8 @@ use serde::Serialize;
 
 use super::SimError;
 use super::operator::{OperatorModel, Time};
-use crate::engine::frames::Tolerance;
-use crate::engine::noise::Noise;
+use crate::engine::Noise;
+use crate::engine::Tolerance;
 use crate::engine::{Pose, Profile};
 use crate::kinematics::ReachPolicy;
 use crate::kinematics::placement::{PlacedArm, ReachCheck, ReachSetup};

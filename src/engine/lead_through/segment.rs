@@ -47,7 +47,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::lds::{DIM, Fit, FitError, FitSettings, State, Sums};
-use super::pose::Pose;
+use crate::engine::pose::Pose;
 
 /// The most samples one trajectory may have.
 pub const MAX_SAMPLES: usize = 100_000;

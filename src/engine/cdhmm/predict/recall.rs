@@ -2,8 +2,8 @@
 //! (`EngineConfig::recall`). The HMM merges contexts into states, so a next state it leaves
 //! ambiguous may still be settled by the most recent occurrence of this context.
 
-use super::learner::{ObservationGraph, TRACE_END};
-use super::pose::Observation;
+use crate::engine::cdhmm::learner::{ObservationGraph, TRACE_END};
+use crate::engine::pose::Observation;
 
 /// Most recent occurrences of a node looked at when searching for the window's context.
 const RECENT_OCCURRENCES: usize = 256;

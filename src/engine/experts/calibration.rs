@@ -1,4 +1,4 @@
-//! `p_useful`: the probability that a candidate ([`super::experts`]) is within the cell's
+//! `p_useful`: the probability that a candidate ([`crate::engine::experts`]) is within the cell's
 //! tolerance of the waypoint then taught, from the candidate's evidence.
 //!
 //! Candidates are grouped by their evidence at two levels: a coarse class (the model's own
@@ -35,7 +35,7 @@
 
 use std::collections::HashMap;
 
-use super::experts::{Evidence, Expert};
+use super::{Evidence, Expert};
 
 /// Weight (in outcomes) of the prior in a cell's coarse class.
 pub const COARSE_STRENGTH: f64 = 10.0;

@@ -8,10 +8,11 @@
 
 use std::collections::HashMap;
 
-use super::hmm::Hmm;
-use super::pose::Observation;
-use super::predict::PredictOptions;
+use super::log_space::log_sum_exp;
 use super::transitions::Transitions;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::config::PredictOptions;
+use crate::engine::pose::Observation;
 
 /// Where the forward recursion starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -157,12 +158,4 @@ pub(super) fn next_state(trans: &Transitions, last: &[(usize, f64)]) -> (Vec<(us
     let mut nu: Vec<(usize, f64)> = nu.into_iter().collect();
     nu.sort_unstable_by_key(|e| e.0);
     (nu, cont)
-}
-
-pub(super) fn log_sum_exp(values: impl Iterator<Item = f64> + Clone) -> f64 {
-    let max = values.clone().fold(f64::NEG_INFINITY, f64::max);
-    if !max.is_finite() {
-        return max;
-    }
-    max + values.map(|v| (v - max).exp()).sum::<f64>().ln()
 }

@@ -25,7 +25,7 @@
 
 use nalgebra::{Quaternion, Translation3, UnitQuaternion, Vector3};
 
-use super::pose::{Move, Observation, Pose, observations};
+use crate::engine::pose::{Move, Observation, Pose, observations};
 
 /// Which reading of a routine a predictor or an oracle works in (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -24,10 +24,10 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use super::experts::{Candidate, Evidence, Expert};
 use super::frames::{Frame, Tolerance};
 use super::noise::Noise;
-use super::pose::Pose;
+use super::{Candidate, Evidence, Expert};
+use crate::engine::pose::Pose;
 
 /// Most waypoints aligned at once.
 pub const MAX_POSES: usize = 8;
@@ -152,8 +152,8 @@ impl TemplateExpert {
                     && p.guess.angle_to(&best.guess) <= gate.rad
             })
             .collect();
-        let guess =
-            super::pose::mean(agree.iter().map(|p| &p.guess), &best.guess).unwrap_or(best.guess);
+        let guess = crate::engine::pose::mean(agree.iter().map(|p| &p.guess), &best.guess)
+            .unwrap_or(best.guess);
         Some(Candidate {
             expert: Expert::Template,
             pose: guess,
@@ -220,7 +220,7 @@ fn align(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::noise::tests::gauss;
+    use crate::engine::experts::noise::tests::gauss;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

@@ -14,11 +14,12 @@
 //! - **evidence** (`support`, backed-off windows only): how many earlier continuations of the
 //!   matched states agree with the proposal.
 
-use super::forward::log_sum_exp;
-use super::hmm::Hmm;
-use super::pose::Observation;
-use super::predict::{PredictOptions, Withheld};
+use super::log_space::log_sum_exp;
+use super::prediction::Withheld;
 use super::transitions::Transitions;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::config::PredictOptions;
+use crate::engine::pose::Observation;
 
 /// The figures the gates read.
 #[derive(Debug, Clone, Copy)]

@@ -18,7 +18,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::frames::{Frame, Tolerance};
-use super::pose::Pose;
+use crate::engine::pose::Pose;
 
 /// How many RMS lengths of the difference two noisy elements may differ by and still match. The
 /// norm of a 3-D Gaussian difference exceeds 1.5 times its RMS length about 5 % of the time.
@@ -59,7 +59,7 @@ impl Noise {
             return None;
         }
         let n = poses.len() as f64;
-        let centre = super::pose::mean(poses.iter(), &poses[0])?;
+        let centre = crate::engine::pose::mean(poses.iter(), &poses[0])?;
         let (mean, mean_rotation) = (centre.position(), centre.rotation());
         let dof = 3.0 * (n - 1.0);
         let ss_mm: f64 = poses

@@ -24,10 +24,10 @@
 use kiddo::{MutableKdTree, SquaredEuclidean};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-use super::config::MergeRule;
-use super::error::ConfigError;
-use super::metric::Metric;
-use super::pose::Observation;
+use crate::engine::config::MergeRule;
+use crate::engine::error::ConfigError;
+use crate::engine::metric::Metric;
+use crate::engine::pose::Observation;
 
 /// Degrees of freedom of an observation.
 pub const DIMENSION: usize = 7;
@@ -320,7 +320,7 @@ impl ObservationGraph {
     }
 
     /// Assimilates the next move of the open routine into the node the caller chose (a learner
-    /// with a merge criterion of its own, e.g. [`super::map_merge`]): node `node` when it
+    /// with a merge criterion of its own, e.g. the MAP baseline, `map_merge`): node `node` when it
     /// exists, else a new node (whose index is returned). Statistics, edges and the trace are
     /// kept exactly as [`ObservationGraph::push`] keeps them.
     pub fn push_to(&mut self, x: &Observation, node: usize) -> usize {

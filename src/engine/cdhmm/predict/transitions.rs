@@ -1,7 +1,7 @@
 //! The transitions a prediction conditions on: the HMM's, less the current routine's own edges
 //! inside the window (within-routine learning, see `teach`).
 
-use super::hmm::Hmm;
+use crate::engine::cdhmm::hmm::Hmm;
 
 /// The HMM's transitions less the current routine's own edges inside the window.
 ///

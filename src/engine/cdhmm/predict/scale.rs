@@ -15,11 +15,10 @@
 //! best by EM. A prediction takes the ψ found only when it gains at least `min_gain` in
 //! log-likelihood over ψ = 1 and the scaled window still fits.
 
-use super::config::ScaleConfig;
 use super::forward::{Forward, Prior, forward};
-use super::pose::{Observation, scale_translation};
-use super::predict::PredictOptions;
 use super::transitions::Transitions;
+use crate::engine::config::{PredictOptions, ScaleConfig};
+use crate::engine::pose::{Observation, scale_translation};
 
 /// Points of the coarse grid over `[ψ_min, ψ_max]` (log-spaced).
 pub const GRID_POINTS: usize = 33;

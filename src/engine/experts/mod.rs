@@ -7,16 +7,21 @@
 //! element by element within the cell's tolerance, in an earlier routine or earlier in this
 //! one, and proposes what followed its most recent occurrence, with the evidence: how long the
 //! context is, at how many places it occurred, how many of those agree on what followed, and
-//! whether the most recent one is in the routine being taught. The CDHMM ([`super::predict`])
-//! is the fourth expert ([`Expert::Model`]); [`super::calibration`] turns every candidate's
+//! whether the most recent one is in the routine being taught. The CDHMM ([`crate::engine::cdhmm::predict`])
+//! is the fourth expert ([`Expert::Model`]); [`calibration`] turns every candidate's
 //! evidence into the probability that it is right.
+
+pub mod calibration;
+pub mod frames;
+pub mod noise;
+pub mod template;
 
 use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::frames::{Frame, Tolerance};
-use super::pose::{Observation, Pose};
+use crate::engine::pose::{Observation, Pose};
+use frames::{Frame, Tolerance};
 
 /// Longest context a sequence expert matches.
 pub const MAX_CONTEXT: usize = 4;
@@ -34,7 +39,7 @@ pub enum Expert {
     /// A return to an earlier absolute pose after the same context.
     Absolute,
     /// An earlier stretch of waypoints placed anew by one rigid transform
-    /// ([`super::template`]).
+    /// ([`template`]).
     Template,
 }
 

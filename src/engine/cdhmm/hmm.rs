@@ -10,7 +10,7 @@
 //! - `b_i = N(mean_i, C⁻¹)`, the emission the merging criterion implies (Theorem 3.9).
 
 use super::learner::{Node, ObservationGraph};
-use super::pose::Observation;
+use crate::engine::pose::Observation;
 
 #[derive(Debug, Clone, Copy)]
 pub struct Hmm<'g> {

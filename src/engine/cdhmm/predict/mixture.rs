@@ -1,9 +1,9 @@
 //! The proposed move: the mode of the next-state mixture `Σ_j ν_j N(mean_j, C⁻¹)` (whitened, so
 //! `N(mean_j, I)`), found by mean-shift from the heaviest components.
 
-use super::forward::log_sum_exp;
-use super::hmm::Hmm;
-use super::pose::Observation;
+use super::log_space::log_sum_exp;
+use crate::engine::cdhmm::hmm::Hmm;
+use crate::engine::pose::Observation;
 
 /// Most components the mean-shift starts from (by ν); the rest carry negligible mass.
 const MODE_STARTS: usize = 16;
