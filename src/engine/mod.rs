@@ -25,7 +25,6 @@ mod gates;
 pub mod hmm;
 pub mod lds;
 pub mod learner;
-pub mod map_merge;
 pub mod metric;
 mod mixture;
 pub mod noise;

@@ -21,9 +21,9 @@ use crate::engine::frames::Tolerance;
 use crate::engine::noise::Noise;
 use crate::export::ExportSettings;
 use crate::kinematics::{BaseMounting, ReachPolicy};
-use crate::replay::metrics::Scores;
-use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 use crate::replay::report::{MethodMetrics, OracleSection, Report};
+use crate::replay::score::Scores;
+use crate::replay::score::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 
 type In<T> = Result<T, Status>;
 
