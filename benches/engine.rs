@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::UnitQuaternion;
 use nextpose::engine::{EngineConfig, Pose, Profile, Teacher};
-use nextpose::replay::engine_method::EngineMethod;
+use nextpose::replay::methods::EngineMethod;
 use nextpose::replay::{load_paths, replay_program};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 

@@ -21,8 +21,8 @@ use nextpose::import::{
     ImportError, ImportReport, ImportedProgram, decode_text, parse_files, parse_upload,
 };
 use nextpose::replay::corpus::{Program, Routine, parse_program};
-use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::metrics::{Scores, replay_program};
+use nextpose::replay::methods::EngineMethod;
+use nextpose::replay::{Scores, replay_program};
 use proptest::prelude::*;
 use serde::Deserialize;
 

@@ -457,7 +457,7 @@ fn malformed_urdf_gives_typed_errors() {
 fn replay_report_gains_reachability_figures() {
     use nextpose::engine::EngineConfig;
     use nextpose::kinematics::placement::{HeuristicSetup, ReachSetup};
-    use nextpose::replay::baselines::RepeatLast;
+    use nextpose::replay::methods::RepeatLast;
     use nextpose::replay::report::RunConfig;
     use nextpose::replay::{Method, Program, Routine, replay_all};
 

@@ -5,11 +5,11 @@
 use std::path::PathBuf;
 
 use nalgebra::{Unit, UnitQuaternion, Vector3};
-use nextpose::engine::map_merge::MapSettings;
 use nextpose::engine::{EngineConfig, Pose, Profile};
-use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::map_comparison::{PHI_GRID, compare};
-use nextpose::replay::map_method::MapMethod;
+use nextpose::replay::methods::EngineMethod;
+use nextpose::replay::methods::map::MapMethod;
+use nextpose::replay::methods::map::MapSettings;
+use nextpose::replay::methods::map::comparison::{PHI_GRID, compare};
 use nextpose::replay::report::RunConfig;
 use nextpose::replay::{Method, Program, load_paths, replay_all, replay_program};
 

@@ -8,10 +8,10 @@
 use std::path::PathBuf;
 
 use nextpose::engine::{EngineConfig, Profile};
-use nextpose::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
-use nextpose::replay::engine_method::EngineMethod;
-use nextpose::replay::metrics::Scores;
+use nextpose::replay::methods::EngineMethod;
+use nextpose::replay::methods::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
 use nextpose::replay::report::{Report, RunConfig};
+use nextpose::replay::score::Scores;
 use nextpose::replay::{Method, Program, load_paths, replay_all, replay_program};
 
 fn corpus() -> Vec<Program> {

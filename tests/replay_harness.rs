@@ -4,12 +4,12 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use nextpose::engine::{EngineConfig, Pose};
-use nextpose::replay::baselines::{self, NearestSeq, RepeatLast};
-use nextpose::replay::engine_method::EngineMethod;
 use nextpose::replay::frames::Frame;
-use nextpose::replay::metrics::{Scores, spearman};
-use nextpose::replay::oracle::oracle_records;
+use nextpose::replay::methods::EngineMethod;
+use nextpose::replay::methods::baselines::{self, NearestSeq, RepeatLast};
 use nextpose::replay::report::RunConfig;
+use nextpose::replay::score::metrics::{Scores, spearman};
+use nextpose::replay::score::oracle::oracle_records;
 use nextpose::replay::{
     CorpusError, Method, ModelSummary, Program, ProgramRecord, WaypointRecord, load_paths,
     replay_all, replay_program,

@@ -15,8 +15,8 @@ impl App {
     /// [`crate::replay::report::scoreboard`]; serialised, the JSON form of `nextpose replay
     /// --json`).
     pub async fn replay(&self, input: ReplayRequest) -> Result<crate::replay::report::Report> {
-        use crate::replay::baselines;
         use crate::replay::corpus::{Program as ReplayProgram, Routine as ReplayRoutine};
+        use crate::replay::methods::baselines;
         use crate::replay::report::{ScoreboardError, scoreboard};
 
         let profile = input.profile.unwrap_or(crate::engine::Profile::Default);

@@ -11,12 +11,10 @@ use serde::Serialize;
 use super::engine_args::EngineArgs;
 use super::write_json;
 use crate::engine::EngineConfig;
-use crate::engine::map_merge::MapSettings;
 use crate::replay::Method;
-use crate::replay::baselines::DEFAULT_NEAREST_SEQ_GATE;
 use crate::replay::load_paths;
-use crate::replay::map_comparison;
-use crate::replay::map_method::MapMethod;
+use crate::replay::methods::baselines::DEFAULT_NEAREST_SEQ_GATE;
+use crate::replay::methods::map::{MapMethod, MapSettings, comparison as map_comparison};
 #[cfg(feature = "plots")]
 use crate::replay::plots::{PlotGrid, plot_data, write_plots};
 use crate::replay::report::scoreboard_with;

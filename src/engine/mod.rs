@@ -20,13 +20,9 @@ pub mod config;
 pub mod error;
 pub mod experts;
 pub mod lead_through;
-pub mod map_merge;
 pub mod metric;
 pub mod pose;
 pub mod teach;
-
-/// `map_merge` reads the learner at its old path until it moves to `replay/`.
-use cdhmm::learner;
 
 pub use cdhmm::predict::{Prediction, Withheld};
 pub use config::{EngineConfig, PredictOptions, Profile};

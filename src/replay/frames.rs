@@ -3,7 +3,7 @@
 
 pub use crate::engine::experts::frames::{Frame, angle, distance, pose_vector, work_move};
 
-use super::metrics::{USEFUL_MAX_MM, USEFUL_MAX_RAD};
+use super::playback::{USEFUL_MAX_MM, USEFUL_MAX_RAD};
 use crate::engine::Observation;
 use crate::engine::Tolerance;
 
@@ -14,7 +14,7 @@ pub const USEFUL: Tolerance = Tolerance {
 };
 
 /// Within the scoreboard's useful tolerance of each other (both bounds inclusive as in
-/// [`super::WaypointRecord::useful`]).
+/// [`super::playback::WaypointRecord::useful`]).
 pub fn close(a: &Observation, b: &Observation) -> bool {
     USEFUL.holds(a, b)
 }

@@ -19,7 +19,7 @@ pub struct Guess {
 
 /// A method's best candidate for the next waypoint, offered or not, with its calibrated
 /// probability of being useful (the engine's `p_useful` under the experts' offer rule). What the
-/// reliability table and the risk–coverage curve are computed from ([`super::reliability`]).
+/// reliability table and the risk–coverage curve are computed from ([`super::score::reliability`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
     pub pose: Pose,

@@ -14,7 +14,7 @@
 //!   offer rule) against the Cartesian error of each offered guess.
 //! - [`Figure::Reliability`]: observed useful share against mean `p_useful` per decile, over
 //!   every candidate offered or not, with the diagonal and the ±10-point band of issue 13, and
-//!   the candidates per decile below ([`super::reliability`]).
+//!   the candidates per decile below ([`super::score::reliability`]).
 //! - [`Figure::RiskCoverage`]: precision against offered % of predictable waypoints as the offer
 //!   threshold on `p_useful` moves from 0 to 1.
 //!
@@ -42,9 +42,10 @@ use thiserror::Error;
 use crate::engine::{ConfigError, EngineConfig};
 
 use super::corpus::Program;
-use super::engine_method::EngineMethod;
-use super::metrics::{ProgramRecord, WaypointRecord, median, replay_program, spearman};
-use super::reliability::{Calibration, TARGET_GAP, TARGET_PRECISION_PCT};
+use super::methods::EngineMethod;
+use super::playback::{ProgramRecord, WaypointRecord, replay_program};
+use super::score::metrics::{median, spearman};
+use super::score::reliability::{Calibration, TARGET_GAP, TARGET_PRECISION_PCT};
 use super::sweep::{SweepRow, sweep};
 
 /// Bins of the learning curve with fewer offered guesses than this get no median point.

@@ -21,7 +21,7 @@
 //! `oracles` and the `oracle_*` entries are there only when the report was asked for them
 //! ([`Report::add_oracles`]; `nextpose replay` does): they are bounds, not methods — an oracle
 //! sees the true next waypoint and "offers" exactly where some candidate of its kind from the
-//! program's history is within the useful tolerance (see [`super::oracle`]). In `totals` and
+//! program's history is within the useful tolerance (see [`super::score::oracle`]). In `totals` and
 //! per program they follow every method, as a perfect selector: `offered = useful`, precision
 //! 100 %, `useful_pct` the share covered, `saved_pct` the most a method drawing only on those
 //! candidates could save. [`Report::totals_table`] lists them in a table of their own.
@@ -29,7 +29,7 @@
 //! `calibration` is there for the methods that give each candidate a calibrated probability
 //! (the engine under the experts' offer rule, whose candidates carry `p_useful`): the
 //! reliability table by decile, the expected calibration error and the risk–coverage curve
-//! ([`super::reliability`]). Absent when no method has one (the seed profile).
+//! ([`super::score::reliability`]). Absent when no method has one (the seed profile).
 //!
 //! [`scoreboard`] is the one scoreboard `nextpose replay` and the service's replay both
 //! produce: the engine, every baseline, the oracles and the calibration.
@@ -44,16 +44,14 @@ use thiserror::Error;
 use crate::engine::{ConfigError, EngineConfig};
 use crate::kinematics::KinematicsError;
 
-use super::baselines;
 use super::corpus::Program;
-use super::engine_method::EngineMethod;
 use super::method::Method;
-use super::metrics::{
-    ProgramRecord, Scores, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program, saved_pct,
-};
-use super::oracle::{ORACLES, is_oracle, oracle_records};
-use super::reach::{ReachRecord, ReachRecorder, reach_figures};
-use super::reliability::Calibration;
+use super::methods::{EngineMethod, baselines};
+use super::playback::{ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+use super::score::metrics::{Scores, saved_pct};
+use super::score::oracle::{ORACLES, is_oracle, oracle_records};
+use super::score::reach::{ReachRecord, ReachRecorder, reach_figures};
+use super::score::reliability::Calibration;
 use crate::engine::Pose;
 use crate::kinematics::LayoutError;
 use crate::kinematics::placement::{PlacedArm, ProgramArm, ReachCheck, ReachSetup};
@@ -190,7 +188,7 @@ pub fn scoreboard(
 }
 
 /// [`scoreboard`] with further methods, run after the engine and before the baselines (e.g.
-/// `nextpose replay --map`'s [`super::map_method::MapMethod`]).
+/// `nextpose replay --map`'s [`super::methods::MapMethod`]).
 pub fn scoreboard_with(
     programs: &[Program],
     profile: &str,
@@ -210,7 +208,7 @@ pub fn scoreboard_with(
     Ok(report)
 }
 
-/// The report's `oracles` section (see the module doc and [`super::oracle`]).
+/// The report's `oracles` section (see the module doc and [`super::score::oracle`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OracleSection {
     /// The `oracle_*` entries in words: what they are and how to read their figures.
@@ -342,7 +340,7 @@ pub fn replay_all(
 }
 
 impl Report {
-    /// Adds the oracle bounds ([`super::oracle`]) of `programs`, which must be the programs the
+    /// Adds the oracle bounds ([`super::score::oracle`]) of `programs`, which must be the programs the
     /// report was made from, in the same order: `oracle_*` entries after the methods in
     /// `totals` and in each program's `methods`, and the `oracles` section. Replaces oracles
     /// added before.

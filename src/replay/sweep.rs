@@ -9,9 +9,10 @@ use serde::Serialize;
 use crate::engine::{ConfigError, EngineConfig};
 
 use super::corpus::Program;
-use super::engine_method::EngineMethod;
-use super::metrics::{ProgramRecord, Scores, replay_program};
+use super::methods::EngineMethod;
+use super::playback::{ProgramRecord, replay_program};
 use super::report::{Table, fmt};
+use super::score::Scores;
 
 /// Engine totals for one combination of settings (waypoints with ≥ 2 predecessors).
 #[derive(Debug, Clone, PartialEq, Serialize)]

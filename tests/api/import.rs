@@ -249,7 +249,7 @@ async fn nextpose_import_uploads_files_to_a_running_server() {
 /// The methods of `nextpose replay`'s scoreboard, in run order: the engine, every baseline,
 /// the oracle bounds.
 pub(crate) fn scoreboard_methods() -> Vec<String> {
-    use nextpose::replay::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
+    use nextpose::replay::methods::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
     let config = nextpose::engine::EngineConfig::default();
     let mut names = vec!["engine".to_string()];
     names.extend(
@@ -258,7 +258,7 @@ pub(crate) fn scoreboard_methods() -> Vec<String> {
             .map(|m| m.name().to_string()),
     );
     names.extend(
-        nextpose::replay::oracle::ORACLES
+        nextpose::replay::score::oracle::ORACLES
             .iter()
             .map(|o| o.name.to_string()),
     );
@@ -330,7 +330,7 @@ async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
         &programs,
         "default",
         &nextpose::engine::EngineConfig::default(),
-        nextpose::replay::baselines::DEFAULT_NEAREST_SEQ_GATE,
+        nextpose::replay::methods::baselines::DEFAULT_NEAREST_SEQ_GATE,
     )
     .unwrap();
     assert_eq!(

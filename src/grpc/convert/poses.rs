@@ -2,8 +2,8 @@
 //! last waypoint) and the two of a tolerance, the same on both sides, one pair of `From` each.
 
 use crate::api::PoseValues;
-use crate::engine::Tolerance;
 use crate::engine::Noise;
+use crate::engine::Tolerance;
 
 use super::wire::both_ways;
 

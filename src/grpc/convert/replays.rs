@@ -4,9 +4,9 @@
 
 use crate::api::ReplayRequest;
 use crate::grpc::pb;
-use crate::replay::metrics::Scores;
-use crate::replay::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 use crate::replay::report::{MethodMetrics, OracleSection, Report};
+use crate::replay::score::Scores;
+use crate::replay::score::reliability::{Calibration, ReliabilityBin, RiskCoveragePoint};
 
 use super::wire::{In, Wire};
 

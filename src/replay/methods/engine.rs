@@ -1,7 +1,7 @@
 //! The engine under replay: a [`Teacher`] per program, driven waypoint by waypoint.
 
-use super::method::{Candidate, Guess, Method, ModelSummary, Proposal};
 use crate::engine::{ConfigError, EngineConfig, Pose, Teacher};
+use crate::replay::method::{Candidate, Guess, Method, ModelSummary, Proposal};
 
 pub struct EngineMethod {
     config: EngineConfig,

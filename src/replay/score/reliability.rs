@@ -21,8 +21,9 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::metrics::{ProgramRecord, WaypointRecord, saved_pct, spearman};
-use super::report::{Table, fmt};
+use super::metrics::{saved_pct, spearman};
+use crate::replay::playback::{ProgramRecord, WaypointRecord};
+use crate::replay::report::{Table, fmt};
 
 /// Number of reliability bins (deciles of `p_useful`).
 pub const BINS: usize = 10;
@@ -408,7 +409,7 @@ fn lowest_threshold_for(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::replay::metrics::CandidateRecord;
+    use crate::replay::playback::CandidateRecord;
 
     /// A scored waypoint; `candidate`: (p_useful, useful?, offered?).
     fn rec(candidate: Option<(f64, bool, bool)>) -> WaypointRecord {

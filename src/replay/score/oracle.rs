@@ -6,7 +6,7 @@
 //! program's history holds a candidate of its kind within the scoreboard's useful tolerance
 //! ([`USEFUL_MAX_MM`] and [`USEFUL_MAX_RAD`], both for the same candidate) of `w[n]`.
 //!
-//! *History* is exactly what a [`super::Method`] has been shown when it is asked for `w[n]`
+//! *History* is exactly what a [`crate::replay::Method`] has been shown when it is asked for `w[n]`
 //! (its call order: `finish_routine` of every earlier routine of the program, `observe` of the
 //! current routine's `w[0] … w[n−1]`): every waypoint of the earlier routines and the current
 //! routine's taught waypoints, `w[n−1]` included. Moves are between consecutive waypoints of one
@@ -19,7 +19,7 @@
 //! | `oracle_work` | `(p_{n−1} + Δp, Δq · q_{n−1})` for every earlier work-frame move ([`Frame::Work`]) |
 //! | `oracle_any` | any of the three |
 //!
-//! The check is done in element space ([`super::frames`]: there, distance and angle are those of
+//! The check is done in element space ([`crate::replay::frames`]: there, distance and angle are those of
 //! the guesses), one linear scan of the history per waypoint and frame; the whole corpus takes a
 //! few milliseconds.
 //!
@@ -31,11 +31,11 @@
 
 use crate::engine::{Observation, Pose};
 
-use super::corpus::Program;
-use super::frames::{Frame, angle, close, distance};
-use super::metrics::{ProgramRecord, WaypointRecord};
+use crate::replay::corpus::Program;
+use crate::replay::frames::{Frame, angle, close, distance};
+use crate::replay::playback::{ProgramRecord, WaypointRecord};
 #[cfg(doc)]
-use super::metrics::{USEFUL_MAX_MM, USEFUL_MAX_RAD};
+use crate::replay::playback::{USEFUL_MAX_MM, USEFUL_MAX_RAD};
 
 /// One oracle: its report name, the frames whose candidates it considers, and what they are.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,7 +89,7 @@ fn best_cover<'a>(
 }
 
 /// The oracles' records on one program, one [`ProgramRecord`] per entry of [`ORACLES`], with
-/// the same waypoints (and order) as [`super::replay_program`] gives a method.
+/// the same waypoints (and order) as [`crate::replay::replay_program`] gives a method.
 pub fn oracle_records(program: &Program) -> Vec<ProgramRecord> {
     // Elements of the finished routines, per frame (in `Frame::ALL` order).
     let mut history: Vec<Vec<Observation>> = vec![Vec::new(); Frame::ALL.len()];

@@ -1,10 +1,10 @@
 //! The seed's comparison learner: Stolcke and Omohundro's best-first MAP state merging
 //! (seed §3.9, Theorem 3.9, Eq. 3.3–3.6; proofs A.1.7 and A.2.1; compared in §4.4.1).
 //!
-//! **Why it is here.** The seed argues that its similarity merge (Learn-HMM, [`super::learner`])
+//! **Why it is here.** The seed argues that its similarity merge (Learn-HMM, [`crate::engine::cdhmm::learner`])
 //! beats MAP structure estimation on teach-pendant data, and reports the MAP learner's models and
 //! errors (Figure 4.14). This module is that learner, so the replay scoreboard can measure the
-//! claim on our corpus. It builds the same [`ObservationGraph`] the engine predicts from (through
+//! claim on our corpus; nothing but the replay uses it, so it lives with the replay's methods. It builds the same [`ObservationGraph`] the engine predicts from (through
 //! [`ObservationGraph::push_to`]), so prediction is the engine's own; only the structure differs.
 //!
 //! **The algorithm.** Each finished routine's moves (SRHCT observations, as the engine learns
@@ -24,7 +24,7 @@
 //!   and no ½; A.1.7 derives the ½ and the sign (a merge can only lose observation likelihood),
 //!   and its last line drops the square of the norm. We follow the derivation.
 //! - *Transitions* (Eq. 3.3's two sums; A.1.7's inbound and outbound ratios), with `a(l|i) =
-//!   f(i→l)/ξ_i` as the engine's HMM reads the graph ([`super::hmm`]). We compute the exact
+//!   f(i→l)/ξ_i` as the engine's HMM reads the graph ([`crate::engine::hmm`]). We compute the exact
 //!   difference of the Viterbi path's log transition probabilities rather than the printed sums:
 //!   inbound from every other state `l`, `f_li log((f_li+f_lj)/f_li) + f_lj log((f_li+f_lj)/f_lj)`
 //!   (as printed); outbound, the merged state's row against the two rows, which is the printed
@@ -33,7 +33,7 @@
 //!   Two pseudo-states complete the path of A.1.7's definition: the start (`P(c_0 = q_i) =
 //!   g_i / M`, an inbound term like the others) and the routine's end (the share of a state's
 //!   moves after which the routine ended, an outbound outcome like a successor, as
-//!   [`super::hmm`] keeps it). The printed Eq. 3.3 leaves both out.
+//!   [`crate::engine::hmm`] keeps it). The printed Eq. 3.3 leaves both out.
 //! - *Prior* (Eq. 3.4–3.5; A.2.1: the description length `ℓ(q_i) = log|Var(x|q_i)| +
 //!   |E_{q_i}| log|Q|`): `|E| log|Q| − |Ẽ| log(|Q| − 1)` with `|E|` the distinct transitions
 //!   `i → j` (what [`ModelStats::edges`] counts; start and end are not edges), plus the variance
@@ -68,11 +68,10 @@
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 
-use super::config::MergeRule;
-use super::error::ConfigError;
-use super::learner::{ModelStats, ObservationGraph};
-use super::metric::Metric;
-use super::pose::Observation;
+use crate::engine::cdhmm::learner::{ModelStats, ObservationGraph};
+use crate::engine::config::MergeRule;
+use crate::engine::metric::Metric;
+use crate::engine::{ConfigError, Observation};
 
 /// Candidate pairs' largest Mahalanobis distance between means, σ units (see the module docs).
 pub const DEFAULT_PAIR_RADIUS: f64 = 20.0;

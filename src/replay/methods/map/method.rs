@@ -7,10 +7,10 @@
 //! Like the seed's engine, it learns a routine when the routine is finished (never within it),
 //! from its unscaled moves (`scale.learn_scaled` and `learn_within_routine` do not apply).
 
-use super::method::{Guess, Method, ModelSummary};
-use crate::engine::map_merge::{MapLearner, MapSettings};
+use super::merge::{MapLearner, MapSettings};
 use crate::engine::metric::Metric;
 use crate::engine::{ConfigError, EngineConfig, Move, Observation, Pose, PredictOptions};
+use crate::replay::method::{Guess, Method, ModelSummary};
 
 pub struct MapMethod {
     config: EngineConfig,

@@ -19,13 +19,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::corpus::Program;
-use super::engine_method::EngineMethod;
-use super::map_method::MapMethod;
-use super::method::Method;
-use super::metrics::{Accuracy, ProgramRecord, WaypointRecord, median, replay_program};
-use crate::engine::map_merge::MapSettings;
+use super::merge::MapSettings;
+use super::method::MapMethod;
 use crate::engine::{ConfigError, EngineConfig};
+use crate::replay::corpus::Program;
+use crate::replay::method::{Method, ModelSummary};
+use crate::replay::methods::engine::EngineMethod;
+use crate::replay::playback::{ProgramRecord, WaypointRecord, replay_program};
+use crate::replay::score::metrics::{Accuracy, median};
 
 /// Figure 4.14's confidence thresholds.
 pub const PHI_GRID: [f64; 10] = [0.5, 0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95];
@@ -161,7 +162,7 @@ fn groups(programs: &[Program]) -> Vec<(String, Vec<usize>)> {
 
 fn line(method: &str, runs: &[&(ProgramRecord, f64)], grid: &[f64]) -> Line {
     let summaries: Vec<_> = runs.iter().filter_map(|(r, _)| r.summary).collect();
-    let mean = |f: &dyn Fn(&super::method::ModelSummary) -> f64| {
+    let mean = |f: &dyn Fn(&ModelSummary) -> f64| {
         (!summaries.is_empty())
             .then(|| summaries.iter().map(f).sum::<f64>() / summaries.len() as f64)
     };

@@ -10,7 +10,7 @@
 //!   repeat the element that followed there. It is the engine without the generalisation of a
 //!   state model: a memory of every sequence.
 //!
-//! `NearestSeq` works in one of three [`Frame`]s (see [`super::frames`]): SRHCT tool-frame moves
+//! `NearestSeq` works in one of three [`Frame`]s (see [`crate::replay::frames`]): SRHCT tool-frame moves
 //! (the engine's reading), work-frame moves, or absolute poses (issue 13). Report names:
 //!
 //! | frame | ungated | gated |
@@ -36,8 +36,8 @@
 
 use crate::engine::{EngineConfig, Move, Observation, Pose};
 
-use super::frames::{Frame, close};
-use super::method::{Guess, Method};
+use crate::replay::frames::{Frame, close};
+use crate::replay::method::{Guess, Method};
 
 /// Repeats the last relative move: `Ŵ_n = W_{n-1} · (W_{n-2}⁻¹ · W_{n-1})`.
 #[derive(Debug, Clone, Default)]

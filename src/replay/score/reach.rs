@@ -9,7 +9,7 @@
 use crate::engine::Pose;
 use crate::kinematics::placement::{PlacedArm, ReachCheck};
 
-use super::method::{Guess, Method, ModelSummary, Proposal};
+use crate::replay::method::{Guess, Method, ModelSummary, Proposal};
 
 /// One predicted waypoint's reachability: `n` (predecessors), the guess's (offered only) and
 /// the taught waypoint's.
