@@ -264,7 +264,7 @@ mod figure {
 
     use crate::engine::lead_through::segment::Segmentation;
     use crate::import::trajectory::TrajectorySample;
-    use crate::replay::plots::{FONT, register_font};
+    use crate::replay::plots::fonts::{FONT, register_font};
 
     const SIZE: (u32, u32) = (720, 560);
 

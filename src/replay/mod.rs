@@ -20,6 +20,7 @@
 //! - [`report`]: all methods on all programs ([`replay_all`]), the scoreboard of the CLI and
 //!   the service ([`report::scoreboard`]), JSON and text tables.
 //! - [`sweep`]: the engine over a grid of settings.
+//! - [`table`]: the plain text tables the report, the calibration section and the sweep print.
 //! - `plots` (cargo feature `plots`, on by default): the seed's figures (φ_min, δ, learning
 //!   curve), confidence vs error, reliability of `p_useful` and risk–coverage, PNG/SVG.
 
@@ -33,6 +34,7 @@ pub mod plots;
 pub mod report;
 pub mod score;
 pub mod sweep;
+pub mod table;
 
 pub use corpus::{CorpusError, Program, Routine, load_paths};
 pub use method::{Candidate, Guess, Method, ModelSummary, Proposal};

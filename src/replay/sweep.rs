@@ -11,8 +11,8 @@ use crate::engine::{ConfigError, EngineConfig};
 use super::corpus::Program;
 use super::methods::EngineMethod;
 use super::playback::{ProgramRecord, replay_program};
-use super::report::{Table, fmt};
 use super::score::Scores;
+use super::table::{Table, fmt};
 
 /// Engine totals for one combination of settings (waypoints with ≥ 2 predecessors).
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use super::metrics::{saved_pct, spearman};
 use crate::replay::playback::{ProgramRecord, WaypointRecord};
-use crate::replay::report::{Table, fmt};
+use crate::replay::table::{Table, fmt};
 
 /// Number of reliability bins (deciles of `p_useful`).
 pub const BINS: usize = 10;
