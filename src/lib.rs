@@ -43,6 +43,8 @@ pub mod app;
 mod architecture;
 pub mod cli;
 pub mod client;
+#[cfg(test)]
+mod docs_links;
 pub mod engine;
 pub mod export;
 pub mod grpc;
