@@ -25,7 +25,7 @@ pub mod metric;
 pub mod pose;
 pub mod teach;
 
-/// `map_merge` reads the learner at its old path until it moves to `replay/`.
+// `map_merge` reads the learner at its old path until it moves to `replay/`.
 use cdhmm::learner;
 
 pub use cdhmm::predict::{Prediction, Withheld};

@@ -175,14 +175,14 @@ pub fn plot_data(
         config,
         &[config.delta],
         &grid.phi_mins,
-        &[config.horizon],
+        &[config.predict.horizon],
     )?;
     let delta_sweep = sweep(
         programs,
         config,
         &grid.deltas,
-        &[config.phi_min],
-        &[config.horizon],
+        &[config.predict.phi_min],
+        &[config.predict.horizon],
     )?;
     let mut engine = EngineMethod::new(config.clone())?;
     let records = programs
@@ -296,7 +296,7 @@ pub fn confidence_points(records: &[ProgramRecord]) -> Vec<ScatterPoint> {
 pub fn confidence_desc(config: &EngineConfig) -> &'static str {
     if config.offer.is_some() {
         "confidence = p_useful (the experts' offer rule)"
-    } else if config.max_misfit.is_some() {
+    } else if config.predict.max_misfit.is_some() {
         "confidence = −match misfit (higher = surer)"
     } else {
         "confidence = φ"
@@ -630,7 +630,7 @@ where
     let panel = LinePanel {
         caption: format!(
             "Offered and useful guesses vs confidence threshold φ_min (δ = {}, h = {})",
-            c.delta, c.horizon
+            c.delta, c.predict.horizon
         ),
         x_desc: "φ_min",
         y_desc: "% of predictable waypoints",
@@ -638,8 +638,8 @@ where
         y_max: y_max(&[&offered, &useful], 10.0),
         x_labels: &fixed(2),
         marker: Some((
-            c.phi_min,
-            format!("{} profile: φ_min = {}", data.profile, c.phi_min),
+            c.predict.phi_min,
+            format!("{} profile: φ_min = {}", data.profile, c.predict.phi_min),
         )),
         series: vec![offered, useful],
         notes: Vec::new(),
@@ -681,7 +681,7 @@ where
         &LinePanel {
             caption: format!(
                 "Median error of offered guesses vs complexity δ (φ_min = {}, h = {})",
-                c.phi_min, c.horizon
+                c.predict.phi_min, c.predict.horizon
             ),
             x_desc: "δ",
             y_desc: "Cartesian error, mm",
