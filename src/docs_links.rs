@@ -122,7 +122,11 @@ fn every_relative_link_in_the_readme_and_docs_resolves() {
 
 #[test]
 fn links_and_anchors_are_read_as_github_does() {
-    let text = "See [a](docs/a.md#the-method) and `[not](a link)`.\n```\n[no](x)\n```\n[b](../src/)";
+    let text =
+        "See [a](docs/a.md#the-method) and `[not](a link)`.\n```\n[no](x)\n```\n[b](../src/)";
     assert_eq!(links(text), vec!["docs/a.md#the-method", "../src/"]);
-    assert_eq!(anchor(" The engine, beyond the seed (§4)"), "the-engine-beyond-the-seed-4");
+    assert_eq!(
+        anchor(" The engine, beyond the seed (§4)"),
+        "the-engine-beyond-the-seed-4"
+    );
 }

@@ -107,7 +107,7 @@ fn second_copy_at_another_place_and_orientation_is_predicted_exactly() {
 fn scaled_copies_are_recognised_with_the_right_scale() {
     for factor in [2.0, 0.5] {
         let mut cfg = model_only();
-        cfg.horizon = 3;
+        cfg.predict.horizon = 3;
         let mut t = Teacher::new(cfg).unwrap();
         teach_routine(&mut t, &u_seam());
         let copy = transformed(&u_seam(), &somewhere_else(), factor);
@@ -141,7 +141,7 @@ fn scaled_copies_are_recognised_with_the_right_scale() {
 #[test]
 fn scale_off_does_not_recognise_a_scaled_copy() {
     let mut cfg = EngineConfig::profile(Profile::Default);
-    cfg.scale.enabled = false;
+    cfg.predict.scale.enabled = false;
     let mut t = Teacher::new(cfg).unwrap();
     teach_routine(&mut t, &u_seam());
     let copy = transformed(&u_seam(), &somewhere_else(), 2.0);
@@ -152,7 +152,7 @@ fn scale_off_does_not_recognise_a_scaled_copy() {
 #[test]
 fn learn_scaled_hmm_merges_a_scaled_copy_into_the_same_states() {
     let mut cfg = EngineConfig::profile(Profile::Seed);
-    cfg.scale.learn_scaled = true;
+    cfg.predict.scale.learn_scaled = true;
     let mut t = Teacher::new(cfg.clone()).unwrap();
     teach_routine(&mut t, &u_seam());
     let states = t.stats().states;
@@ -163,7 +163,7 @@ fn learn_scaled_hmm_merges_a_scaled_copy_into_the_same_states() {
         "a 2× copy learned scaled reuses every state"
     );
 
-    cfg.scale.learn_scaled = false;
+    cfg.predict.scale.learn_scaled = false;
     let mut plain = Teacher::new(cfg).unwrap();
     teach_routine(&mut plain, &u_seam());
     teach_routine(&mut plain, &transformed(&u_seam(), &somewhere_else(), 2.0));
@@ -233,7 +233,7 @@ fn recall_settles_a_next_state_the_first_order_model_finds_ambiguous() {
     let predict = |recall: bool| {
         let mut cfg = model_only();
         if !recall {
-            cfg.recall = None;
+            cfg.predict.recall = None;
         }
         let mut t = Teacher::new(cfg).unwrap();
         teach_routine(&mut t, &first);
@@ -296,7 +296,7 @@ fn forward_recursion_is_stable_over_long_windows() {
         .collect();
     for profile in [Profile::Seed, Profile::Default] {
         let mut cfg = EngineConfig::profile(profile);
-        cfg.horizon = 1000;
+        cfg.predict.horizon = 1000;
         cfg.learn_within_routine = false;
         let mut t = Teacher::new(cfg).unwrap();
         teach_routine(&mut t, &walk);

@@ -58,7 +58,7 @@ pub(super) fn check(
 /// The prediction for the waypoint after the last one taught, with the cell's settings, checked
 /// against the arm where it is now.
 pub(super) fn next(teacher: &Teacher, arm: Option<&reach::CellArm>) -> (PredictOptions, Checked) {
-    let opts = PredictOptions::from_config(teacher.config());
+    let opts = teacher.config().predict.clone();
     let checked = check(
         arm,
         teacher.predict_with(&opts),

@@ -25,7 +25,7 @@ impl App {
             config.delta = v;
         }
         if let Some(v) = input.phi_min {
-            config.phi_min = v;
+            config.predict.phi_min = v;
         }
         if let Some(v) = input.horizon {
             if v > MAX_HORIZON {
@@ -33,10 +33,10 @@ impl App {
                     "horizon must be between 1 and {MAX_HORIZON}"
                 )));
             }
-            config.horizon = v;
+            config.predict.horizon = v;
         }
         if let Some(v) = input.scale {
-            config.scale.enabled = v;
+            config.predict.scale.enabled = v;
         }
         config.validate()?;
         let programs: Vec<ReplayProgram> = match (&input.files, input.cell_id) {

@@ -36,14 +36,14 @@ impl CellSettingsInput {
         let settings = CellSettings {
             profile,
             delta: self.delta.unwrap_or(base.delta),
-            phi_min: self.phi_min.unwrap_or(base.phi_min),
-            horizon: self.horizon.unwrap_or(base.horizon),
+            phi_min: self.phi_min.unwrap_or(base.predict.phi_min),
+            horizon: self.horizon.unwrap_or(base.predict.horizon),
             sigma_t_mm: self.sigma_t_mm.unwrap_or(base.sigma_t),
             sigma_q: self.sigma_q.unwrap_or(base.sigma_q),
             scale: self.scale.unwrap_or(ScaleSettings {
-                enabled: base.scale.enabled,
-                psi_min: base.scale.psi_min,
-                psi_max: base.scale.psi_max,
+                enabled: base.predict.scale.enabled,
+                psi_min: base.predict.scale.psi_min,
+                psi_max: base.predict.scale.psi_max,
             }),
             robot: self.robot.unwrap_or_else(|| DEFAULT_ROBOT.to_string()),
             base: self.base.unwrap_or_else(identity),
@@ -126,13 +126,13 @@ impl CellSettings {
     pub fn engine_config(&self) -> EngineConfig {
         let mut c = EngineConfig::profile(self.profile);
         c.delta = self.delta;
-        c.phi_min = self.phi_min;
-        c.horizon = self.horizon;
+        c.predict.phi_min = self.phi_min;
+        c.predict.horizon = self.horizon;
         c.sigma_t = self.sigma_t_mm;
         c.sigma_q = self.sigma_q;
-        c.scale.enabled = self.scale.enabled;
-        c.scale.psi_min = self.scale.psi_min;
-        c.scale.psi_max = self.scale.psi_max;
+        c.predict.scale.enabled = self.scale.enabled;
+        c.predict.scale.psi_min = self.scale.psi_min;
+        c.predict.scale.psi_max = self.scale.psi_max;
         c.noise = self.noise;
         if let Some(o) = c.offer.as_mut() {
             o.tolerance = self.tolerance;
@@ -224,7 +224,7 @@ mod tests {
         .resolve()
         .unwrap();
         let mut want = EngineConfig::profile(Profile::Seed);
-        want.horizon = 2;
+        want.predict.horizon = 2;
         assert_eq!(seed.engine_config(), want);
     }
 

@@ -8,7 +8,6 @@ use super::rows::waypoint;
 use super::settings::MAX_HORIZON;
 use super::{App, MAX_COMPLETION, Result, check_name};
 use crate::api::{self, PoseValues, PredictQuery, PredictionSet, Taught, Undone};
-use crate::engine::PredictOptions;
 use crate::kinematics::Reachability;
 use crate::storage::{Append, NewWaypoint};
 
@@ -169,7 +168,7 @@ impl App {
         let (mut locked, opts, checked) = blocking(move || -> Result<_> {
             let mut locked = locked;
             let model = locked.model()?;
-            let mut opts = PredictOptions::from_config(model.teacher.config());
+            let mut opts = model.teacher.config().predict.clone();
             if let Some(h) = q.horizon {
                 opts.horizon = h;
             }

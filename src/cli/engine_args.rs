@@ -121,13 +121,13 @@ impl EngineArgs {
             c.delta = v;
         }
         if let Some(v) = self.phi_min {
-            c.phi_min = v;
+            c.predict.phi_min = v;
         }
         if let Some(v) = self.horizon {
-            c.horizon = v;
+            c.predict.horizon = v;
         }
         if let Some(v) = self.scale {
-            c.scale.enabled = v.on();
+            c.predict.scale.enabled = v.on();
         }
         if let Some(v) = self.merge {
             c.merge = match v {
@@ -139,16 +139,16 @@ impl EngineArgs {
             c.learn_within_routine = v.on();
         }
         if let Some(Limit(v)) = self.max_misfit {
-            c.max_misfit = v;
+            c.predict.max_misfit = v;
         }
         if let Some(Limit(v)) = self.max_spread {
-            c.max_spread = v;
+            c.predict.max_spread = v;
         }
         if let Some(Limit(v)) = self.max_end_prob {
-            c.max_end_prob = v;
+            c.predict.max_end_prob = v;
         }
         if let Some(GateArg(v)) = self.recall {
-            c.recall = v;
+            c.predict.recall = v;
         }
         if let Some(Limit(v)) = self.offer_threshold {
             c.offer = v.map(|threshold| crate::engine::config::OfferRule {
@@ -200,9 +200,9 @@ mod tests {
         let c = args.engine.config().unwrap();
         assert_eq!(c.delta, 0.5);
         assert!(c.learn_within_routine);
-        assert_eq!(c.max_misfit, Some(2.5));
-        assert_eq!(c.max_end_prob, None);
-        assert!(!c.scale.enabled);
+        assert_eq!(c.predict.max_misfit, Some(2.5));
+        assert_eq!(c.predict.max_end_prob, None);
+        assert!(!c.predict.scale.enabled);
         assert_eq!(c.merge, MergeRule::Total);
     }
 

@@ -7,7 +7,8 @@
 
 use std::str::FromStr;
 
-use serde::{Deserialize, Serialize};
+use serde::ser::SerializeStruct;
+use serde::{Deserialize, Serialize, Serializer};
 
 use super::error::ConfigError;
 use super::experts::frames::Tolerance;
@@ -49,8 +50,11 @@ pub struct ScaleConfig {
     pub learn_scaled: bool,
 }
 
-/// Every setting of the engine for one work cell.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Every setting of the engine for one work cell: the learner's, the prediction options
+/// ([`PredictOptions`], which a request may change for itself), and the experts' offer rule.
+///
+/// Serialised flat, in the order reports have always printed it (see the `Serialize` impl).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 pub struct EngineConfig {
     /// Complexity δ ∈ (0, 1]: ε = F⁻¹_{χ²(7)}(1 − δ). Larger δ → stricter merging, more states.
     pub delta: f64,
@@ -66,6 +70,62 @@ pub struct EngineConfig {
     /// (None: `horizon`). With a lag shorter than the window, the predictor discounts the
     /// window's own transitions, so a window never counts as evidence for itself.
     pub within_lag: Option<usize>,
+    /// What a prediction conditions on and the gates it must pass.
+    #[serde(flatten)]
+    pub predict: PredictOptions,
+    /// Recency weighting of transitions λ ∈ (0, 1]: each new outcome of a state multiplies the
+    /// weight of its older outcomes by λ. 1 = plain counts (the seed).
+    pub recency: f64,
+    /// The experts' offer rule: every expert (the model above, and the tool-frame, work-frame
+    /// and absolute-pose sequence experts) proposes a candidate, each gets `p_useful` from the
+    /// cell's calibration, and the likeliest is offered when it reaches the threshold. None:
+    /// the model alone with its own gates (the seed).
+    #[serde(default)]
+    pub offer: Option<OfferRule>,
+    /// The cell's teaching noise (one sigma per axis of a taught waypoint; exact by default).
+    /// The experts match contexts within the offer rule's tolerance widened by it
+    /// ([`super::experts::noise`]).
+    #[serde(default)]
+    pub noise: Noise,
+}
+
+/// By hand, to keep the one flat JSON object that replay reports have always echoed, key for key
+/// and in the same order: `recency`, a learning setting, sits between `backoff_min_support` and
+/// `recall`, where `#[serde(flatten)]` of [`PredictOptions`] cannot put it. (Reading back is
+/// derived, with `flatten`: key order does not matter there, and unknown keys are ignored as
+/// before.)
+impl Serialize for EngineConfig {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let p = &self.predict;
+        let mut s = serializer.serialize_struct("EngineConfig", 20)?;
+        s.serialize_field("delta", &self.delta)?;
+        s.serialize_field("sigma_t", &self.sigma_t)?;
+        s.serialize_field("sigma_q", &self.sigma_q)?;
+        s.serialize_field("merge", &self.merge)?;
+        s.serialize_field("learn_within_routine", &self.learn_within_routine)?;
+        s.serialize_field("within_lag", &self.within_lag)?;
+        s.serialize_field("horizon", &p.horizon)?;
+        s.serialize_field("window_prior", &p.window_prior)?;
+        s.serialize_field("phi_min", &p.phi_min)?;
+        s.serialize_field("max_misfit", &p.max_misfit)?;
+        s.serialize_field("max_spread", &p.max_spread)?;
+        s.serialize_field("max_end_prob", &p.max_end_prob)?;
+        s.serialize_field("match_radius", &p.match_radius)?;
+        s.serialize_field("backoff", &p.backoff)?;
+        s.serialize_field("backoff_min_support", &p.backoff_min_support)?;
+        s.serialize_field("recency", &self.recency)?;
+        s.serialize_field("recall", &p.recall)?;
+        s.serialize_field("scale", &p.scale)?;
+        s.serialize_field("offer", &self.offer)?;
+        s.serialize_field("noise", &self.noise)?;
+        s.end()
+    }
+}
+
+/// The settings of one prediction: the cell's ([`EngineConfig::predict`]), or a copy a request
+/// changed (a horizon or φ_min of its own).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct PredictOptions {
     /// Number of most recent moves the prediction conditions on (h).
     pub horizon: usize,
     pub window_prior: WindowPrior,
@@ -89,9 +149,6 @@ pub struct EngineConfig {
     /// A backed-off window's proposal is offered only when the shortened context was followed by
     /// it at least this many times (`support`); one repetition of a one-move context is a guess.
     pub backoff_min_support: f64,
-    /// Recency weighting of transitions λ ∈ (0, 1]: each new outcome of a state multiplies the
-    /// weight of its older outcomes by λ. 1 = plain counts (the seed).
-    pub recency: f64,
     /// Recall of the most recent occurrence: when the HMM's proposal is withheld as ambiguous
     /// (low φ, wide spread) or as little evidence, look up where the window's context (its states,
     /// all `k` moves) was seen before; if the most recent such place fits the window with a mean
@@ -100,51 +157,6 @@ pub struct EngineConfig {
     /// None: off (the seed).
     pub recall: Option<RecallGate>,
     pub scale: ScaleConfig,
-    /// The experts' offer rule: every expert (the model above, and the tool-frame, work-frame
-    /// and absolute-pose sequence experts) proposes a candidate, each gets `p_useful` from the
-    /// cell's calibration, and the likeliest is offered when it reaches the threshold. None:
-    /// the model alone with its own gates (the seed).
-    #[serde(default)]
-    pub offer: Option<OfferRule>,
-    /// The cell's teaching noise (one sigma per axis of a taught waypoint; exact by default).
-    /// The experts match contexts within the offer rule's tolerance widened by it
-    /// ([`super::experts::noise`]).
-    #[serde(default)]
-    pub noise: Noise,
-}
-
-/// Per-prediction settings (a cell's configuration, possibly overridden per request).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PredictOptions {
-    pub horizon: usize,
-    pub phi_min: f64,
-    pub max_misfit: Option<f64>,
-    pub max_spread: Option<f64>,
-    pub max_end_prob: Option<f64>,
-    pub match_radius: Option<f64>,
-    pub backoff: bool,
-    pub backoff_min_support: f64,
-    pub recall: Option<RecallGate>,
-    pub window_prior: WindowPrior,
-    pub scale: ScaleConfig,
-}
-
-impl PredictOptions {
-    pub fn from_config(c: &EngineConfig) -> PredictOptions {
-        PredictOptions {
-            horizon: c.horizon,
-            phi_min: c.phi_min,
-            max_misfit: c.max_misfit,
-            max_spread: c.max_spread,
-            max_end_prob: c.max_end_prob,
-            match_radius: c.match_radius,
-            backoff: c.backoff,
-            backoff_min_support: c.backoff_min_support,
-            recall: c.recall,
-            window_prior: c.window_prior,
-            scale: c.scale,
-        }
-    }
 }
 
 /// When the experts' best candidate is offered (see [`EngineConfig::offer`]).
@@ -223,26 +235,28 @@ impl EngineConfig {
             merge: MergeRule::Total,
             learn_within_routine: false,
             within_lag: None,
-            horizon: 3,
-            window_prior: WindowPrior::Occupancy,
-            phi_min: 0.7,
-            max_misfit: None,
-            max_spread: None,
-            max_end_prob: None,
-            match_radius: None,
-            backoff: false,
-            backoff_min_support: 2.0,
+            predict: PredictOptions {
+                horizon: 3,
+                window_prior: WindowPrior::Occupancy,
+                phi_min: 0.7,
+                max_misfit: None,
+                max_spread: None,
+                max_end_prob: None,
+                match_radius: None,
+                backoff: false,
+                backoff_min_support: 2.0,
+                recall: None,
+                scale: ScaleConfig {
+                    enabled: true,
+                    psi_min: 0.2,
+                    psi_max: 5.0,
+                    min_gain: 2.0,
+                    learn_scaled: false,
+                },
+            },
             recency: 1.0,
-            recall: None,
             offer: None,
             noise: Noise::EXACT,
-            scale: ScaleConfig {
-                enabled: true,
-                psi_min: 0.2,
-                psi_max: 5.0,
-                min_gain: 2.0,
-                learn_scaled: false,
-            },
         };
         match profile {
             Profile::Seed => seed,
@@ -250,15 +264,18 @@ impl EngineConfig {
                 merge: MergeRule::Incremental,
                 learn_within_routine: true,
                 within_lag: Some(0),
-                max_misfit: Some(1.0),
-                max_spread: Some(0.5),
-                max_end_prob: Some(0.5),
-                match_radius: Some(6.0),
-                backoff: true,
-                recall: Some(RecallGate {
-                    max_cost: 0.1,
-                    min_window: 2,
-                }),
+                predict: PredictOptions {
+                    max_misfit: Some(1.0),
+                    max_spread: Some(0.5),
+                    max_end_prob: Some(0.5),
+                    match_radius: Some(6.0),
+                    backoff: true,
+                    recall: Some(RecallGate {
+                        max_cost: 0.1,
+                        min_window: 2,
+                    }),
+                    ..seed.predict
+                },
                 offer: Some(OfferRule::default()),
                 ..seed
             },
@@ -267,7 +284,7 @@ impl EngineConfig {
 
     /// Moves of the routine being taught that are not assimilated yet (within-routine learning).
     pub fn within_lag(&self) -> usize {
-        self.within_lag.unwrap_or(self.horizon)
+        self.within_lag.unwrap_or(self.predict.horizon)
     }
 
     /// Checks every setting; the engine is only built from a validated configuration.
@@ -275,8 +292,8 @@ impl EngineConfig {
         if !(self.delta > 0.0 && self.delta <= 1.0) {
             return Err(ConfigError::Delta(self.delta));
         }
-        if !(0.0..=1.0).contains(&self.phi_min) {
-            return Err(ConfigError::PhiMin(self.phi_min));
+        if !(0.0..=1.0).contains(&self.predict.phi_min) {
+            return Err(ConfigError::PhiMin(self.predict.phi_min));
         }
         if !(self.recency > 0.0 && self.recency <= 1.0) {
             return Err(ConfigError::Threshold {
@@ -284,8 +301,8 @@ impl EngineConfig {
                 value: self.recency,
             });
         }
-        if self.horizon == 0 {
-            return Err(ConfigError::Horizon(self.horizon));
+        if self.predict.horizon == 0 {
+            return Err(ConfigError::Horizon(self.predict.horizon));
         }
         if let Some(o) = &self.offer {
             for (name, value) in [
@@ -313,7 +330,7 @@ impl EngineConfig {
                 return Err(ConfigError::Sigma(s));
             }
         }
-        let sc = &self.scale;
+        let sc = &self.predict.scale;
         if !(sc.psi_min.is_finite()
             && sc.psi_max.is_finite()
             && 0.0 < sc.psi_min
@@ -326,13 +343,16 @@ impl EngineConfig {
             });
         }
         let thresholds = [
-            ("max_misfit", self.max_misfit),
-            ("max_spread", self.max_spread),
-            ("max_end_prob", self.max_end_prob),
-            ("match_radius", self.match_radius),
-            ("backoff_min_support", Some(self.backoff_min_support)),
+            ("max_misfit", self.predict.max_misfit),
+            ("max_spread", self.predict.max_spread),
+            ("max_end_prob", self.predict.max_end_prob),
+            ("match_radius", self.predict.match_radius),
+            (
+                "backoff_min_support",
+                Some(self.predict.backoff_min_support),
+            ),
             ("scale.min_gain", Some(sc.min_gain)),
-            ("recall.max_cost", self.recall.map(|r| r.max_cost)),
+            ("recall.max_cost", self.predict.recall.map(|r| r.max_cost)),
         ];
         for (name, value) in thresholds {
             if let Some(v) = value
@@ -382,14 +402,20 @@ mod tests {
             ),
             (
                 EngineConfig {
-                    phi_min: 1.5,
+                    predict: PredictOptions {
+                        phi_min: 1.5,
+                        ..base.predict.clone()
+                    },
                     ..base.clone()
                 },
                 |e| matches!(e, ConfigError::PhiMin(_)),
             ),
             (
                 EngineConfig {
-                    horizon: 0,
+                    predict: PredictOptions {
+                        horizon: 0,
+                        ..base.predict.clone()
+                    },
                     ..base.clone()
                 },
                 |e| matches!(e, ConfigError::Horizon(_)),
@@ -403,7 +429,10 @@ mod tests {
             ),
             (
                 EngineConfig {
-                    max_misfit: Some(f64::INFINITY),
+                    predict: PredictOptions {
+                        max_misfit: Some(f64::INFINITY),
+                        ..base.predict.clone()
+                    },
                     ..base.clone()
                 },
                 |e| matches!(e, ConfigError::Threshold { .. }),
@@ -414,10 +443,48 @@ mod tests {
             assert!(is_expected(&err), "{err}");
         }
         let mut bad_scale = base;
-        bad_scale.scale.psi_min = 2.0;
+        bad_scale.predict.scale.psi_min = 2.0;
         assert!(matches!(
             bad_scale.validate(),
             Err(ConfigError::ScaleBracket { .. })
         ));
+    }
+
+    #[test]
+    fn serialises_flat_in_the_reports_order_and_reads_back() {
+        let keys = [
+            "delta",
+            "sigma_t",
+            "sigma_q",
+            "merge",
+            "learn_within_routine",
+            "within_lag",
+            "horizon",
+            "window_prior",
+            "phi_min",
+            "max_misfit",
+            "max_spread",
+            "max_end_prob",
+            "match_radius",
+            "backoff",
+            "backoff_min_support",
+            "recency",
+            "recall",
+            "scale",
+            "offer",
+            "noise",
+        ];
+        for p in [Profile::Seed, Profile::Default] {
+            let c = EngineConfig::profile(p);
+            let json = serde_json::to_string(&c).unwrap();
+            let at: Vec<usize> = keys
+                .iter()
+                .map(|k| json.find(&format!("\"{k}\":")).unwrap())
+                .collect();
+            assert!(at.windows(2).all(|w| w[0] < w[1]), "{json}");
+            let top = serde_json::from_str::<serde_json::Map<String, serde_json::Value>>(&json);
+            assert_eq!(top.unwrap().len(), keys.len());
+            assert_eq!(serde_json::from_str::<EngineConfig>(&json).unwrap(), c);
+        }
     }
 }

@@ -1,19 +1,25 @@
-//! The prediction engine: pure computation, no I/O.
+//! The prediction engine: pure computation, no I/O. One [`Teacher`] per work cell learns the
+//! routines an operator teaches and, between two waypoints, proposes the next one.
 //!
-//! Data flow, in the order a taught waypoint meets it:
-//! [`pose`] turns waypoints into relative moves (SRHCT observations); [`metric`] holds the
-//! precision matrix that measures how alike two moves are; [`learner`] assimilates moves into an
-//! observation graph by similarity-based merging; [`hmm`] reads that graph as a continuous-density
-//! HMM; [`predict`] runs the forward recursion (`forward`, over `transitions`) on the last few
-//! moves and proposes the next move (`mixture`), gated by confidence, match quality and
-//! end-of-routine probability (`gates`) or settled by where the context was seen last (`recall`);
-//! [`scale`] estimates how much larger or smaller the taught routine is than the learned pattern;
-//! [`teach`] ties these together for one work cell while an operator teaches routine after
-//! routine; [`config`] holds the settings and the named profiles (`seed`, `default`).
+//! In the order a taught waypoint meets it:
 //!
-//! Hand-guided teaching (seed chapter 5): [`lds`] fits one linear dynamical system to a simple
-//! trajectory; [`segment`] cuts a recorded trajectory into a sequence of them, whose attractors
-//! are the waypoints the model then learns like taught ones.
+//! 1. [`pose`] turns it into a relative move from the last waypoint (an SRHCT 7-vector);
+//!    [`metric`] holds the precision matrix that says how alike two moves are.
+//! 2. [`cdhmm`], the dissertation's model: the learner merges the move into an observation graph,
+//!    read as a continuous-density HMM, and the prediction runs the forward recursion over the
+//!    last few moves and proposes the next move, with the figures its gates read.
+//! 3. [`experts`]: sequence experts in three frames (tool, work, absolute) and, in a cell with
+//!    teaching noise, the template expert propose candidates of their own, matched within the
+//!    cell's tolerance widened by that noise; the calibration gives every candidate, the model's
+//!    among them, `p_useful`, the probability that it is right, and the offer rule offers the
+//!    likeliest when that reaches the threshold.
+//! 4. [`teach`]: the [`Teacher`] ties these together for one cell (learning within the routine,
+//!    undo, the prediction kept ready for the next waypoint); [`config`] holds its settings and
+//!    the two profiles. `default` is all of the above; `seed`, the dissertation's engine, is the
+//!    CDHMM alone, learning finished routines, with φ as its only gate.
+//!
+//! Hand-guided teaching comes in another way: [`lead_through`] cuts a recorded trajectory into
+//! linear dynamical systems whose attractors are taught like waypoints.
 
 pub mod cdhmm;
 pub mod config;

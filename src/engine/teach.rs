@@ -163,8 +163,7 @@ impl Teacher {
 
     /// Recomputes [`Teacher::ahead`] after the routine or the model changed.
     fn look_ahead(&mut self) {
-        let opts = PredictOptions::from_config(&self.config);
-        self.ahead = self.ahead_of(&self.routine, &self.moves, &opts);
+        self.ahead = self.ahead_of(&self.routine, &self.moves, &self.config.predict);
     }
 
     /// Within-routine learning: assimilates the moves older than the lag (`within_lag`).
@@ -340,7 +339,7 @@ impl Teacher {
 
     /// Predicts with per-request settings.
     pub fn predict_with(&self, opts: &PredictOptions) -> Prediction {
-        if *opts == PredictOptions::from_config(&self.config) {
+        if *opts == self.config.predict {
             return self.predict();
         }
         self.choose(&self.routine, &self.moves, opts)
@@ -408,7 +407,7 @@ impl Teacher {
                 self.graph.push(x);
             }
         } else if !self.moves.is_empty() {
-            let psi = if self.config.scale.learn_scaled {
+            let psi = if self.config.predict.scale.learn_scaled {
                 self.routine_scale_estimate()
             } else {
                 1.0
@@ -432,10 +431,10 @@ impl Teacher {
             return 1.0;
         }
         let hmm = Hmm::new(&self.graph);
-        let sc = &self.config.scale;
+        let sc = &self.config.predict.scale;
         let opts = PredictOptions {
             horizon: self.moves.len(),
-            ..PredictOptions::from_config(&self.config)
+            ..self.config.predict.clone()
         };
         let objective = |psi: f64| {
             let scaled: Vec<Observation> = self
@@ -580,7 +579,7 @@ mod tests {
         let copy = stitches(15, 2000.0);
         copy[..5].iter().for_each(|w| t.teach(*w));
         let nodes = t.graph().nodes().to_vec();
-        let opts = PredictOptions::from_config(t.config());
+        let opts = t.config().predict.clone();
         let completion = t.complete(4, &opts);
         assert_eq!(t.graph().nodes(), &nodes[..]);
         assert!(!completion.is_empty());

@@ -6,7 +6,7 @@
 
 use serde::Serialize;
 
-use crate::engine::{ConfigError, EngineConfig};
+use crate::engine::{ConfigError, EngineConfig, PredictOptions};
 
 use super::corpus::Program;
 use super::methods::EngineMethod;
@@ -46,8 +46,11 @@ pub fn sweep(
             for &horizon in horizons {
                 let config = EngineConfig {
                     delta,
-                    phi_min,
-                    horizon,
+                    predict: PredictOptions {
+                        phi_min,
+                        horizon,
+                        ..base.predict.clone()
+                    },
                     ..base.clone()
                 };
                 config.validate()?;
@@ -58,7 +61,8 @@ pub fn sweep(
     configs
         .into_iter()
         .map(|config| {
-            let (delta, phi_min, horizon) = (config.delta, config.phi_min, config.horizon);
+            let (delta, phi_min, horizon) =
+                (config.delta, config.predict.phi_min, config.predict.horizon);
             let mut engine = EngineMethod::new(config)?;
             let records: Vec<ProgramRecord> = programs
                 .iter()

@@ -1,15 +1,24 @@
-//! Experts over one history: each reads the cell's taught routines in its own frame
-//! ([`Frame`]) and proposes the next waypoint where that frame repeats itself.
+//! The experts and the calibrated offer rule (the `default` profile's `offer`): besides the
+//! CDHMM, simpler readers of the same history propose the next waypoint, and each proposal is
+//! offered by the probability that it is right rather than by its proposer's own gates.
 //!
-//! A [`SequenceExpert`] keeps the elements of every finished routine (tool-frame moves,
-//! work-frame moves or absolute poses). Asked about the routine being taught, it finds the
-//! longest context (up to [`MAX_CONTEXT`] elements) that ends the routine and occurred before,
-//! element by element within the cell's tolerance, in an earlier routine or earlier in this
-//! one, and proposes what followed its most recent occurrence, with the evidence: how long the
-//! context is, at how many places it occurred, how many of those agree on what followed, and
-//! whether the most recent one is in the routine being taught. The CDHMM ([`crate::engine::cdhmm::predict`])
-//! is the fourth expert ([`Expert::Model`]); [`calibration`] turns every candidate's
-//! evidence into the probability that it is right.
+//! In the order a taught waypoint meets them: [`frames`] reads a routine three ways (tool-frame
+//! moves, work-frame moves, absolute poses), and the sequence experts below (one per frame) keep
+//! the finished routines in their frame; [`noise`] widens the cell's tolerance by its teaching
+//! noise, so contexts of noisy waypoints still match; [`template`], in a noisy cell only, fits one
+//! rigid transform to the last few waypoints and an earlier stretch of the same shape. Each
+//! proposal, the CDHMM's included ([`Expert::Model`]), is a [`Candidate`] with its
+//! [`Evidence`]; [`calibration`] turns that evidence into `p_useful`, and learns from every
+//! waypoint taught whether each candidate would have been right.
+//!
+//! This file holds what they share and the sequence experts themselves: a [`SequenceExpert`] keeps
+//! the elements of every finished routine (tool-frame moves, work-frame moves or absolute
+//! poses). Asked about the routine being taught, it finds the longest context (up to
+//! [`MAX_CONTEXT`] elements) that ends the routine and occurred before, element by element within
+//! the cell's tolerance, in an earlier routine or earlier in this one, and proposes what followed
+//! its most recent occurrence, with the evidence: how long the context is, at how many places it
+//! occurred, how many of those agree on what followed, and whether the most recent one is in the
+//! routine being taught.
 
 pub mod calibration;
 pub mod frames;

@@ -80,9 +80,9 @@ impl From<Report> for pb::ReplayReport {
             config: Some(pb::ReplayConfig {
                 profile: c.profile,
                 delta: c.engine.delta,
-                phi_min: c.engine.phi_min,
-                horizon: c.engine.horizon as u64,
-                scale: c.engine.scale.enabled,
+                phi_min: c.engine.predict.phi_min,
+                horizon: c.engine.predict.horizon as u64,
+                scale: c.engine.predict.scale.enabled,
                 sigma_t: c.engine.sigma_t,
                 sigma_q: c.engine.sigma_q,
                 nearest_seq_gate: c.nearest_seq_gate,

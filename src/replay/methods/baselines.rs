@@ -166,7 +166,7 @@ impl NearestSeq {
             name: format!("{prefix}{suffix}"),
             frame,
             weights: [wt, wt, wt, wq, wq, wq, wq],
-            horizon: config.horizon.max(1),
+            horizon: config.predict.horizon.max(1),
             within,
             gate,
             history: Vec::new(),
@@ -420,7 +420,7 @@ mod tests {
         );
         assert_eq!(
             NearestSeq::in_frame(&c, Frame::Work, false, false).horizon(),
-            c.horizon
+            c.predict.horizon
         );
     }
 

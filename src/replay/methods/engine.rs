@@ -52,7 +52,7 @@ impl Method for EngineMethod {
         }
         // With the experts' offer rule the confidence is p_useful; otherwise the gate that
         // decides most often: the match misfit (negated: higher = more sure), else φ.
-        let confidence = match (p.p_useful, self.config.max_misfit, p.misfit) {
+        let confidence = match (p.p_useful, self.config.predict.max_misfit, p.misfit) {
             (Some(u), _, _) => u,
             (None, Some(_), Some(m)) => -m,
             _ => p.phi,

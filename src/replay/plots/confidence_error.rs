@@ -22,7 +22,7 @@ pub const ERROR_FLOOR_MM: f64 = 1e-3;
 pub fn confidence_desc(config: &EngineConfig) -> &'static str {
     if config.offer.is_some() {
         "confidence = p_useful (the experts' offer rule)"
-    } else if config.max_misfit.is_some() {
+    } else if config.predict.max_misfit.is_some() {
         "confidence = −match misfit (higher = surer)"
     } else {
         "confidence = φ"

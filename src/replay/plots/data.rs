@@ -60,14 +60,14 @@ pub fn plot_data(
         config,
         &[config.delta],
         &grid.phi_mins,
-        &[config.horizon],
+        &[config.predict.horizon],
     )?;
     let delta_sweep = sweep(
         programs,
         config,
         &grid.deltas,
-        &[config.phi_min],
-        &[config.horizon],
+        &[config.predict.phi_min],
+        &[config.predict.horizon],
     )?;
     let mut engine = EngineMethod::new(config.clone())?;
     let records = programs

@@ -43,7 +43,7 @@ where
         &LinePanel {
             caption: format!(
                 "Median error of offered guesses vs complexity δ (φ_min = {}, h = {})",
-                c.phi_min, c.horizon
+                c.predict.phi_min, c.predict.horizon
             ),
             x_desc: "δ",
             y_desc: "Cartesian error, mm",

@@ -32,7 +32,7 @@ where
     let panel = LinePanel {
         caption: format!(
             "Offered and useful guesses vs confidence threshold φ_min (δ = {}, h = {})",
-            c.delta, c.horizon
+            c.delta, c.predict.horizon
         ),
         x_desc: "φ_min",
         y_desc: "% of predictable waypoints",
@@ -40,8 +40,8 @@ where
         y_max: y_max(&[&offered, &useful], 10.0),
         x_labels: &fixed(2),
         marker: Some((
-            c.phi_min,
-            format!("{} profile: φ_min = {}", data.profile, c.phi_min),
+            c.predict.phi_min,
+            format!("{} profile: φ_min = {}", data.profile, c.predict.phi_min),
         )),
         series: vec![offered, useful],
         notes: Vec::new(),

@@ -1,13 +1,14 @@
 //! Prediction and confidence (ALGORITHM §3, seed §3.10–3.11, §4.5.1): the orchestration that
 //! turns the moves of the routine being taught into a [`Prediction`].
 //!
-//! The predictor conditions on the last `h` of them (the *window*), runs the HMM forward
-//! recursion in log space (`forward`, over the `transitions` less the window's own edges, at the
-//! ψ that `scale` finds), turns the posterior over the current state into a pmf ν over the next
-//! state, and proposes the most likely next move: the mode of the mixture
-//! `Σ_j ν_j N(mean_j, C⁻¹)` (`mixture`). Whether the proposal is *offered* is decided by the
-//! `gates`, each reported with its figure; an ambiguous next state may be settled by `recall`.
-//! A window that matches nothing is shortened (backoff).
+//! In the order the window meets them: the predictor conditions on the last `h` moves (the
+//! *window*) and runs the HMM forward recursion in log space (`forward`, over the
+//! `transitions` less the window's own edges, at the ψ that [`scale`] finds; sums in `log_space`).
+//! The posterior over the current state gives a pmf ν over the next state, and the proposed move
+//! is the mode of the mixture `Σ_j ν_j N(mean_j, C⁻¹)` (`mixture`). The `gates` decide whether
+//! it is offered, each reported with its figure; an ambiguous next state may be settled by
+//! `recall`. A window that matches nothing is shortened (backoff). What comes out, and why it
+//! is withheld, is [`prediction`].
 
 pub(in crate::engine) mod forward;
 mod gates;

@@ -86,10 +86,8 @@ pub fn compare(
     config: &EngineConfig,
     grid: &[f64],
 ) -> Result<MapComparison, ConfigError> {
-    let open = EngineConfig {
-        phi_min: 0.0,
-        ..config.clone()
-    };
+    let mut open = config.clone();
+    open.predict.phi_min = 0.0;
     let mut methods: Vec<Box<dyn Method>> = vec![
         Box::new(EngineMethod::new(open.clone())?),
         Box::new(MapMethod::new(open, MapSettings::default())?),

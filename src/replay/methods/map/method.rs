@@ -26,7 +26,7 @@ impl MapMethod {
         config.validate()?;
         let learner = Self::new_learner(&config, settings)?;
         Ok(MapMethod {
-            opts: PredictOptions::from_config(&config),
+            opts: config.predict.clone(),
             config,
             settings,
             learner,
@@ -84,7 +84,7 @@ impl Method for MapMethod {
             return None;
         }
         // As the engine without an offer rule: the misfit when it gates, else φ.
-        let confidence = match (self.config.max_misfit, p.misfit) {
+        let confidence = match (self.config.predict.max_misfit, p.misfit) {
             (Some(_), Some(m)) => -m,
             _ => p.phi,
         };
