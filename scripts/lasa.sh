@@ -6,7 +6,7 @@
 # into target/lasa/ (scripts/lasa_export.py), and runs `nextpose segment --summary` over them
 # (extra arguments go to `nextpose segment`, e.g. `--epsilon-max 0.3 --criterion seed`).
 #   bash scripts/lasa.sh                 # docs/results/lead-through.md's first row (default settings)
-#   LASA_ONLY_EXPORT=1 bash scripts/lasa.sh   # only the CSVs (tests/lead_through.rs reads them)
+#   LASA_ONLY_EXPORT=1 bash scripts/lasa.sh   # only the CSVs (tests/engine/lead_through.rs reads them)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -22,7 +22,8 @@ cargo test --locked "$@"
 # plain `cargo test`). The filter names that one test exactly: `--ignored` alone would also run
 # the tests ignored because the shared corpus is missing.
 LASA_ONLY_EXPORT=1 bash scripts/lasa.sh
-cargo test --locked --test lead_through -- --ignored --exact lasa_handwriting_is_segmented_and_reproduced
+cargo test --locked --test engine -- --ignored --exact \
+  lead_through::lasa_handwriting_is_segmented_and_reproduced
 
 # The API tests once more on PostgreSQL (a throwaway cluster, its server installed when missing),
 # then the tests of several instances on one database (ignored by plain `cargo test`: they need

@@ -13,7 +13,7 @@ use reqwest::StatusCode;
 use reqwest::header;
 use serde_json::{Value, json};
 
-use crate::grpc::pb_pose;
+use crate::grpc::client::pb_pose;
 use crate::helpers::*;
 
 fn joints_of(v: &Value) -> Vec<f64> {

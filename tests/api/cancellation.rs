@@ -20,7 +20,7 @@ use serde_json::{Value, json};
 use tonic::Code;
 use tonic::transport::Channel;
 
-use crate::grpc::pb_pose;
+use crate::grpc::client::pb_pose;
 use crate::helpers::*;
 
 /// Poses of a seam taught again and again at other places, so the model has something to

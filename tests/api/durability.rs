@@ -10,13 +10,13 @@ use nextpose::server::Database;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
+use crate::corpus;
 use crate::helpers::*;
 
 /// A real program from the shared corpus, as API poses per routine: the first (by file name)
 /// with at least three routines of three or more waypoints and at most 300 waypoints in all.
 pub(crate) fn corpus_program() -> Vec<Vec<Value>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/json");
-    let programs = load_paths(&[dir]).expect("corpus");
+    let programs = load_paths(&[corpus::json()]).expect("corpus");
     let program = programs
         .iter()
         .find(|p| {

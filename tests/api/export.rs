@@ -4,14 +4,12 @@
 //! carry the arm configuration of the joint solution the service chose; unreachable targets
 //! are said so in the file and in the answer.
 
-use std::fs;
-use std::path::PathBuf;
-
 use nextpose::export::Format;
-use nextpose::import::{decode_text, parse_files};
+use nextpose::import::parse_files;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
+use crate::corpus;
 use crate::helpers::*;
 
 /// The files of an export answer: (file name, text).
@@ -40,38 +38,14 @@ fn read_back(files: &[(String, String)]) -> nextpose::import::ImportReport {
 
 /// One repository's raw files as an upload body (names are the original paths).
 fn uploads() -> Vec<(String, Vec<Value>)> {
-    let raw = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus/raw"));
-    let mut repos: Vec<PathBuf> = fs::read_dir(&raw)
-        .expect("corpus/raw")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.is_dir())
-        .collect();
-    repos.sort();
-    repos
+    corpus::uploads()
         .into_iter()
-        .map(|dir| {
-            let mut files: Vec<(String, String)> = fs::read_dir(&dir)
-                .expect("repo dir")
-                .map(|e| e.expect("entry").path())
-                .map(|p| {
-                    let flat = p.file_name().expect("name").to_string_lossy().into_owned();
-                    (
-                        flat.replace("__", "/"),
-                        decode_text(&fs::read(&p).expect("read")),
-                    )
-                })
+        .map(|(repo, files)| {
+            let files = files
+                .into_iter()
+                .map(|(name, content)| json!({ "name": name, "content": content }))
                 .collect();
-            files.sort();
-            (
-                dir.file_name()
-                    .expect("name")
-                    .to_string_lossy()
-                    .into_owned(),
-                files
-                    .into_iter()
-                    .map(|(name, content)| json!({ "name": name, "content": content }))
-                    .collect(),
-            )
+            (repo, files)
         })
         .collect()
 }

@@ -1,33 +1,16 @@
 //! Importing real offline programs from the shared corpus into a cell.
 
-use std::path::Path;
-
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
+use crate::corpus;
 use crate::helpers::*;
 
 /// The RAPID modules of one repository in the corpus, as an upload.
-pub(crate) fn upload(dir: &str) -> Vec<Value> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/corpus/raw")
-        .join(dir);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "mod"))
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "{}", dir.display());
-    files
-        .iter()
-        .map(|p| {
-            let bytes = std::fs::read(p).unwrap();
-            json!({
-                "name": p.file_name().unwrap().to_string_lossy(),
-                "content": nextpose::import::decode_text(&bytes),
-            })
-        })
+pub(crate) fn upload(repo: &str) -> Vec<Value> {
+    corpus::rapid_modules(repo)
+        .into_iter()
+        .map(|(name, content)| json!({ "name": name, "content": content }))
         .collect()
 }
 
@@ -191,8 +174,7 @@ async fn import_errors() {
 )]
 async fn nextpose_import_uploads_files_to_a_running_server() {
     let app = spawn_app().await;
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/corpus/raw/ravenorb__abb-robot-welder");
+    let dir = corpus::raw().join("ravenorb__abb-robot-welder");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())

@@ -3,6 +3,8 @@
 
 mod arm;
 mod cancellation;
+#[path = "../common/corpus.rs"]
+mod corpus;
 mod durability;
 mod editing;
 mod errors;

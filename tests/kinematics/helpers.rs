@@ -1,5 +1,5 @@
-//! Helpers shared by the kinematics test files (`mod common;`).
-#![allow(dead_code)]
+//! What the kinematics tests share: a bundled arm, random joints within its limits, and the
+//! IK round trip.
 
 use nextpose::kinematics::{DOF, Joints, Robot, bundled_robots_dir, load_robot};
 use rand::rngs::StdRng;

@@ -17,46 +17,14 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use nextpose::engine::{EngineConfig, Pose, Profile};
-use nextpose::import::{
-    ImportError, ImportReport, ImportedProgram, decode_text, parse_files, parse_upload,
-};
+use nextpose::import::{ImportError, ImportReport, ImportedProgram, parse_files, parse_upload};
 use nextpose::replay::corpus::{Program, Routine, parse_program};
 use nextpose::replay::methods::EngineMethod;
 use nextpose::replay::{Scores, replay_program};
 use proptest::prelude::*;
 use serde::Deserialize;
 
-fn corpus() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus"))
-}
-
-/// One repository's raw files as an upload: names are the original paths (`__` → `/`).
-fn uploads() -> Vec<(String, Vec<(String, String)>)> {
-    let mut repos: Vec<PathBuf> = fs::read_dir(corpus().join("raw"))
-        .expect("corpus/raw")
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.is_dir())
-        .collect();
-    repos.sort();
-    repos
-        .into_iter()
-        .map(|dir| {
-            let mut files: Vec<(String, String)> = fs::read_dir(&dir)
-                .unwrap()
-                .map(|e| e.unwrap().path())
-                .map(|p| {
-                    let flat = p.file_name().unwrap().to_string_lossy().into_owned();
-                    (flat.replace("__", "/"), decode_text(&fs::read(&p).unwrap()))
-                })
-                .collect();
-            files.sort();
-            (
-                dir.file_name().unwrap().to_string_lossy().into_owned(),
-                files,
-            )
-        })
-        .collect()
-}
+use crate::corpus::{self, uploads};
 
 fn import(files: &[(String, String)]) -> ImportReport {
     let refs: Vec<(&str, &str)> = files
@@ -104,7 +72,7 @@ impl JsonWaypoint {
 
 /// The JSON programs: (file stem, repository with `__`, source path, program, printed numbers).
 fn reference() -> Vec<(String, String, String, Program, Vec<JsonRoutine>)> {
-    let mut files: Vec<PathBuf> = fs::read_dir(corpus().join("json"))
+    let mut files: Vec<PathBuf> = fs::read_dir(corpus::json())
         .unwrap()
         .map(|e| e.unwrap().path())
         .collect();
@@ -357,7 +325,7 @@ fn stored_as_a_cell_every_upload_imports_but_the_one_declaring_main_module_twice
 )]
 fn the_raw_corpus_directory_replays_as_one_upload_per_repository() {
     // `nextpose replay ../shared/corpus/raw`: the folder holds one folder per repository.
-    let programs = nextpose::replay::corpus::load_paths(&[corpus().join("raw")]).unwrap();
+    let programs = nextpose::replay::corpus::load_paths(&[corpus::raw()]).unwrap();
     let imported: usize = uploads()
         .iter()
         .map(|(_, upload)| import(upload).programs.len())

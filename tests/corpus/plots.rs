@@ -11,12 +11,11 @@ use nextpose::replay::plots::{
     Figure, PlotGrid, learning_curve, plot_data, render_svg, write_plots,
 };
 
+use crate::corpus;
+
 /// Two 60-waypoint RAPID programs of one cell (similar templates: the engine offers guesses).
 fn subset() -> Vec<PathBuf> {
-    let dir = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/corpus/json"
-    ));
+    let dir = corpus::json();
     [
         "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_10014_Module.mod.json",
         "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_10023_Module.mod.json",

@@ -2,8 +2,6 @@
 //! like any method, reports its model, predicts a repeated routine, and the Figure 4.14
 //! comparison is computed from it.
 
-use std::path::PathBuf;
-
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use nextpose::engine::{EngineConfig, Pose, Profile};
 use nextpose::replay::methods::EngineMethod;
@@ -12,6 +10,8 @@ use nextpose::replay::methods::map::MapSettings;
 use nextpose::replay::methods::map::comparison::{PHI_GRID, compare};
 use nextpose::replay::report::RunConfig;
 use nextpose::replay::{Method, Program, load_paths, replay_all, replay_program};
+
+use crate::corpus;
 
 fn pose(p: [f64; 3], axis: [f64; 3], angle: f64) -> Pose {
     let q = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::from(axis)), angle);
@@ -115,10 +115,7 @@ fn map_is_a_scoreboard_method_and_its_comparison_is_computed() {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn map_runs_on_a_corpus_program() {
-    let file = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/corpus/json/jvalta__Robottijarjestelmaprojekti__Module1.mod.json"
-    ));
+    let file = corpus::json().join("jvalta__Robottijarjestelmaprojekti__Module1.mod.json");
     let programs = load_paths(&[file]).expect("corpus file loads");
     let record = replay_program(&programs[0], &mut map());
     let s = record.summary.expect("summary");

@@ -4,10 +4,10 @@
 //! library arm for its language that reaches every taught waypoint, placed by the layout
 //! search), against the arm and placement used before the library (an IRB 140 for RAPID, a
 //! KR 16-2 for KRL and FANUC, the median heuristic). A per-program table is printed
-//! (`cargo test --release --test layout -- --nocapture`).
+//! (`cargo test --release --test corpus layout:: -- --nocapture`).
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use nextpose::engine::Pose;
@@ -16,12 +16,10 @@ use nextpose::kinematics::placement::{ArmChoice, HeuristicSetup, ReachCheck, Rea
 use nextpose::kinematics::{LayoutOptions, Robot, bundled_robots_dir, load_catalog, search_layout};
 use nextpose::replay::{Program, load_paths};
 
-fn corpus_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus"))
-}
+use crate::corpus;
 
-fn corpus() -> Vec<Program> {
-    load_paths(&[corpus_dir().join("json")]).expect("shared corpus loads")
+fn programs() -> Vec<Program> {
+    load_paths(&[corpus::json()]).expect("shared corpus loads")
 }
 
 /// The arm and placement before the library, as the simulator had them.
@@ -54,7 +52,7 @@ fn work_objects(program: &Program) -> BTreeSet<String> {
     let source = serde_json::from_str::<File>(&text)
         .expect("a source")
         .source;
-    let dir = corpus_dir()
+    let dir = corpus::dir()
         .join("raw")
         .join(source.repo.replace('/', "__"));
     // The program's file with any extension (a KRL `.src` and its `.dat`), or the files of its
@@ -133,7 +131,7 @@ fn span_mm(poses: &[Pose]) -> f64 {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_where_it_fits() {
-    let programs = corpus();
+    let programs = programs();
     assert_eq!(programs.len(), 36, "the shared corpus has 36 programs");
     let catalog = load_catalog(&bundled_robots_dir()).expect("the catalogue");
     let fitted = ReachCheck::new(ReachSetup::default()).expect("the library loads");
@@ -244,7 +242,7 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn the_arms_the_corpus_names_are_found() {
-    let programs = corpus();
+    let programs = programs();
     let named = |prefix: &str| -> Vec<(String, String)> {
         programs
             .iter()
@@ -289,7 +287,7 @@ fn the_arms_the_corpus_names_are_found() {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn the_layout_command_places_an_arm_for_program_files() {
-    let file = corpus_dir()
+    let file = corpus::dir()
         .join("json")
         .join("panin-anan__abb_SAMXL_Grinding_RAPID__RAPID__TASK1__PROGMOD__Training.mod.json");
     let run = |robot: &str| {

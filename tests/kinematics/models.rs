@@ -9,11 +9,10 @@ use nextpose::kinematics::{
     Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
     pose_to_metres,
 };
-mod common;
-
-use common::{random_joints, robot};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
+
+use crate::helpers::{random_joints, robot};
 
 fn assert_position_mm(pose: &Pose, expected: [f64; 3]) {
     let p = pose.position();

@@ -10,14 +10,13 @@ use nextpose::kinematics::{
     DOF, Joints, SolverKind, bundled_robots_dir, computed_reach_mm, list_robots, load_catalog,
     pose_error,
 };
-mod common;
-
-use common::{random_joints, robot, round_trip};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rs_opw_kinematics::kinematic_traits::Kinematics;
 use rs_opw_kinematics::kinematics_impl::OPWKinematics;
 use rs_opw_kinematics::parameters::opw_kinematics::Parameters;
+
+use crate::helpers::{random_joints, robot, round_trip};
 
 /// Every bundled model, sorted by name, with the solver it must get.
 const ARMS: [(&str, SolverKind); 18] = [

@@ -4,7 +4,6 @@
 //! sleeps. The corpus is read from `../shared/corpus` and never written.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use nextpose::api::{CreateProgram, CreateRoutine, NewWaypoint, PredictQuery, Prediction};
@@ -18,17 +17,15 @@ use nextpose::sim::{
 };
 use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, placements, run_session};
 
+use crate::corpus;
+
 const TEMPLATE: &str =
     "zwj12__AddInPackages__ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20023_Module.mod.json";
 const PALLETIZING: &str = "djordjeristic04__Robotic-Palletizing-System__PlacePaths.mod.json";
 const MODULE: &str = "jvalta__Robottijarjestelmaprojekti__Module1.mod.json";
 
-fn corpus() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus")
-}
-
 fn program(name: &str) -> Program {
-    let path = corpus().join("json").join(name);
+    let path = corpus::json().join(name);
     load_paths(&[path]).expect("corpus program").remove(0)
 }
 
@@ -355,8 +352,9 @@ async fn an_imported_offline_program_seeds_the_cell() {
     let client = RestClient::new(&server.base, None);
     let driver = Client::from(client.clone());
     let plan = plan(precise(), ReachPolicy::Withhold);
-    let raw = corpus()
-        .join("raw/zwj12__AddInPackages/ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20014_Module.mod");
+    let raw = corpus::raw().join(
+        "zwj12__AddInPackages/ZhongXun__Source__RAPID__TASK1__PROGMOD__Template_20014_Module.mod",
+    );
     let text = std::fs::read_to_string(&raw).expect("raw program");
     let p = program(TEMPLATE);
     let fresh = run_session(&driver, &plan, &session(&plan, "default", &p, 1, "fresh"))

@@ -5,8 +5,6 @@
 //! while saving more time than the seed and than every baseline. The stretch target
 //! (≥ 18 % saved at ≥ 90 % precision) is not reached yet (README, "Scoreboard").
 
-use std::path::PathBuf;
-
 use nextpose::engine::{EngineConfig, Profile};
 use nextpose::replay::methods::EngineMethod;
 use nextpose::replay::methods::baselines::{self, DEFAULT_NEAREST_SEQ_GATE};
@@ -14,16 +12,14 @@ use nextpose::replay::report::{Report, RunConfig};
 use nextpose::replay::score::Scores;
 use nextpose::replay::{Method, Program, load_paths, replay_all, replay_program};
 
-fn corpus() -> Vec<Program> {
-    let corpus = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/corpus/json"
-    ));
-    load_paths(&[corpus]).expect("shared corpus loads")
+use crate::corpus;
+
+fn programs() -> Vec<Program> {
+    load_paths(&[corpus::json()]).expect("shared corpus loads")
 }
 
 fn scoreboard(profile: Profile) -> Report {
-    let programs = corpus();
+    let programs = programs();
     let config = EngineConfig::profile(profile);
     let mut methods: Vec<Box<dyn Method>> =
         vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
@@ -124,7 +120,7 @@ fn default_profile_is_precise_and_beats_every_baseline() {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
-    let programs = corpus();
+    let programs = programs();
     let config = EngineConfig::profile(Profile::Default);
     let threshold = config
         .offer
@@ -230,7 +226,7 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn the_engines_confidence_is_p_useful() {
-    let programs = corpus();
+    let programs = programs();
     let config = EngineConfig::profile(Profile::Default);
     let mut engine = EngineMethod::new(config).unwrap();
     let mut offered = 0;

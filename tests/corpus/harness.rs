@@ -1,6 +1,6 @@
 //! The replay harness on real corpus files and on programs built here.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use nalgebra::{Unit, UnitQuaternion, Vector3};
 use nextpose::engine::{EngineConfig, Pose};
@@ -15,7 +15,7 @@ use nextpose::replay::{
     replay_all, replay_program,
 };
 
-const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus/json");
+use crate::corpus;
 
 fn pose(p: [f64; 3], axis: [f64; 3], angle: f64) -> Pose {
     let q = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::from(axis)), angle);
@@ -62,7 +62,7 @@ fn temp_path(name: &str) -> PathBuf {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn whole_corpus_loads() {
-    let programs = load_paths(&[Path::new(CORPUS)]).unwrap();
+    let programs = load_paths(&[corpus::json()]).unwrap();
     assert_eq!(programs.len(), 36);
     let routines: usize = programs.iter().map(|p| p.routines.len()).sum();
     let waypoints: usize = programs.iter().map(|p| p.waypoint_count()).sum();
@@ -556,7 +556,7 @@ fn work_frame_offset_under_a_turning_tool_is_a_work_frame_repeat() {
     ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
 )]
 fn corpus_oracles_and_the_absolute_predictor() {
-    let programs = load_paths(&[Path::new(CORPUS)]).unwrap();
+    let programs = load_paths(&[corpus::json()]).unwrap();
     let config = EngineConfig::default();
     let mut methods = baselines::frames(&config);
     let mut report = replay_all(

@@ -1,7 +1,7 @@
 //! The exporter against our importer.
 //!
 //! - (a) Every program of the shared corpus (`../shared/corpus/raw`, one upload per repository,
-//!   as `tests/import.rs` reads it), imported, exported in all three formats and imported again,
+//!   as `importer.rs` reads it), imported, exported in all three formats and imported again,
 //!   has the same routines, waypoint counts, motion classes and poses within the printed
 //!   precision ([`Format::position_tolerance_mm`], [`Format::orientation_tolerance_rad`]); names
 //!   that were valid are kept exactly, the others are the ones the warnings announce, and a
@@ -11,8 +11,6 @@
 //! - (d) An unreachable waypoint gives a comment in every format and a warning.
 
 use std::collections::HashMap;
-use std::fs;
-use std::path::PathBuf;
 
 use nalgebra::UnitQuaternion;
 use nextpose::engine::Pose;
@@ -20,40 +18,10 @@ use nextpose::export::{
     ExportProgram, ExportRoutine, ExportSettings, ExportWarning, ExportWaypoint, Exported, Format,
     Motion, export,
 };
-use nextpose::import::{ImportedProgram, decode_text, parse_files};
+use nextpose::import::{ImportedProgram, parse_files};
 use proptest::prelude::*;
 
-fn corpus() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/corpus"))
-}
-
-/// One repository's raw files as an upload: names are the original paths (`__` → `/`).
-fn uploads() -> Vec<(String, Vec<(String, String)>)> {
-    let mut repos: Vec<PathBuf> = fs::read_dir(corpus().join("raw"))
-        .expect("corpus/raw")
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.is_dir())
-        .collect();
-    repos.sort();
-    repos
-        .into_iter()
-        .map(|dir| {
-            let mut files: Vec<(String, String)> = fs::read_dir(&dir)
-                .unwrap()
-                .map(|e| e.unwrap().path())
-                .map(|p| {
-                    let flat = p.file_name().unwrap().to_string_lossy().into_owned();
-                    (flat.replace("__", "/"), decode_text(&fs::read(&p).unwrap()))
-                })
-                .collect();
-            files.sort();
-            (
-                dir.file_name().unwrap().to_string_lossy().into_owned(),
-                files,
-            )
-        })
-        .collect()
-}
+use crate::corpus::uploads;
 
 /// An imported program as the exporter takes it.
 fn to_export(p: &ImportedProgram) -> ExportProgram {
