@@ -52,7 +52,7 @@ fi
 
 echo "replay-unchanged: building this checkout" >&2
 cargo build --release --locked --quiet
-reports target/release/nextpose "$work/new"
+reports "${CARGO_TARGET_DIR:-target}/release/nextpose" "$work/new"
 
 status=0
 for f in default.json seed.json seed-map.json; do
