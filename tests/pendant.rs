@@ -7,7 +7,7 @@
 //! edge of the arm's reach and see the suggestion flagged unreachable with its reason. The
 //! page's state is asserted through the DOM, the server's through its REST API (stored
 //! waypoints, feedback counts). Screenshots go to `$CARGO_TARGET_TMPDIR/pendant/`, with the
-//! Record → suggestion latencies the page measured (`latency.json`, reported in the README, not
+//! Record → suggestion latencies the page measured (`latency.json`, reported in docs/results/performance.md, not
 //! asserted). Any console error fails the test.
 //!
 //! Needs Debian's `chromium` and `chromium-driver` (`scripts/test.sh` installs them when

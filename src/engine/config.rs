@@ -3,7 +3,8 @@
 //! Two profiles exist. `seed` is the dissertation's engine as specified in ALGORITHM.md: the
 //! total-scatter merge test, learning from finished routines only, and φ as the only gate. It is
 //! kept so the comparison with the improved engine stays reproducible. `default` is the
-//! combination that measured best on the shared corpus (README, "Which options won").
+//! combination that measured best on the shared corpus (docs/results/scoreboard.md, "What
+//! each option is worth").
 
 use std::str::FromStr;
 
@@ -171,7 +172,8 @@ pub struct OfferRule {
 
 impl Default for OfferRule {
     /// Threshold 0.7 (≥ 90 % precision on the half of the corpus it was chosen on, with a
-    /// margin; README), the seed's 1 mm / 0.1 rad.
+    /// margin; docs/results/scoreboard.md, "The offer threshold by halves"), the seed's 1 mm /
+    /// 0.1 rad.
     fn default() -> OfferRule {
         OfferRule {
             threshold: 0.7,

@@ -170,7 +170,7 @@ async fn every_corpus_program_survives_import_store_export_import_in_all_three_f
         }
     }
     assert_eq!(programs, 36, "the shared corpus's programs");
-    // The stand-in arm does not reach all of the corpus (README): the comments were exercised.
+    // The stand-in arm does not reach all of the corpus (docs/results/scoreboard.md): the comments were exercised.
     assert!(unreachable_seen > 0);
 }
 

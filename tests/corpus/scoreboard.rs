@@ -3,7 +3,7 @@
 //! What it pins down: the seed profile reproduces the independent reference implementation's
 //! figures (so the comparison stays honest), and the default profile keeps precision ≥ 85 %
 //! while saving more time than the seed and than every baseline. The stretch target
-//! (≥ 18 % saved at ≥ 90 % precision) is not reached yet (README, "Scoreboard").
+//! (≥ 18 % saved at ≥ 90 % precision) is not reached yet (docs/results/scoreboard.md).
 
 use nextpose::engine::{EngineConfig, Profile};
 use nextpose::replay::methods::EngineMethod;
@@ -113,7 +113,7 @@ fn default_profile_is_precise_and_beats_every_baseline() {
 /// The reliability table and the risk–coverage curve of the default profile's p_useful over the
 /// corpus, from the scoreboard `nextpose replay` and the service produce: present, and
 /// consistent with each other and with the engine's scoreboard line. (What they measure is in
-/// the README; nothing here pins a measured figure.)
+/// docs/results/scoreboard.md; nothing here pins a measured figure.)
 #[test]
 #[cfg_attr(
     not(corpus),

@@ -31,7 +31,7 @@
 //! [`Calibration::forget_chosen`]), so the calibration is a function of the taught routines in
 //! their order, like the model. [`PRIOR`] and [`CHOSEN_PRIOR`] hold the counts measured on half
 //! of the shared corpus's repositories (`cargo run --release --example calibration_prior --
-//! FILES…`; README).
+//! FILES…`; docs/results/scoreboard.md, "Calibration of `p_useful`").
 
 use std::collections::HashMap;
 
@@ -218,7 +218,7 @@ impl Calibration {
     /// An uninformed calibration (a noisy cell) has no second stage: the first-stage estimate is
     /// returned as is. Tried with one (from the first-stage estimate, learning from the cell's
     /// own chosen candidates), the simulated lab's joystick operator at p ≥ 0.5 saved 28.3 %
-    /// instead of 38.9 % (README).
+    /// instead of 38.9 % (docs/engine.md, "Teaching noise").
     pub fn chosen(&self, first: f64) -> f64 {
         if self.uninformed {
             return first;

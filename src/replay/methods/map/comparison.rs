@@ -11,7 +11,7 @@
 //! profile with more gates (or the experts' offer rule) it filters what those gates offered.
 //!
 //! Figures are given for the whole corpus and, when the programs name their repositories, for
-//! the two halves the README uses (repositories sorted by name, case-blind; the first half of
+//! the two halves docs/results/scoreboard.md uses (repositories sorted by name, case-blind; the first half of
 //! them is A).
 
 use std::fmt::Write as _;
