@@ -127,12 +127,7 @@ async fn check_consistent(app: &TestApp, cell: i64, program: i64) {
     for r in routines.as_array().expect("routines") {
         check_seqs(app, r["id"].as_i64().expect("id")).await;
     }
-    app.post_ok(
-        &format!("/v1/cells/{cell}/rebuild"),
-        &json!({}),
-        StatusCode::OK,
-    )
-    .await;
+    app.rebuild(cell).await;
     let metrics = app.get("/metrics").await.text().await.unwrap();
     assert_eq!(
         sample(&metrics, "nextpose_model_divergences_total"),

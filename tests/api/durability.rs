@@ -93,13 +93,7 @@ async fn rebuild_and_restart_give_the_same_model_and_predictions() {
     assert_eq!(before["prediction"]["predictions"][0]["pose"], last["pose"]);
     assert!(before["stats"]["model"]["states"].as_u64().unwrap() > 10);
 
-    let rebuilt = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+    let rebuilt = app.rebuild(cell).await;
     assert_eq!(rebuilt, before["stats"]["model"]);
     assert_eq!(snapshot(&app, cell, open).await, before);
 

@@ -310,13 +310,7 @@ async fn edits_equal_a_fresh_cell(app: &TestApp, n: usize, edits: &[Edit]) {
             "{k} after {edits:?}"
         );
     }
-    let rebuilt = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+    let rebuilt = app.rebuild(cell).await;
     assert_eq!(rebuilt["version"], version);
 }
 

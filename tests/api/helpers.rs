@@ -188,6 +188,17 @@ impl TestApp {
     }
 
     /// POSTs and returns the JSON body, asserting the status.
+    /// Rebuilds a cell's model from the database (`POST /v1/cells/{cell}/rebuild`): the model
+    /// a rebuild gives.
+    pub async fn rebuild(&self, cell: i64) -> Value {
+        self.post_ok(
+            &format!("/v1/cells/{cell}/rebuild"),
+            &json!({}),
+            StatusCode::OK,
+        )
+        .await
+    }
+
     pub async fn post_ok(&self, path: &str, body: &Value, status: StatusCode) -> Value {
         let r = self.post(path, body).await;
         expect(r, status).await

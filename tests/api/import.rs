@@ -88,13 +88,7 @@ async fn imported_programs_seed_the_model_and_predictions_follow() {
 
     // The model after the import is the one a rebuild gives.
     let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
-    let rebuilt = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+    let rebuilt = app.rebuild(cell).await;
     assert_eq!(before["model"], rebuilt);
     let app = app.restart().await;
     let after = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;

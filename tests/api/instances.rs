@@ -180,12 +180,7 @@ async fn two_instances_alternating_with_a_kill_match_one_instance() {
             "instance {k}"
         );
         // And its model in memory is the one the database gives.
-        app.post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+        app.rebuild(cell).await;
         let metrics = app.get("/metrics").await.text().await.expect("metrics");
         assert_eq!(
             sample(&metrics, "nextpose_model_divergences_total"),
@@ -255,13 +250,7 @@ async fn concurrent_appends_on_two_instances_are_serialised() {
     for k in 0..2 {
         let app = &two.instances[k].app;
         let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"].clone();
-        let rebuilt = app
-            .post_ok(
-                &format!("/v1/cells/{cell}/rebuild"),
-                &json!({}),
-                StatusCode::OK,
-            )
-            .await;
+        let rebuilt = app.rebuild(cell).await;
         assert_eq!(rebuilt, before, "instance {k}");
         // The model in memory, caught up, was what the rebuild learned.
         let metrics = app.get("/metrics").await.text().await.expect("metrics");

@@ -439,13 +439,7 @@ async fn concurrent_appends_to_one_cell_are_serialised() {
     assert_eq!(seqs, (1..=24).collect::<Vec<_>>());
     // The model in memory is the one the database describes.
     let before = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
-    let rebuilt = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+    let rebuilt = app.rebuild(cell).await;
     assert_eq!(before["model"], rebuilt);
 }
 

@@ -582,13 +582,7 @@ async fn the_model_learns_taught_trajectories() {
     assert!(near(&last["pose"], [500.0, 200.0, 400.0], 1.0), "{last}");
 
     let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
-    let rebuilt = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/rebuild"),
-            &json!({}),
-            StatusCode::OK,
-        )
-        .await;
+    let rebuilt = app.rebuild(cell).await;
     assert_eq!(rebuilt, stats["model"]);
     let next = app.append(second, &pose_at([500.0, 200.0, 400.0])).await;
     assert_eq!(next["waypoint"]["seq"], 6);
