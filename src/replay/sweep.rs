@@ -73,12 +73,12 @@ pub fn sweep(
                 delta,
                 phi_min,
                 horizon,
-                saved_pct: m.saved_pct,
-                useful_pct: m.useful_pct,
-                offered_pct: m.offered_pct,
-                precision_pct: m.precision_pct,
-                median_cart_mm: m.median_cart_mm,
-                median_angle_rad: m.median_angle_rad,
+                saved_pct: m.n2.saved_pct,
+                useful_pct: m.n2.useful_pct,
+                offered_pct: m.n2.offered_pct,
+                precision_pct: m.n2.precision_pct,
+                median_cart_mm: m.n2.median_cart_mm,
+                median_angle_rad: m.n2.median_angle_rad,
                 states: m.states,
             })
         })

@@ -148,9 +148,12 @@ fn repeat_last_is_exact_on_a_straight_line() {
         }
     }
     let m = Scores::of_program(&record);
-    assert_eq!((m.predictable, m.offered, m.useful), (9, 9, 9));
-    assert_eq!(m.precision_pct, Some(100.0));
-    assert_eq!(m.spearman_conf_err, None, "repeat_last has no confidence");
+    assert_eq!((m.n2.predictable, m.n2.offered, m.n2.useful), (9, 9, 9));
+    assert_eq!(m.n2.precision_pct, Some(100.0));
+    assert_eq!(
+        m.n2.spearman_conf_err, None,
+        "repeat_last has no confidence"
+    );
 }
 
 fn rec(n: usize, offered: Option<(f64, f64)>, travel_mm: f64, conf: Option<f64>) -> WaypointRecord {
@@ -197,28 +200,28 @@ fn metrics_arithmetic_on_hand_made_records() {
     let m = Scores::of_program(&record);
     let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
 
-    assert_eq!((m.predictable, m.offered, m.useful), (5, 4, 2));
-    assert!(close(m.offered_pct, 80.0));
-    assert!(close(m.useful_pct, 40.0));
-    assert!(close(m.precision_pct, 50.0));
-    assert!(close(m.saved_pct, 0.9 * 40.0 - 0.1 * (80.0 - 40.0)));
-    assert!(close(m.saved_pct, 32.0));
+    assert_eq!((m.n2.predictable, m.n2.offered, m.n2.useful), (5, 4, 2));
+    assert!(close(m.n2.offered_pct, 80.0));
+    assert!(close(m.n2.useful_pct, 40.0));
+    assert!(close(m.n2.precision_pct, 50.0));
+    assert!(close(m.n2.saved_pct, 0.9 * 40.0 - 0.1 * (80.0 - 40.0)));
+    assert!(close(m.n2.saved_pct, 32.0));
     // Offered errors 0.2, 5, 0.5, 1.0.
-    assert!(close(m.median_cart_mm, 0.75));
-    assert!(close(m.median_angle_rad, 0.05));
+    assert!(close(m.n2.median_cart_mm, 0.75));
+    assert!(close(m.n2.median_angle_rad, 0.05));
     // The zero-travel waypoint is skipped: 2 %, 50 %, 10 %.
-    assert!(close(m.median_cart_pct_travel, 10.0));
+    assert!(close(m.n2.median_cart_pct_travel, 10.0));
     // Angle travel is zero everywhere: nothing to compare with.
-    assert_eq!(m.median_angle_pct_travel, None);
+    assert_eq!(m.n2.median_angle_pct_travel, None);
     // Confidence −0.2, −3, −0.5, −1 against error 0.2, 5, 0.5, 1.0: perfectly reversed ranks.
-    assert!(close(m.spearman_conf_err, -1.0));
-    assert_eq!(m.spearman_phi_err, None);
+    assert!(close(m.n2.spearman_conf_err, -1.0));
+    assert_eq!(m.n2.spearman_phi_err, None);
 
-    assert_eq!((m.predictable_n1, m.offered_n1, m.useful_n1), (7, 5, 3));
-    assert!(close(m.offered_pct_n1, 500.0 / 7.0));
-    assert!(close(m.useful_pct_n1, 300.0 / 7.0));
-    assert!(close(m.precision_pct_n1, 60.0));
-    assert!(close(m.saved_pct_n1, 250.0 / 7.0));
+    assert_eq!((m.n1.predictable, m.n1.offered, m.n1.useful), (7, 5, 3));
+    assert!(close(m.n1.offered_pct, 500.0 / 7.0));
+    assert!(close(m.n1.useful_pct, 300.0 / 7.0));
+    assert!(close(m.n1.precision_pct, 60.0));
+    assert!(close(m.n1.saved_pct, 250.0 / 7.0));
     assert!(close(m.us_per_waypoint, 2.0));
 
     // Totals pool waypoints, sum model sizes, average perplexity.
@@ -230,8 +233,8 @@ fn metrics_arithmetic_on_hand_made_records() {
         observations: 9,
     });
     let t = Scores::of_programs([&record, &other]);
-    assert_eq!((t.predictable, t.offered, t.useful), (10, 8, 4));
-    assert!(close(t.saved_pct, 32.0));
+    assert_eq!((t.n2.predictable, t.n2.offered, t.n2.useful), (10, 8, 4));
+    assert!(close(t.n2.saved_pct, 32.0));
     assert_eq!((t.states, t.edges), (Some(10), Some(7)));
     assert!(close(t.perplexity, 2.0));
 
@@ -242,9 +245,9 @@ fn metrics_arithmetic_on_hand_made_records() {
         ..record
     };
     let s = Scores::of_program(&silent);
-    assert_eq!(s.offered_pct, Some(0.0));
-    assert_eq!(s.precision_pct, None);
-    assert_eq!(s.median_cart_mm, None);
+    assert_eq!(s.n2.offered_pct, Some(0.0));
+    assert_eq!(s.n2.precision_pct, None);
+    assert_eq!(s.n2.median_cart_mm, None);
     assert_eq!(s.states, None);
     let json = serde_json::to_value(&s).unwrap();
     assert!(json["precision_pct"].is_null());
@@ -566,14 +569,14 @@ fn corpus_oracles_and_the_absolute_predictor() {
     )
     .expect("the bundled arm loads");
     report.add_oracles(&programs);
-    let share = |name: &str| report.totals.get(name).unwrap().useful_pct.unwrap();
+    let share = |name: &str| report.totals.get(name).unwrap().n2.useful_pct.unwrap();
     for (name, expected) in [
         ("oracle_tool", 33.1),
         ("oracle_absolute", 34.3),
         ("oracle_work", 35.4),
         ("oracle_any", 47.3),
     ] {
-        assert_eq!(report.totals.get(name).unwrap().predictable, 2969);
+        assert_eq!(report.totals.get(name).unwrap().n2.predictable, 2969);
         assert!(
             (share(name) - expected).abs() < 0.05,
             "{name}: {}",
@@ -584,7 +587,7 @@ fn corpus_oracles_and_the_absolute_predictor() {
         assert!(share("oracle_any") > share(name));
     }
     let a = report.totals.get("abs_seq_within_gated").unwrap();
-    let (saved, precision) = (a.saved_pct.unwrap(), a.precision_pct.unwrap());
+    let (saved, precision) = (a.n2.saved_pct.unwrap(), a.n2.precision_pct.unwrap());
     assert!((saved - 15.1).abs() < 0.05, "saved {saved}");
     assert!((precision - 87.6).abs() < 0.05, "precision {precision}");
     // A baseline offers candidates of its own kind, so it is useful at most where its oracle
@@ -601,10 +604,10 @@ fn corpus_oracles_and_the_absolute_predictor() {
             "oracle_work"
         };
         assert!(
-            s.useful_pct.unwrap() <= share(bound) + 1e-9,
+            s.n2.useful_pct.unwrap() <= share(bound) + 1e-9,
             "{name} vs {bound}"
         );
-        assert!(s.useful_pct.unwrap() > 10.0, "{name}");
+        assert!(s.n2.useful_pct.unwrap() > 10.0, "{name}");
     }
 }
 

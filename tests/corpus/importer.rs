@@ -419,8 +419,8 @@ fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
         Scores::of_programs(&json_records),
     );
     assert_eq!(
-        (a.predictable, a.offered, a.useful),
-        (b.predictable, b.offered, b.useful)
+        (a.n2.predictable, a.n2.offered, a.n2.useful),
+        (b.n2.predictable, b.n2.offered, b.n2.useful)
     );
     let close = |x: Option<f64>, y: Option<f64>, tol: f64| match (x, y) {
         (Some(x), Some(y)) => (x - y).abs() <= tol,
@@ -428,15 +428,15 @@ fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
         _ => false,
     };
     assert!(
-        close(a.median_cart_mm, b.median_cart_mm, 1e-3),
+        close(a.n2.median_cart_mm, b.n2.median_cart_mm, 1e-3),
         "{:?} {:?}",
-        a.median_cart_mm,
-        b.median_cart_mm
+        a.n2.median_cart_mm,
+        b.n2.median_cart_mm
     );
-    assert!(close(a.median_angle_rad, b.median_angle_rad, 1e-6));
+    assert!(close(a.n2.median_angle_rad, b.n2.median_angle_rad, 1e-6));
     eprintln!(
         "agreeing programs: {} predictable, {} offered, {} useful",
-        a.predictable, a.offered, a.useful
+        a.n2.predictable, a.n2.offered, a.n2.useful
     );
 }
 

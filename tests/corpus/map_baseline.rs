@@ -87,7 +87,7 @@ fn map_is_a_scoreboard_method_and_its_comparison_is_computed() {
     let report = replay_all(&programs, &mut methods, run).unwrap();
     let totals = report.totals.get("map").expect("map in the report");
     assert_eq!(totals.states, Some(8));
-    assert_eq!(totals.useful, 14, "routines 2 and 3, waypoints 2..8");
+    assert_eq!(totals.n2.useful, 14, "routines 2 and 3, waypoints 2..8");
 
     let c = compare(&programs, "seed", &config, &PHI_GRID).unwrap();
     assert_eq!(c.groups.len(), 1, "no repositories named: the corpus only");

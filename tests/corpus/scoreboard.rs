@@ -46,11 +46,11 @@ fn totals<'a>(r: &'a Report, method: &str) -> &'a Scores {
 fn seed_profile_reproduces_the_reference_implementation() {
     let r = scoreboard(Profile::Seed);
     let e = totals(&r, "engine");
-    assert_eq!(e.predictable, 2969, "waypoints with ≥ 2 predecessors");
+    assert_eq!(e.n2.predictable, 2969, "waypoints with ≥ 2 predecessors");
     let (offered, useful, precision) = (
-        e.offered_pct.unwrap(),
-        e.useful_pct.unwrap(),
-        e.precision_pct.unwrap(),
+        e.n2.offered_pct.unwrap(),
+        e.n2.useful_pct.unwrap(),
+        e.n2.precision_pct.unwrap(),
     );
     // Reference: offered 54.6 %, useful 16.8 %, precision 30.7 %.
     assert!((45.0..65.0).contains(&offered), "offered {offered}");
@@ -67,15 +67,15 @@ fn default_profile_is_precise_and_beats_every_baseline() {
     let seed = scoreboard(Profile::Seed);
     let r = scoreboard(Profile::Default);
     let e = totals(&r, "engine");
-    let saved = e.saved_pct.unwrap();
-    let precision = e.precision_pct.unwrap();
+    let saved = e.n2.saved_pct.unwrap();
+    let precision = e.n2.precision_pct.unwrap();
     assert!(precision >= 85.0, "precision {precision}");
     assert!(
-        e.median_cart_mm.unwrap() <= 1.0,
+        e.n2.median_cart_mm.unwrap() <= 1.0,
         "median error of what is offered"
     );
     assert!(
-        saved > totals(&seed, "engine").saved_pct.unwrap() + 2.0,
+        saved > totals(&seed, "engine").n2.saved_pct.unwrap() + 2.0,
         "default saves {saved}"
     );
     // issue 13: the engine must beat these too: the absolute-pose and work-frame baselines
@@ -92,21 +92,21 @@ fn default_profile_is_precise_and_beats_every_baseline() {
     ] {
         let b = totals(&r, baseline);
         assert!(
-            saved > b.saved_pct.unwrap(),
+            saved > b.n2.saved_pct.unwrap(),
             "{baseline} saves {:?} ≥ engine {saved}",
-            b.saved_pct
+            b.n2.saved_pct
         );
         assert!(
-            precision > b.precision_pct.unwrap(),
+            precision > b.n2.precision_pct.unwrap(),
             "{baseline} precision {:?}",
-            b.precision_pct
+            b.n2.precision_pct
         );
     }
     // Confidence figure tracks error (negative rank correlation), unlike the seed's φ.
     assert!(
-        e.spearman_conf_err.unwrap() < -0.1,
+        e.n2.spearman_conf_err.unwrap() < -0.1,
         "{:?}",
-        e.spearman_conf_err
+        e.n2.spearman_conf_err
     );
 }
 
@@ -138,7 +138,7 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     assert_eq!(r.calibration.0.len(), 1, "only the engine has p_useful");
 
     // Reliability: ten deciles whose counts sum to the candidates.
-    assert_eq!(c.predictable, e.predictable);
+    assert_eq!(c.predictable, e.n2.predictable);
     assert!(c.candidates > 0 && c.candidates <= c.predictable);
     assert_eq!(c.bins.len(), 10);
     assert_eq!(
@@ -182,15 +182,15 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     // the profile's threshold is the scoreboard's line.
     assert_eq!(
         (c.as_offered.offered, c.as_offered.useful),
-        (e.offered, e.useful)
+        (e.n2.offered, e.n2.useful)
     );
-    assert_eq!(c.offered, e.offered);
+    assert_eq!(c.offered, e.n2.offered);
     let at = curve
         .iter()
         .find(|p| p.threshold.is_some_and(|t| (t - threshold).abs() < 1e-12))
         .expect("the profile's threshold is on the grid");
-    assert_eq!((at.offered, at.useful), (e.offered, e.useful));
-    assert_eq!(at.precision_pct, e.precision_pct);
+    assert_eq!((at.offered, at.useful), (e.n2.offered, e.n2.useful));
+    assert_eq!(at.precision_pct, e.n2.precision_pct);
     if let Some(p) = &c.threshold_for_target_precision.point {
         assert!(p.precision_pct.unwrap() >= 90.0);
         assert!(p.offered <= c.candidates);

@@ -111,37 +111,18 @@ pub fn saved_pct(offered_pct: f64, useful_pct: f64) -> f64 {
     0.9 * useful_pct - 0.1 * (offered_pct - useful_pct)
 }
 
-/// The scoreboard line of one method on one program or on the whole corpus. Serialised as-is in
-/// the JSON report (a stable interface: add fields, do not rename them). Figures that cannot be
-/// computed (nothing offered, too few points) are `null`, never NaN.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// The scoreboard line of one method on one program or on the whole corpus: the [`Accuracy`]
+/// of the two populations (see the module doc) and the model's size and speed. Serialised in
+/// the JSON report as one flat object (a stable interface: add fields, do not rename them):
+/// the `n ≥ 2` figures under their own names, then the `n ≥ 1` ones with the suffix `_n1`,
+/// then the rest. Figures that cannot be computed (nothing offered, too few points) are `null`,
+/// never NaN.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Scores {
-    /// Waypoints with at least two predecessors.
-    pub predictable: usize,
-    pub offered: usize,
-    pub useful: usize,
-    pub offered_pct: Option<f64>,
-    pub useful_pct: Option<f64>,
-    pub precision_pct: Option<f64>,
-    pub saved_pct: Option<f64>,
-    pub median_cart_mm: Option<f64>,
-    pub median_angle_rad: Option<f64>,
-    pub median_cart_pct_travel: Option<f64>,
-    pub median_angle_pct_travel: Option<f64>,
-    pub spearman_conf_err: Option<f64>,
-    pub pearson_conf_err: Option<f64>,
-    pub spearman_phi_err: Option<f64>,
+    /// Waypoints with at least two predecessors (the headline figures).
+    pub n2: Accuracy,
     /// The same with the routines' second waypoints added (at least one predecessor).
-    pub predictable_n1: usize,
-    pub offered_n1: usize,
-    pub useful_n1: usize,
-    pub offered_pct_n1: Option<f64>,
-    pub useful_pct_n1: Option<f64>,
-    pub precision_pct_n1: Option<f64>,
-    pub saved_pct_n1: Option<f64>,
-    pub median_cart_mm_n1: Option<f64>,
-    pub median_angle_rad_n1: Option<f64>,
-    pub spearman_conf_err_n1: Option<f64>,
+    pub n1: Accuracy,
     /// Model size after the program (totals: summed over programs).
     pub states: Option<usize>,
     pub edges: Option<usize>,
@@ -157,6 +138,45 @@ pub struct Scores {
     pub taught_reachable_pct: Option<f64>,
 }
 
+impl Serialize for Scores {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let (a, b) = (&self.n2, &self.n1);
+        let mut m = s.serialize_struct("Scores", 30)?;
+        m.serialize_field("predictable", &a.predictable)?;
+        m.serialize_field("offered", &a.offered)?;
+        m.serialize_field("useful", &a.useful)?;
+        m.serialize_field("offered_pct", &a.offered_pct)?;
+        m.serialize_field("useful_pct", &a.useful_pct)?;
+        m.serialize_field("precision_pct", &a.precision_pct)?;
+        m.serialize_field("saved_pct", &a.saved_pct)?;
+        m.serialize_field("median_cart_mm", &a.median_cart_mm)?;
+        m.serialize_field("median_angle_rad", &a.median_angle_rad)?;
+        m.serialize_field("median_cart_pct_travel", &a.median_cart_pct_travel)?;
+        m.serialize_field("median_angle_pct_travel", &a.median_angle_pct_travel)?;
+        m.serialize_field("spearman_conf_err", &a.spearman_conf_err)?;
+        m.serialize_field("pearson_conf_err", &a.pearson_conf_err)?;
+        m.serialize_field("spearman_phi_err", &a.spearman_phi_err)?;
+        m.serialize_field("predictable_n1", &b.predictable)?;
+        m.serialize_field("offered_n1", &b.offered)?;
+        m.serialize_field("useful_n1", &b.useful)?;
+        m.serialize_field("offered_pct_n1", &b.offered_pct)?;
+        m.serialize_field("useful_pct_n1", &b.useful_pct)?;
+        m.serialize_field("precision_pct_n1", &b.precision_pct)?;
+        m.serialize_field("saved_pct_n1", &b.saved_pct)?;
+        m.serialize_field("median_cart_mm_n1", &b.median_cart_mm)?;
+        m.serialize_field("median_angle_rad_n1", &b.median_angle_rad)?;
+        m.serialize_field("spearman_conf_err_n1", &b.spearman_conf_err)?;
+        m.serialize_field("states", &self.states)?;
+        m.serialize_field("edges", &self.edges)?;
+        m.serialize_field("perplexity", &self.perplexity)?;
+        m.serialize_field("us_per_waypoint", &self.us_per_waypoint)?;
+        m.serialize_field("reachable_pct", &self.reachable_pct)?;
+        m.serialize_field("taught_reachable_pct", &self.taught_reachable_pct)?;
+        m.end()
+    }
+}
+
 impl Scores {
     /// Figures of one method on one program.
     pub fn of_program(record: &ProgramRecord) -> Scores {
@@ -167,8 +187,6 @@ impl Scores {
     pub fn of_programs<'a>(records: impl IntoIterator<Item = &'a ProgramRecord>) -> Scores {
         let records: Vec<&ProgramRecord> = records.into_iter().collect();
         let all = || records.iter().flat_map(|p| p.waypoints.iter());
-        let n2 = Accuracy::of(all().filter(|r| r.predecessors >= 2));
-        let n1 = Accuracy::of(all().filter(|r| r.predecessors >= 1));
         let summaries: Vec<&ModelSummary> =
             records.iter().filter_map(|p| p.summary.as_ref()).collect();
         let (states, edges, perplexity) = if summaries.is_empty() {
@@ -183,30 +201,8 @@ impl Scores {
         };
         let times: Vec<f64> = all().map(|r| r.micros).collect();
         Scores {
-            predictable: n2.predictable,
-            offered: n2.offered,
-            useful: n2.useful,
-            offered_pct: n2.offered_pct,
-            useful_pct: n2.useful_pct,
-            precision_pct: n2.precision_pct,
-            saved_pct: n2.saved_pct,
-            median_cart_mm: n2.median_cart_mm,
-            median_angle_rad: n2.median_angle_rad,
-            median_cart_pct_travel: n2.median_cart_pct_travel,
-            median_angle_pct_travel: n2.median_angle_pct_travel,
-            spearman_conf_err: n2.spearman_conf_err,
-            pearson_conf_err: n2.pearson_conf_err,
-            spearman_phi_err: n2.spearman_phi_err,
-            predictable_n1: n1.predictable,
-            offered_n1: n1.offered,
-            useful_n1: n1.useful,
-            offered_pct_n1: n1.offered_pct,
-            useful_pct_n1: n1.useful_pct,
-            precision_pct_n1: n1.precision_pct,
-            saved_pct_n1: n1.saved_pct,
-            median_cart_mm_n1: n1.median_cart_mm,
-            median_angle_rad_n1: n1.median_angle_rad,
-            spearman_conf_err_n1: n1.spearman_conf_err,
+            n2: Accuracy::of(all().filter(|r| r.predecessors >= 2)),
+            n1: Accuracy::of(all().filter(|r| r.predecessors >= 1)),
             states,
             edges,
             perplexity,
