@@ -473,7 +473,7 @@ fn modules_use_only_what_their_layer_allows() {
         ("export", &["engine", "kinematics", "program"]),
         ("sim", &["engine", "kinematics", "program"]),
         ("replay", &["engine", "import", "kinematics", "program"]),
-        ("storage", &[]),
+        ("storage", &["engine"]),
         ("telemetry", &[]),
         ("transport", &[]),
         ("api", &["engine", "export", "kinematics"]),

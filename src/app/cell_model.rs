@@ -6,9 +6,9 @@ use super::reach::CellArm;
 use super::robots::Robots;
 use super::settings::parse_settings;
 use crate::api::ModelInfo;
-use crate::engine::{Pose, Teacher};
+use crate::engine::{Pose, PoseValues, Teacher};
 use crate::kinematics::Reachability;
-use crate::storage::{CellRow, CellState, PoseColumns, Store, WaypointRow};
+use crate::storage::{CellRow, CellState, Store, WaypointRow};
 
 #[derive(Debug)]
 pub(crate) struct CellModel {
@@ -45,12 +45,12 @@ pub(crate) enum Behind {
 /// The pose of a stored waypoint. Stored poses were validated when taught, so a failure here
 /// means the database was edited behind our back.
 pub(crate) fn stored_pose(w: &WaypointRow) -> Result<Pose, AppError> {
-    stored_pose_columns(&w.pose)
+    stored_pose_values(&w.pose)
         .map_err(|e| AppError::Internal(format!("stored waypoint {}: {e}", w.id)))
 }
 
 /// A pose read back from the database.
-pub(crate) fn stored_pose_columns(p: &PoseColumns) -> Result<Pose, AppError> {
+pub(crate) fn stored_pose_values(p: &PoseValues) -> Result<Pose, AppError> {
     Pose::new([p.x, p.y, p.z], [p.qw, p.qx, p.qy, p.qz])
         .map_err(|e| AppError::Internal(format!("stored pose is invalid: {e}")))
 }

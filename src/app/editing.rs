@@ -93,7 +93,7 @@ impl App {
             arm.check_joints(j)?;
         }
         Ok(WaypointValues {
-            pose: stored.into(),
+            pose: stored,
             joints,
             motion: input.motion.map(|m| m.as_str().to_string()),
             name: input.name.as_ref().map(|n| n.trim().to_string()),

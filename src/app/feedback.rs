@@ -3,9 +3,8 @@
 use super::cell_model;
 use super::error::AppError;
 use super::{App, Result};
-use crate::api::{Feedback, FeedbackRecorded, Verdict};
+use crate::api::{Feedback, FeedbackRecorded, PoseValues, Verdict};
 use crate::storage::NewFeedback;
-use crate::storage::PoseColumns;
 
 impl App {
     pub async fn feedback(&self, prediction_id: i64, input: Feedback) -> Result<FeedbackRecorded> {
@@ -34,7 +33,7 @@ impl App {
                 "prediction {prediction_id} already has feedback ({v})"
             )));
         }
-        let predicted = cell_model::stored_pose_columns(&pr.pose)?;
+        let predicted = cell_model::stored_pose_values(&pr.pose)?;
         let adjustment_mm = match (input.verdict, &final_pose) {
             (Verdict::Accepted, _) => Some(0.0),
             (Verdict::Adjusted, Some(f)) => Some(predicted.distance_to(f)),
@@ -44,7 +43,7 @@ impl App {
             .insert_feedback(&NewFeedback {
                 prediction_id,
                 verdict: input.verdict.as_str(),
-                pose: final_pose.as_ref().map(PoseColumns::from),
+                pose: final_pose.as_ref().map(PoseValues::from),
                 adjustment_mm,
             })
             .await

@@ -170,7 +170,7 @@ impl Upload {
 /// The stored values of an imported waypoint.
 fn waypoint(w: &import::ImportedWaypoint, pose: PoseValues) -> WaypointValues {
     WaypointValues {
-        pose: pose.into(),
+        pose,
         joints: None,
         motion: Some(motion_of(&w.motion).as_str().to_string()),
         name: Some(truncated(&w.name)),

@@ -64,7 +64,7 @@ impl App {
                 *unreachable += 1;
             }
             out.push(WaypointValues {
-                pose: stored.into(),
+                pose: stored,
                 joints: None,
                 motion: w.motion.clone(),
                 name: w.name.clone(),

@@ -3,61 +3,8 @@
 use super::Result;
 use super::cell_model;
 use super::error::AppError;
-use crate::api::{MotionType, PoseValues, Program, Routine, Waypoint};
-use crate::engine::Pose;
-use crate::storage::{PoseColumns, ProgramRow, RoutineRow, WaypointRow};
-
-impl From<PoseValues> for PoseColumns {
-    fn from(p: PoseValues) -> PoseColumns {
-        let PoseValues {
-            x,
-            y,
-            z,
-            qw,
-            qx,
-            qy,
-            qz,
-        } = p;
-        PoseColumns {
-            x,
-            y,
-            z,
-            qw,
-            qx,
-            qy,
-            qz,
-        }
-    }
-}
-
-impl From<PoseColumns> for PoseValues {
-    fn from(p: PoseColumns) -> PoseValues {
-        let PoseColumns {
-            x,
-            y,
-            z,
-            qw,
-            qx,
-            qy,
-            qz,
-        } = p;
-        PoseValues {
-            x,
-            y,
-            z,
-            qw,
-            qx,
-            qy,
-            qz,
-        }
-    }
-}
-
-impl From<&Pose> for PoseColumns {
-    fn from(p: &Pose) -> PoseColumns {
-        PoseValues::from(p).into()
-    }
-}
+use crate::api::{MotionType, Program, Routine, Waypoint};
+use crate::storage::{ProgramRow, RoutineRow, WaypointRow};
 
 /// A stored waypoint as clients see it. Its joints and motion were validated when taught, so
 /// one that does not read back is an internal error, like a bad stored pose.
@@ -73,7 +20,7 @@ pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
         id: w.id,
         routine_id: w.routine_id,
         seq: w.seq,
-        pose: w.pose.into(),
+        pose: w.pose,
         joints,
         motion,
         name: w.name,

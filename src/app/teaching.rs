@@ -68,7 +68,7 @@ impl App {
         let wp = NewWaypoint {
             routine_id,
             seq: after,
-            pose: stored.into(),
+            pose: stored,
             joints,
             motion: input.motion.map(|m| m.as_str().to_string()),
             name: input.name.map(|n| n.trim().to_string()),

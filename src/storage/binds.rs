@@ -4,20 +4,14 @@
 use sqlx::any::{Any, AnyArguments};
 use sqlx::query::{Query, QueryAs};
 
-use super::rows::{NewPrediction, PoseColumns, flag, real};
+use super::rows::{NewPrediction, NewWaypoint, flag, real};
+use crate::engine::PoseValues;
 
 pub(super) trait Binds<'q>: Sized {
     fn value<T: 'q + sqlx::Encode<'q, Any> + sqlx::Type<Any>>(self, v: T) -> Self;
 
-    /// `x, y, z, qw, qx, qy, qz, joints, motion, name, reachable`.
-    fn waypoint_values(
-        self,
-        pose: &PoseColumns,
-        joints: &Option<String>,
-        motion: &Option<String>,
-        name: &Option<String>,
-        reachable: Option<bool>,
-    ) -> Self {
+    /// `x, y, z, qw, qx, qy, qz`.
+    fn pose(self, pose: &PoseValues) -> Self {
         self.value(pose.x)
             .value(pose.y)
             .value(pose.z)
@@ -25,21 +19,38 @@ pub(super) trait Binds<'q>: Sized {
             .value(pose.qx)
             .value(pose.qy)
             .value(pose.qz)
+    }
+
+    /// `x, y, z, qw, qx, qy, qz, joints, motion, name, reachable`.
+    fn waypoint_values(
+        self,
+        pose: &PoseValues,
+        joints: &Option<String>,
+        motion: &Option<String>,
+        name: &Option<String>,
+        reachable: Option<bool>,
+    ) -> Self {
+        self.pose(pose)
             .value(joints.clone())
             .value(motion.clone())
             .value(name.clone())
             .value(reachable.map(flag))
     }
 
+    /// `routine_id, seq`, then the [`Binds::waypoint_values`].
+    fn new_waypoint(self, w: &NewWaypoint) -> Self {
+        self.value(w.routine_id).value(w.seq).waypoint_values(
+            &w.pose,
+            &w.joints,
+            &w.motion,
+            &w.name,
+            w.reachable,
+        )
+    }
+
     /// `x, y, z, qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version`.
     fn prediction_values(self, pr: &NewPrediction) -> Self {
-        self.value(pr.pose.x)
-            .value(pr.pose.y)
-            .value(pr.pose.z)
-            .value(pr.pose.qw)
-            .value(pr.pose.qx)
-            .value(pr.pose.qy)
-            .value(pr.pose.qz)
+        self.pose(&pr.pose)
             .value(pr.phi)
             .value(pr.psi)
             .value(real(pr.misfit))

@@ -24,9 +24,10 @@ use super::backend::Backend;
 use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
-use super::rows::{CellState, NewPrediction, NewWaypoint, PoseColumns, Stored, WaypointRow};
+use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow};
 use super::slots::{Params, Run, Slot};
 use super::transaction::{Tx, insert_prediction, insert_waypoint, touch_cell};
+use crate::engine::{Pose, PoseValues};
 
 /// Most appends in one transaction: bounds the latency of the first append of a long queue and
 /// the number of statement shapes (one per power of two up to it) each connection prepares
@@ -378,15 +379,7 @@ fn empty_append() -> Append {
         waypoint: NewWaypoint {
             routine_id: 0,
             seq: 0,
-            pose: PoseColumns {
-                x: 0.0,
-                y: 0.0,
-                z: 0.0,
-                qw: 1.0,
-                qx: 0.0,
-                qy: 0.0,
-                qz: 0.0,
-            },
+            pose: PoseValues::from(&Pose::identity()),
             joints: None,
             motion: None,
             name: None,
@@ -466,13 +459,7 @@ async fn insert_waypoint_rows(
         .map(|a| {
             let w = &a.waypoint;
             let row = params.run(|p| {
-                p.value(w.routine_id).value(w.seq).waypoint_values(
-                    &w.pose,
-                    &w.joints,
-                    &w.motion,
-                    &w.name,
-                    w.reachable,
-                );
+                p.new_waypoint(w);
             });
             format!("({row})")
         })

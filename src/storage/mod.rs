@@ -45,8 +45,7 @@ pub use error::StorageError;
 pub use group_commit::{Append, Appended};
 pub use rows::{
     CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
-    NewWaypoint, PoseColumns, PredictionRow, ProgramRow, RobotRow, RoutineRow, WaypointRow,
-    WaypointValues,
+    NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, WaypointRow, WaypointValues,
 };
 
 /// The store: SQLite (one file, this process the only writer) or PostgreSQL (shared by several

@@ -2,6 +2,7 @@
 //! refer to one and a cell's real-world precision can be counted ([`super::feedback`]).
 
 use super::Store;
+use super::binds::Binds;
 use super::error::Result;
 use super::rows::{NewPrediction, PredictionRow};
 use super::transaction::insert_prediction;
@@ -28,13 +29,7 @@ impl Store {
         .bind(pr.after_seq)
         .bind(last)
         .bind(pr.model_version)
-        .bind(pr.pose.x)
-        .bind(pr.pose.y)
-        .bind(pr.pose.z)
-        .bind(pr.pose.qw)
-        .bind(pr.pose.qx)
-        .bind(pr.pose.qy)
-        .bind(pr.pose.qz)
+        .pose(&pr.pose)
         .fetch_optional(&mut *tx)
         .await?;
         let id = match existing {

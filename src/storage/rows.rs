@@ -5,7 +5,9 @@ use sqlx::any::{Any, AnyRow};
 use sqlx::decode::Decode;
 use sqlx::error::BoxDynError;
 use sqlx::types::Type;
-use sqlx::{FromRow, ValueRef};
+use sqlx::{FromRow, Row, ValueRef};
+
+use crate::engine::PoseValues;
 
 /// A 0/1 integer column read as a flag. Both dialects store flags as integers so that the same
 /// SQL (`imported = 0`) and the same binds serve SQLite and PostgreSQL.
@@ -106,16 +108,20 @@ pub(super) trait Stored: for<'r> FromRow<'r, AnyRow> + Send + Unpin {
     const FROM: &'static str;
 }
 
-/// A pose as seven columns.
-#[derive(Debug, Clone, Copy, PartialEq, FromRow)]
-pub struct PoseColumns {
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
-    pub qw: f64,
-    pub qx: f64,
-    pub qy: f64,
-    pub qz: f64,
+/// A pose is read from its seven columns `x, y, z, qw, qx, qy, qz` (as it is bound, see
+/// `binds.rs`); rows hold it as the engine's plain values and the application checks it.
+impl<'r> FromRow<'r, AnyRow> for PoseValues {
+    fn from_row(row: &'r AnyRow) -> Result<Self, sqlx::Error> {
+        Ok(PoseValues {
+            x: row.try_get("x")?,
+            y: row.try_get("y")?,
+            z: row.try_get("z")?,
+            qw: row.try_get("qw")?,
+            qx: row.try_get("qx")?,
+            qy: row.try_get("qy")?,
+            qz: row.try_get("qz")?,
+        })
+    }
 }
 
 /// An arm model uploaded through the API.
@@ -234,7 +240,7 @@ pub struct WaypointRow {
     pub routine_id: i64,
     pub seq: i64,
     #[sqlx(flatten)]
-    pub pose: PoseColumns,
+    pub pose: PoseValues,
     /// JSON array of joint values (rad).
     pub joints: Option<String>,
     pub motion: Option<String>,
@@ -254,7 +260,7 @@ impl Stored for WaypointRow {
 /// A waypoint's values as an edit sets them (its routine and place stay).
 #[derive(Debug, Clone)]
 pub struct WaypointValues {
-    pub pose: PoseColumns,
+    pub pose: PoseValues,
     pub joints: Option<String>,
     pub motion: Option<String>,
     pub name: Option<String>,
@@ -280,7 +286,7 @@ impl WaypointValues {
 pub struct NewWaypoint {
     pub routine_id: i64,
     pub seq: i64,
-    pub pose: PoseColumns,
+    pub pose: PoseValues,
     pub joints: Option<String>,
     pub motion: Option<String>,
     pub name: Option<String>,
@@ -292,7 +298,7 @@ pub struct NewPrediction {
     pub cell_id: i64,
     pub routine_id: i64,
     pub after_seq: i64,
-    pub pose: PoseColumns,
+    pub pose: PoseValues,
     pub phi: f64,
     pub psi: f64,
     pub misfit: Option<f64>,
@@ -307,7 +313,7 @@ pub struct PredictionRow {
     pub routine_id: i64,
     pub after_seq: i64,
     #[sqlx(flatten)]
-    pub pose: PoseColumns,
+    pub pose: PoseValues,
     pub phi: f64,
     pub psi: f64,
     pub misfit: Option<f64>,
@@ -330,7 +336,7 @@ pub struct NewFeedback {
     pub prediction_id: i64,
     /// `accepted`, `adjusted` or `rejected`.
     pub verdict: &'static str,
-    pub pose: Option<PoseColumns>,
+    pub pose: Option<PoseValues>,
     pub adjustment_mm: Option<f64>,
 }
 

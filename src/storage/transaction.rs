@@ -57,13 +57,7 @@ pub(super) async fn touch_cell(
 pub(super) async fn insert_waypoint(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<WaypointRow> {
     let mut params = Params::default();
     let values = params.run(|p| {
-        p.value(wp.routine_id).value(wp.seq).waypoint_values(
-            &wp.pose,
-            &wp.joints,
-            &wp.motion,
-            &wp.name,
-            wp.reachable,
-        );
+        p.new_waypoint(wp);
     });
     let sql = format!(
         "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \

@@ -3,10 +3,9 @@
 //! back to one-by-one commits with its own error. On SQLite, and on PostgreSQL in the
 //! PostgreSQL pass (`helpers::test_database`).
 
+use nextpose::engine::PoseValues;
 use nextpose::server::Database;
-use nextpose::storage::{
-    Append, Durability, NewPrediction, NewWaypoint, PoseColumns, StorageError, Store,
-};
+use nextpose::storage::{Append, Durability, NewPrediction, NewWaypoint, StorageError, Store};
 
 use crate::helpers::test_database;
 
@@ -31,7 +30,7 @@ async fn cells(db: &Database, cells: usize) -> (Store, Vec<(i64, i64, i64)>) {
 }
 
 fn append(cell: i64, routine: i64, revision: i64, seq: i64, predict: bool) -> Append {
-    let pose = PoseColumns {
+    let pose = PoseValues {
         x: 10.0 * seq as f64,
         y: cell as f64,
         z: 0.0,

@@ -657,9 +657,8 @@ async fn single_appends_do_not_interleave_with_a_trajectory() {
 /// does (a stale cell, a place taken in the middle).
 #[tokio::test]
 async fn the_store_appends_several_waypoints_all_or_nothing() {
-    use nextpose::storage::{
-        Durability, NewPrediction, NewWaypoint, PoseColumns, StorageError, Store,
-    };
+    use nextpose::engine::PoseValues;
+    use nextpose::storage::{Durability, NewPrediction, NewWaypoint, StorageError, Store};
     let dir = tempfile::tempdir().unwrap();
     let db = test_database(dir.path()).await;
     let store = Store::connect(&db, Durability::Process).await.unwrap();
@@ -670,7 +669,7 @@ async fn the_store_appends_several_waypoints_all_or_nothing() {
         .await
         .unwrap();
     let item = |seq: i64| {
-        let pose = PoseColumns {
+        let pose = PoseValues {
             x: seq as f64,
             y: 0.0,
             z: 0.0,
