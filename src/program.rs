@@ -67,6 +67,11 @@ impl Program {
         self.routines.iter().flat_map(|r| &r.waypoints)
     }
 
+    /// The designation of the arm the program names (`None`: it names none).
+    pub fn arm_designation(&self) -> Option<&str> {
+        self.arm.as_ref().map(|a| a.designation.as_str())
+    }
+
     /// Number of waypoints over all routines.
     pub fn waypoint_count(&self) -> usize {
         self.routines.iter().map(|r| r.waypoints.len()).sum()

@@ -83,25 +83,36 @@ impl RunConfig {
     }
 }
 
-/// Scores by method name, kept in run order (serialised as a JSON object in that order).
+/// Something per method, by method name in run order (serialised as a JSON object in that
+/// order).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct MethodMetrics(pub Vec<(String, Scores)>);
+pub struct ByMethod<T>(pub Vec<(String, T)>);
 
-impl MethodMetrics {
-    pub fn get(&self, method: &str) -> Option<&Scores> {
+impl<T> ByMethod<T> {
+    pub fn get(&self, method: &str) -> Option<&T> {
         self.0.iter().find(|(m, _)| m == method).map(|(_, x)| x)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
     }
 }
 
-impl Serialize for MethodMetrics {
+impl<T: Serialize> Serialize for ByMethod<T> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let mut map = serializer.serialize_map(Some(self.0.len()))?;
-        for (name, metrics) in &self.0 {
-            map.serialize_entry(name, metrics)?;
+        for (name, x) in &self.0 {
+            map.serialize_entry(name, x)?;
         }
         map.end()
     }
 }
+
+/// Scores by method name, in run order.
+pub type MethodMetrics = ByMethod<Scores>;
+
+/// Calibration sections by method name, in run order.
+pub type Calibrations = ByMethod<Calibration>;
 
 /// One program's line in the report.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -129,30 +140,6 @@ pub struct Report {
     #[serde(skip_serializing_if = "Calibrations::is_empty")]
     pub calibration: Calibrations,
     pub programs: Vec<ProgramReport>,
-}
-
-/// Calibration sections by method name, in run order (serialised as a JSON object).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Calibrations(pub Vec<(String, Calibration)>);
-
-impl Calibrations {
-    pub fn get(&self, method: &str) -> Option<&Calibration> {
-        self.0.iter().find(|(m, _)| m == method).map(|(_, c)| c)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-}
-
-impl Serialize for Calibrations {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut map = serializer.serialize_map(Some(self.0.len()))?;
-        for (name, c) in &self.0 {
-            map.serialize_entry(name, c)?;
-        }
-        map.end()
-    }
 }
 
 /// Why [`scoreboard`] could not be produced.
@@ -259,9 +246,8 @@ pub fn replay_all(
             .iter()
             .map(|p| {
                 let poses: Vec<Pose> = p.poses().copied().collect();
-                let named = p.arm.as_ref().map(|a| a.designation.as_str());
                 check
-                    .place(&p.language, named, &poses)
+                    .place(&p.language, p.arm_designation(), &poses)
                     .map_err(|e| ReachError::Layout(p.name.clone(), e))
             })
             .collect::<Result<_, _>>()?,
@@ -290,7 +276,7 @@ pub fn replay_all(
         metrics
     };
     let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
-    let totals = MethodMetrics(
+    let totals = ByMethod(
         names
             .iter()
             .zip(records.iter().zip(&reach))
@@ -303,7 +289,7 @@ pub fn replay_all(
             })
             .collect(),
     );
-    let calibration = Calibrations(
+    let calibration = ByMethod(
         names
             .iter()
             .zip(&records)
@@ -317,7 +303,7 @@ pub fn replay_all(
             program: program.name.clone(),
             language: program.language.clone(),
             arm: arms[p].as_ref().map(|a| a.arm.clone()),
-            methods: MethodMetrics(
+            methods: ByMethod(
                 names
                     .iter()
                     .zip(records.iter().zip(&reach))

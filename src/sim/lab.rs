@@ -423,7 +423,7 @@ mod tests {
         let mut missed = Vec::new();
         for p in &lab {
             let poses: Vec<Pose> = p.program.poses().copied().collect();
-            let named = p.program.arm.as_ref().map(|a| a.designation.as_str());
+            let named = p.program.arm_designation();
             let arm = check.place(LAB_LANGUAGE, named, &poses).unwrap().unwrap();
             assert_eq!(
                 (arm.arm.robot.as_str(), arm.arm.chosen),

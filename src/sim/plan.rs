@@ -226,9 +226,8 @@ pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
         .iter()
         .map(|p| {
             let poses: Vec<Pose> = p.poses().copied().collect();
-            let named = p.arm.as_ref().map(|a| a.designation.as_str());
             check
-                .place(&p.language, named, &poses)
+                .place(&p.language, p.arm_designation(), &poses)
                 .map_err(|e| SimError::Layout(p.name.clone(), e))?
                 .ok_or_else(|| SimError::NoPlacement(p.name.clone()))
         })
