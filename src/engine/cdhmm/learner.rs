@@ -205,10 +205,7 @@ pub struct ObservationGraph {
     /// Node means, contiguous (a scan over them stays in cache; the scale search uses it).
     means: Vec<Observation>,
     index: NodeIndex,
-    edges: usize,
-    routines: u32,
-    depth: usize,
-    observations: u64,
+    counts: Counts,
     open: Option<OpenRoutine>,
     /// Nodes of the open routine's moves, in order (what the predictor must not count as
     /// evidence for the routine's own window).
@@ -224,14 +221,20 @@ pub struct ObservationGraph {
 #[derive(Debug, Clone)]
 struct Journal {
     nodes: usize,
-    edges: usize,
-    routines: u32,
-    depth: usize,
-    observations: u64,
+    counts: Counts,
     open: Option<OpenRoutine>,
     open_path: Vec<usize>,
     trace: usize,
     touched: Vec<(usize, Node)>,
+}
+
+/// What the graph has counted since it began (see [`ModelStats`]).
+#[derive(Debug, Clone, Copy, Default)]
+struct Counts {
+    edges: usize,
+    routines: u32,
+    depth: usize,
+    observations: u64,
 }
 
 /// Marks the end of a routine in [`ObservationGraph::trace`].
@@ -251,10 +254,7 @@ impl ObservationGraph {
             nodes: Vec::new(),
             means: Vec::new(),
             index: NodeIndex::default(),
-            edges: 0,
-            routines: 0,
-            depth: 0,
-            observations: 0,
+            counts: Counts::default(),
             open: None,
             open_path: Vec::new(),
             trace: Vec::new(),
@@ -356,7 +356,7 @@ impl ObservationGraph {
                 let before = self.nodes[last].out.len();
                 let recency = self.recency;
                 self.nodes[last].count_edge(node, recency);
-                self.edges += self.nodes[last].out.len() - before;
+                self.counts.edges += self.nodes[last].out.len() - before;
                 self.open = Some(OpenRoutine {
                     last: node,
                     len: len + 1,
@@ -371,7 +371,7 @@ impl ObservationGraph {
         self.open_path.push(node);
         self.nodes[node].occurrences.push(self.trace.len() as u32);
         self.trace.push(node as u32);
-        self.observations += 1;
+        self.counts.observations += 1;
         node
     }
 
@@ -384,8 +384,8 @@ impl ObservationGraph {
             let recency = self.recency;
             self.nodes[open.last].count_end(recency);
             self.trace.push(TRACE_END);
-            self.routines += 1;
-            self.depth = self.depth.max(open.len);
+            self.counts.routines += 1;
+            self.counts.depth = self.counts.depth.max(open.len);
         }
     }
 
@@ -395,10 +395,7 @@ impl ObservationGraph {
         if self.journal.is_none() {
             self.journal = Some(Box::new(Journal {
                 nodes: self.nodes.len(),
-                edges: self.edges,
-                routines: self.routines,
-                depth: self.depth,
-                observations: self.observations,
+                counts: self.counts,
                 open: self.open,
                 open_path: self.open_path.clone(),
                 trace: self.trace.len(),
@@ -430,10 +427,7 @@ impl ObservationGraph {
             self.means[i] = old.mean;
             self.nodes[i] = old;
         }
-        self.edges = j.edges;
-        self.routines = j.routines;
-        self.depth = j.depth;
-        self.observations = j.observations;
+        self.counts = j.counts;
         self.open = j.open;
         self.open_path = j.open_path;
         self.trace.truncate(j.trace);
@@ -486,15 +480,15 @@ impl ObservationGraph {
         let states = self.nodes.len();
         ModelStats {
             states,
-            edges: self.edges,
+            edges: self.counts.edges,
             perplexity: if states == 0 {
                 0.0
             } else {
-                self.edges as f64 / states as f64
+                self.counts.edges as f64 / states as f64
             },
-            routines: self.routines,
-            depth: self.depth.max(self.open.map_or(0, |o| o.len)),
-            observations: self.observations,
+            routines: self.counts.routines,
+            depth: self.counts.depth.max(self.open.map_or(0, |o| o.len)),
+            observations: self.counts.observations,
         }
     }
 }
