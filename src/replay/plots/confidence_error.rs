@@ -11,7 +11,8 @@ use crate::replay::score::metrics::spearman;
 
 use super::data::{PlotData, confidence_points};
 use super::draw::{
-    DrawResult, GREEN, GREY, RED, body_and_footer, decimals_for, footer, subtitle, x_range,
+    DrawResult, GREEN, GREY, RED, body_and_footer, decimals_for, footer, house_mesh, subtitle,
+    x_range,
 };
 use super::fonts::FONT;
 
@@ -111,19 +112,17 @@ where
             mm
         }
     };
-    chart
-        .configure_mesh()
-        .x_desc(confidence_desc(&data.config))
-        .y_desc("Cartesian error, mm (log)")
-        .x_labels(10)
-        .y_labels(((y_hi - y_lo).ceil() as usize + 1).max(2))
-        .x_label_formatter(&decimals_for(xr.end - xr.start))
-        .y_label_formatter(&y_labels)
-        .label_style((FONT, 15))
-        .axis_desc_style((FONT, 17))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.12))
-        .draw()?;
+    house_mesh(
+        chart
+            .configure_mesh()
+            .x_desc(confidence_desc(&data.config))
+            .y_desc("Cartesian error, mm (log)")
+            .x_labels(10)
+            .y_labels(((y_hi - y_lo).ceil() as usize + 1).max(2))
+            .x_label_formatter(&decimals_for(xr.end - xr.start))
+            .y_label_formatter(&y_labels),
+    )
+    .draw()?;
     // The useful limit, labelled at its left end.
     chart.draw_series(LineSeries::new(
         [(xr.start, 0.0), (xr.end, 0.0)],

@@ -5,7 +5,9 @@
 use std::error::Error as StdError;
 use std::ops::Range;
 
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;
 
 use super::data::PlotData;
@@ -19,6 +21,21 @@ pub(super) const GREY: RGBColor = RGBColor(127, 127, 127);
 
 /// What drawing a figure gives: plotters' errors are of the backend's type, boxed.
 pub(super) type DrawResult = Result<(), Box<dyn StdError + Send + Sync>>;
+
+/// The house style of a chart's mesh: label and axis fonts, no light grid, a faint bold one.
+pub(super) fn house_mesh<'m, 'a, 'b, X, Y, XT, YT, DB>(
+    mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: Ranged<ValueType = XT> + ValueFormatter<XT>,
+    Y: Ranged<ValueType = YT> + ValueFormatter<YT>,
+    DB: DrawingBackend,
+{
+    mesh.label_style((FONT, 15))
+        .axis_desc_style((FONT, 17))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.12))
+}
 
 /// A line with markers.
 pub(super) struct Series {
@@ -72,19 +89,17 @@ where
     }
     let mut chart = builder.build_cartesian_2d(p.x_range.clone(), 0.0..p.y_max)?;
     let y_labels = decimals_for(p.y_max);
-    chart
-        .configure_mesh()
-        .x_desc(p.x_desc)
-        .y_desc(p.y_desc)
-        .x_labels(12)
-        .y_labels(8)
-        .x_label_formatter(p.x_labels)
-        .y_label_formatter(&y_labels)
-        .label_style((FONT, 15))
-        .axis_desc_style((FONT, 17))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.12))
-        .draw()?;
+    house_mesh(
+        chart
+            .configure_mesh()
+            .x_desc(p.x_desc)
+            .y_desc(p.y_desc)
+            .x_labels(12)
+            .y_labels(8)
+            .x_label_formatter(p.x_labels)
+            .y_label_formatter(&y_labels),
+    )
+    .draw()?;
     if let Some((x, label)) = p.marker.as_ref().filter(|(x, _)| p.x_range.contains(x)) {
         chart
             .draw_series(LineSeries::new(

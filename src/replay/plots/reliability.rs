@@ -10,7 +10,7 @@ use crate::replay::score::reliability::{Calibration, TARGET_GAP};
 use super::data::PlotData;
 use super::draw::{
     BLUE, DrawResult, GREY, RED, body_and_footer, decimals_for, draw_nothing, fixed, footer,
-    subtitle,
+    house_mesh, subtitle,
 };
 use super::fonts::FONT;
 
@@ -42,19 +42,17 @@ where
         .x_label_area_size(48)
         .y_label_area_size(72)
         .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
-    chart
-        .configure_mesh()
-        .x_desc("mean p_useful of the decile (predicted)")
-        .y_desc("observed useful share")
-        .x_labels(11)
-        .y_labels(11)
-        .x_label_formatter(&fixed(1))
-        .y_label_formatter(&fixed(1))
-        .label_style((FONT, 15))
-        .axis_desc_style((FONT, 17))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.12))
-        .draw()?;
+    house_mesh(
+        chart
+            .configure_mesh()
+            .x_desc("mean p_useful of the decile (predicted)")
+            .y_desc("observed useful share")
+            .x_labels(11)
+            .y_labels(11)
+            .x_label_formatter(&fixed(1))
+            .y_label_formatter(&fixed(1)),
+    )
+    .draw()?;
     // Issue 13's band: observed within TARGET_GAP of the mean p_useful.
     let g = TARGET_GAP;
     chart
@@ -134,19 +132,17 @@ where
         .x_label_area_size(40)
         .y_label_area_size(72)
         .build_cartesian_2d(0.0..1.0, 0.0..most)?;
-    counts
-        .configure_mesh()
-        .x_desc("p_useful decile")
-        .y_desc("candidates")
-        .x_labels(11)
-        .y_labels(4)
-        .x_label_formatter(&fixed(1))
-        .y_label_formatter(&decimals_for(most))
-        .label_style((FONT, 15))
-        .axis_desc_style((FONT, 17))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.12))
-        .draw()?;
+    house_mesh(
+        counts
+            .configure_mesh()
+            .x_desc("p_useful decile")
+            .y_desc("candidates")
+            .x_labels(11)
+            .y_labels(4)
+            .x_label_formatter(&fixed(1))
+            .y_label_formatter(&decimals_for(most)),
+    )
+    .draw()?;
     counts.draw_series(c.bins.iter().map(|b| {
         Rectangle::new(
             [(b.from + 0.01, 0.0), (b.to - 0.01, b.candidates as f64)],
