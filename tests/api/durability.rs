@@ -77,10 +77,7 @@ pub(crate) async fn snapshot(app: &TestApp, cell: i64, open: i64) -> Value {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn rebuild_and_restart_give_the_same_model_and_predictions() {
     let app = spawn_app().await;
     let cell = app.create_cell("corpus-cell").await;
@@ -126,10 +123,7 @@ pub(crate) fn start_binary(db: &Database) -> (Child, String) {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn acknowledged_waypoints_survive_kill_9() {
     let dir = tempfile::tempdir().unwrap();
     let db = test_database(dir.path()).await;

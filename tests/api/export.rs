@@ -51,10 +51,7 @@ fn uploads() -> Vec<(String, Vec<Value>)> {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn every_corpus_program_survives_import_store_export_import_in_all_three_formats() {
     let app = spawn_app().await;
     let mut programs = 0;
@@ -85,11 +82,7 @@ async fn every_corpus_program_survives_import_store_export_import_in_all_three_f
                 )
                 .await;
             let imported = app
-                .post_ok(
-                    &format!("/v1/cells/{cell}/imports"),
-                    &json!({ "files": [f], "learn": false }),
-                    StatusCode::CREATED,
-                )
+                .import(cell, &json!({ "files": [f], "learn": false }))
                 .await;
             stored_programs.push((repo.clone(), imported));
         }
@@ -320,11 +313,7 @@ async fn exported_files_post_back_to_an_import_as_they_come() {
             .await;
         assert!(out["files"][0].get("file_name").is_some(), "{out}");
         let imported = app
-            .post_ok(
-                &format!("/v1/cells/{target}/imports"),
-                &json!({ "files": out["files"], "learn": false }),
-                StatusCode::CREATED,
-            )
+            .import(target, &json!({ "files": out["files"], "learn": false }))
             .await;
         assert_eq!(
             imported["programs"][0]["waypoints"], 4,

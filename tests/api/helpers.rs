@@ -187,7 +187,6 @@ impl TestApp {
             .expect("request")
     }
 
-    /// POSTs and returns the JSON body, asserting the status.
     /// Rebuilds a cell's model from the database (`POST /v1/cells/{cell}/rebuild`): the model
     /// a rebuild gives.
     pub async fn rebuild(&self, cell: i64) -> Value {
@@ -199,6 +198,18 @@ impl TestApp {
         .await
     }
 
+    /// Imports files into a cell (`POST /v1/cells/{cell}/imports`, `body` with its `files`);
+    /// returns the import's answer, asserting it was made.
+    pub async fn import(&self, cell: i64, body: &Value) -> Value {
+        self.post_ok(
+            &format!("/v1/cells/{cell}/imports"),
+            body,
+            StatusCode::CREATED,
+        )
+        .await
+    }
+
+    /// POSTs and returns the JSON body, asserting the status.
     pub async fn post_ok(&self, path: &str, body: &Value, status: StatusCode) -> Value {
         let r = self.post(path, body).await;
         expect(r, status).await

@@ -15,21 +15,12 @@ pub(crate) fn upload(repo: &str) -> Vec<Value> {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn imported_programs_seed_the_model_and_predictions_follow() {
     let app = spawn_app().await;
     let cell = app.create_cell("imported").await;
     let files = upload("ravenorb__abb-robot-welder");
-    let result = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/imports"),
-            &json!({ "files": files }),
-            StatusCode::CREATED,
-        )
-        .await;
+    let result = app.import(cell, &json!({ "files": files })).await;
     let programs = result["programs"].as_array().unwrap();
     assert!(!programs.is_empty());
     let routines: u64 = programs
@@ -106,10 +97,7 @@ async fn imported_programs_seed_the_model_and_predictions_follow() {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn import_errors() {
     let app = spawn_app().await;
     let cell = app.create_cell("import-errors").await;
@@ -162,10 +150,7 @@ async fn import_errors() {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn nextpose_import_uploads_files_to_a_running_server() {
     let app = spawn_app().await;
     let dir = corpus::raw().join("ravenorb__abb-robot-welder");
@@ -258,10 +243,7 @@ fn without_timing(mut report: Value) -> Value {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
     let app = spawn_app().await;
     let files = upload("ravenorb__abb-robot-welder");
@@ -316,12 +298,8 @@ async fn replay_scoreboard_from_the_api_matches_the_cli_form() {
 
     // The same programs imported into a cell and replayed from there give the same totals.
     let cell = app.create_cell("replayed").await;
-    app.post_ok(
-        &format!("/v1/cells/{cell}/imports"),
-        &json!({ "files": files, "learn": false }),
-        StatusCode::CREATED,
-    )
-    .await;
+    app.import(cell, &json!({ "files": files, "learn": false }))
+        .await;
     let stored = app
         .post_ok("/v1/replays", &json!({ "cell_id": cell }), StatusCode::OK)
         .await;
@@ -418,10 +396,7 @@ mod phases {
 /// (the server's too), a request is answered between the server's "parsing" and "parsed" log
 /// events. When the parse ran on the runtime's thread, nothing could be answered in between.
 #[tokio::test(flavor = "current_thread")]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn a_large_import_does_not_stall_other_requests() {
     use std::sync::atomic::Ordering;
     let phases = phases::phases();
@@ -484,10 +459,7 @@ async fn a_large_import_does_not_stall_other_requests() {
 /// named (the message blamed the cell: "already has a program with one of the names
 /// [MainModule, MainModule]" although it was empty), and nothing is imported.
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn two_files_declaring_one_module_are_named() {
     let app = spawn_app().await;
     let cell = app.create_cell("clash").await;

@@ -14,20 +14,16 @@ fn waypoints(detail: &Value) -> Vec<Value> {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn a_corpus_program_follows_its_moved_fixture_with_reach_checked() {
     let app = spawn_app().await;
     let cell = app
         .create_cell_with("fixture", json!({ "reach_policy": "flag" }))
         .await;
     let imported = app
-        .post_ok(
-            &format!("/v1/cells/{cell}/imports"),
+        .import(
+            cell,
             &json!({ "files": upload("ravenorb__abb-robot-welder"), "learn": false }),
-            StatusCode::CREATED,
         )
         .await;
     let program = imported["programs"][0]["program"]["id"]

@@ -5,7 +5,7 @@
 //! The corpus stays out of the repository (its programs carry no licence), so a fresh clone has
 //! none. `build.rs` sets `cfg(corpus)` when `../shared/corpus/json` exists, and every test that
 //! reads the corpus carries
-//! `#[cfg_attr(not(corpus), ignore = "needs the shared corpus (../shared/corpus) beside the checkout")]`:
+//! `#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]`:
 //! without it the test is reported as ignored, with that reason; with it the test runs.
 //!
 //! Several test binaries include this file (`#[path = "../common/corpus.rs"] mod corpus;`), each

@@ -184,10 +184,7 @@ fn check(program: &ExportProgram, format: Format) {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn every_corpus_program_round_trips_in_every_format() {
     let mut programs = 0;
     let mut waypoints = 0;

@@ -57,10 +57,7 @@ fn temp_path(name: &str) -> PathBuf {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn whole_corpus_loads() {
     let programs = load_paths(&[corpus::json()]).unwrap();
     assert_eq!(programs.len(), 36);
@@ -270,18 +267,22 @@ fn spearman_with_ties_matches_hand_computation() {
     assert_eq!(spearman(&[1.0, 1.0, 1.0], &[1.0, 2.0, 3.0]), None);
 }
 
+/// Writes `text` to `path` and loads it.
+fn load_written(path: &std::path::Path, text: &str) -> Result<Vec<Program>, CorpusError> {
+    std::fs::write(path, text).unwrap();
+    load_paths(&[path])
+}
+
 #[test]
 fn malformed_json_is_an_error_naming_the_file() {
     let dir = temp_path("corpus");
     std::fs::create_dir_all(&dir).unwrap();
     let bad = dir.join("broken_program.json");
-    std::fs::write(
+    let err = load_written(
         &bad,
         "{\"language\": \"rapid\", \"routines\": [ {\"name\": 3 ]}",
     )
-    .unwrap();
-
-    let err = load_paths(&[&bad]).unwrap_err();
+    .unwrap_err();
     assert!(matches!(err, CorpusError::Json { .. }), "{err:?}");
     assert!(err.to_string().contains("broken_program.json"), "{err}");
     // Through the directory too.
@@ -289,15 +290,14 @@ fn malformed_json_is_an_error_naming_the_file() {
     assert!(err.to_string().contains("broken_program.json"), "{err}");
 
     // A bad quaternion names the routine and waypoint.
-    std::fs::write(
+    let msg = load_written(
         &bad,
         r#"{"language": "krl", "routines": [{"name": "pick", "waypoints": [
             {"x": 0, "y": 0, "z": 0, "qw": 1, "qx": 0, "qy": 0, "qz": 0},
             {"x": 1, "y": 0, "z": 0, "qw": 0.5, "qx": 0, "qy": 0, "qz": 0}]}]}"#,
     )
-    .unwrap();
-    let err = load_paths(&[&bad]).unwrap_err();
-    let msg = err.to_string();
+    .unwrap_err()
+    .to_string();
     assert!(
         msg.contains("broken_program.json") && msg.contains("pick") && msg.contains("waypoint 1"),
         "{msg}"
@@ -312,32 +312,34 @@ fn malformed_json_is_an_error_naming_the_file() {
             .to_string()
             .contains("missing.json")
     );
-    let raw = dir.join("MainModule.mod");
     // (With a routine: a module that yields none is no program, see import's tests.)
-    std::fs::write(
-        &raw,
+    let programs = load_written(
+        &dir.join("MainModule.mod"),
         "MODULE MainModule\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n  MoveL p, v1, z1, tool0;\n  MoveL Offs(p,0,0,10), v1, z1, tool0;\n ENDPROC\nENDMODULE\n",
     )
     .unwrap();
-    let programs = load_paths(&[&raw]).unwrap();
     assert_eq!(programs.len(), 1);
     assert_eq!(programs[0].language, "rapid");
-    let other = dir.join("notes.txt");
-    std::fs::write(&other, "hello").unwrap();
-    let err = load_paths(&[&other]).unwrap_err();
+    let err = load_written(&dir.join("notes.txt"), "hello").unwrap_err();
     assert!(matches!(err, CorpusError::Unsupported { .. }));
     assert!(err.to_string().contains("expected corpus JSON"), "{err}");
 
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The engine with `config`, then `others`.
+fn engine_and(config: &EngineConfig, others: Vec<Box<dyn Method>>) -> Vec<Box<dyn Method>> {
+    let mut methods: Vec<Box<dyn Method>> =
+        vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
+    methods.extend(others);
+    methods
+}
+
 #[test]
 fn report_json_has_the_stable_shape() {
     let prog = program(vec![irregular_routine(), irregular_routine()]);
     let config = EngineConfig::default();
-    let mut methods: Vec<Box<dyn Method>> =
-        vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
-    methods.extend(baselines::all(&config, 1.0));
+    let mut methods = engine_and(&config, baselines::all(&config, 1.0));
     let report = replay_all(
         &[prog],
         &mut methods,
@@ -554,10 +556,7 @@ fn work_frame_offset_under_a_turning_tool_is_a_work_frame_repeat() {
 /// The whole corpus: the oracles' shares as issue 13 measured them, the union at least each
 /// kind, and the absolute-pose predictor of the issue (`abs_seq_within_gated`).
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn corpus_oracles_and_the_absolute_predictor() {
     let programs = load_paths(&[corpus::json()]).unwrap();
     let config = EngineConfig::default();
@@ -617,9 +616,7 @@ fn corpus_oracles_and_the_absolute_predictor() {
 fn report_with_new_baselines_and_oracles() {
     let prog = program(vec![irregular_routine(), irregular_routine()]);
     let config = EngineConfig::default();
-    let mut methods: Vec<Box<dyn Method>> =
-        vec![Box::new(EngineMethod::new(config.clone()).unwrap())];
-    methods.extend(baselines::scoreboard(&config, 1.0));
+    let mut methods = engine_and(&config, baselines::scoreboard(&config, 1.0));
     let mut report = replay_all(
         std::slice::from_ref(&prog),
         &mut methods,

@@ -264,10 +264,7 @@ fn explain(stem: &str, ours: Option<&Routine>, reference: &JsonRoutine) {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn every_raw_file_parses() {
     let mut files = 0;
     let mut programs = 0;
@@ -285,10 +282,7 @@ fn every_raw_file_parses() {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn stored_as_a_cell_every_upload_imports_but_the_one_declaring_main_module_twice() {
     // Two RAPID files of one repository both declare `MODULE MainModule`: replay reads them
     // apart, a cell cannot hold both, and the error names the two files.
@@ -319,10 +313,7 @@ fn stored_as_a_cell_every_upload_imports_but_the_one_declaring_main_module_twice
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn the_raw_corpus_directory_replays_as_one_upload_per_repository() {
     // `nextpose replay ../shared/corpus/raw`: the folder holds one folder per repository.
     let programs = nextpose::replay::corpus::load_paths(&[corpus::raw()]).unwrap();
@@ -337,10 +328,7 @@ fn the_raw_corpus_directory_replays_as_one_upload_per_repository() {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn readings_agree_except_the_listed_ones() {
     let c = compare();
     let listed = listed();
@@ -369,10 +357,7 @@ fn comparable(mut m: Scores) -> Scores {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
     let c = compare();
     assert!(!c.programs_agreeing.is_empty());
@@ -500,7 +485,7 @@ proptest! {
     }
 
     #[test]
-    #[cfg_attr(not(corpus), ignore = "needs the shared corpus (../shared/corpus) beside the checkout")]
+    #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
     fn mutated_corpus_files_never_panic(
         seed in any::<prop::sample::Index>(),
         edits in proptest::collection::vec((any::<usize>(), any::<u8>(), any::<u8>()), 1..12),

@@ -126,10 +126,7 @@ fn span_mm(poses: &[Pose]) -> f64 {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_where_it_fits() {
     let programs = programs();
     assert_eq!(programs.len(), 36, "the shared corpus has 36 programs");
@@ -237,10 +234,7 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
 /// the welding cell's serial number (IRB 2600, for all of that repository's programs), the
 /// corpus note and the repository name of the IRB 140 lab program.
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn the_arms_the_corpus_names_are_found() {
     let programs = programs();
     let named = |prefix: &str| -> Vec<(String, String)> {
@@ -282,10 +276,7 @@ fn the_arms_the_corpus_names_are_found() {
 /// `nextpose layout`: the search over program files, locally; best first, as JSON; an arm
 /// that is not in the library is refused by name.
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn the_layout_command_places_an_arm_for_program_files() {
     let file = corpus::dir()
         .join("json")

@@ -110,10 +110,7 @@ fn map_is_a_scoreboard_method_and_its_comparison_is_computed() {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn map_runs_on_a_corpus_program() {
     let file = corpus::json().join("jvalta__Robottijarjestelmaprojekti__Module1.mod.json");
     let programs = load_paths(&[file]).expect("corpus file loads");

@@ -53,10 +53,7 @@ fn assert_svg(path: &Path) {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn library_writes_every_figure_as_png_and_svg() {
     let programs = load_paths(&subset()).unwrap();
     let config = EngineConfig::default();
@@ -112,10 +109,7 @@ fn library_writes_every_figure_as_png_and_svg() {
 /// Without an offer rule (the seed) no candidate has a p_useful: the two figures say so, and
 /// plots.json has no calibration.
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn calibration_figures_without_p_useful_say_so() {
     let programs = load_paths(&subset()[..1]).unwrap();
     let config = EngineConfig::profile(nextpose::engine::Profile::Seed);
@@ -134,10 +128,7 @@ fn calibration_figures_without_p_useful_say_so() {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn replay_cli_writes_plots_into_the_directory() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("nested").join("plots");

@@ -39,10 +39,7 @@ fn totals<'a>(r: &'a Report, method: &str) -> &'a Scores {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn seed_profile_reproduces_the_reference_implementation() {
     let r = scoreboard(Profile::Seed);
     let e = totals(&r, "engine");
@@ -59,10 +56,7 @@ fn seed_profile_reproduces_the_reference_implementation() {
 }
 
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn default_profile_is_precise_and_beats_every_baseline() {
     let seed = scoreboard(Profile::Seed);
     let r = scoreboard(Profile::Default);
@@ -115,10 +109,7 @@ fn default_profile_is_precise_and_beats_every_baseline() {
 /// consistent with each other and with the engine's scoreboard line. (What they measure is in
 /// docs/results/scoreboard.md; nothing here pins a measured figure.)
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     let programs = programs();
     let config = EngineConfig::profile(Profile::Default);
@@ -221,10 +212,7 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
 /// confidence is its candidate's p_useful, so Spearman's ρ of confidence with error is
 /// p_useful's.
 #[test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn the_engines_confidence_is_p_useful() {
     let programs = programs();
     let config = EngineConfig::profile(Profile::Default);

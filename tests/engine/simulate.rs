@@ -100,10 +100,7 @@ fn without_ids(mut ps: Vec<Prediction>) -> Vec<Prediction> {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn three_corpus_programs_end_to_end() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
@@ -202,10 +199,7 @@ async fn three_corpus_programs_end_to_end() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
@@ -275,10 +269,7 @@ async fn the_reach_policy_withholds_exactly_what_it_would_flag() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn sessions_are_deterministic_given_a_seed() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
@@ -309,10 +300,7 @@ async fn sessions_are_deterministic_given_a_seed() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn suggestions_save_time_only_when_shown() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
@@ -343,10 +331,7 @@ async fn suggestions_save_time_only_when_shown() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn an_imported_offline_program_seeds_the_cell() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
@@ -378,10 +363,7 @@ async fn an_imported_offline_program_seeds_the_cell() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn rest_and_grpc_teach_the_same_session() {
     let server = LocalServer::start().await.expect("server");
     let rest = Client::connect(Transport::Rest, &server.base, None)

@@ -5,8 +5,8 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use nextpose::engine::Pose;
 use nextpose::kinematics::{
-    DOF, Joints, KinematicsError, Mounting, Offer, ReachConfig, ReachPolicy, Robot, SolverKind,
-    Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
+    DOF, Joints, KinematicsError, Mounting, Offer, ReachConfig, ReachPolicy, Reachability, Robot,
+    SolverKind, Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
     pose_to_metres,
 };
 use rand::rngs::StdRng;
@@ -27,7 +27,7 @@ fn bundled_models_are_listed_with_their_solver() {
     let models: Vec<_> = list_robots(&bundled_robots_dir())
         .unwrap()
         .into_iter()
-        .filter(|m| ["abb_irb140", "kuka_kr16_2", "ur5e"].contains(&m.name.as_str()))
+        .filter(|m| ANALYTIC.contains(&m.name.as_str()))
         .collect();
     let names: Vec<(&str, SolverKind)> =
         models.iter().map(|m| (m.name.as_str(), m.solver)).collect();
@@ -122,7 +122,7 @@ fn kr16_fk_matches_published_geometry() {
 #[test]
 fn analytic_models_equal_the_urdf_chain() {
     let mut rng = StdRng::seed_from_u64(11);
-    for name in ["abb_irb140", "kuka_kr16_2", "ur5e"] {
+    for name in ANALYTIC {
         let r = robot(name);
         let mut worst = 0.0f64;
         for _ in 0..2000 {
@@ -168,7 +168,7 @@ fn irb140_multi_turn_variants_are_enumerated() {
 #[test]
 fn poses_outside_the_reach_sphere_have_no_solution() {
     let mut rng = StdRng::seed_from_u64(5);
-    for name in ["abb_irb140", "kuka_kr16_2", "ur5e"] {
+    for name in ANALYTIC {
         let r = robot(name);
         for _ in 0..500 {
             let dir = Vector3::new(
@@ -186,13 +186,7 @@ fn poses_outside_the_reach_sphere_have_no_solution() {
             let far =
                 Pose::from_isometry(Isometry3::from_parts(Translation3::from(dir * 3500.0), rot));
             assert!(r.ik(&far).is_empty());
-            let reach = check_reach(
-                &r,
-                &Mounting::default(),
-                &far,
-                None,
-                &ReachConfig::default(),
-            );
+            let reach = reach_at_origin(&r, &far, None);
             assert_eq!(reach.unreachable, Some(Unreachable::OutsideReach));
             assert!(reach.solutions.is_empty());
             assert_eq!(
@@ -211,6 +205,20 @@ fn poses_outside_the_reach_sphere_have_no_solution() {
     }
 }
 
+/// The arms with an analytic solver (OPW or UR) besides the URDF chain.
+const ANALYTIC: [&str; 3] = ["abb_irb140", "kuka_kr16_2", "ur5e"];
+
+/// The reach of `target` by `r` mounted at the origin, with the default reach settings.
+fn reach_at_origin(r: &Robot, target: &Pose, hint: Option<&Joints>) -> Reachability {
+    check_reach(
+        r,
+        &Mounting::default(),
+        target,
+        hint,
+        &ReachConfig::default(),
+    )
+}
+
 fn assert_no_nan(r: &Robot, target: &Isometry3<f64>) -> usize {
     let hint = [0.0; DOF];
     let solutions = r.ik_metres(target, Some(&hint));
@@ -225,7 +233,7 @@ fn assert_no_nan(r: &Robot, target: &Isometry3<f64>) -> usize {
 #[test]
 fn wrist_singularity_is_handled_without_nan() {
     let mut rng = StdRng::seed_from_u64(9);
-    for name in ["abb_irb140", "kuka_kr16_2", "ur5e"] {
+    for name in ANALYTIC {
         let r = robot(name);
         let mut reported_singular = 0;
         for _ in 0..500 {
@@ -233,13 +241,7 @@ fn wrist_singularity_is_handled_without_nan() {
             q[4] = 0.0;
             let target = r.chain().fk(&q);
             assert!(assert_no_nan(&r, &target) > 0, "{name}: {q:?}");
-            let reach = check_reach(
-                &r,
-                &Mounting::default(),
-                &r.fk(&q),
-                Some(&q),
-                &ReachConfig::default(),
-            );
+            let reach = reach_at_origin(&r, &r.fk(&q), Some(&q));
             let sigma = reach.sigma_min.unwrap();
             assert!(
                 sigma.is_finite() && sigma < 1e-6,
@@ -274,13 +276,7 @@ fn shoulder_singularity_is_handled_without_nan() {
             let target =
                 Isometry3::translation(rho, 0.0, z) * Isometry3::translation(0.0, 0.0, 0.0996);
             assert_no_nan(&r, &target);
-            let reach = check_reach(
-                &r,
-                &Mounting::default(),
-                &nextpose::kinematics::metres_to_pose(&target),
-                None,
-                &ReachConfig::default(),
-            );
+            let reach = reach_at_origin(&r, &nextpose::kinematics::metres_to_pose(&target), None);
             if let Some(s) = reach.sigma_min {
                 assert!(s.is_finite());
             }
@@ -340,13 +336,7 @@ fn joint_limit_is_reported_with_the_blocking_joint() {
     for _ in 0..500 {
         let mut q = random_joints(&r, &mut rng);
         q[4] = if rng.random_bool(0.5) { 2.6 } else { -2.6 };
-        let reach = check_reach(
-            &r,
-            &Mounting::default(),
-            &r.fk(&q),
-            None,
-            &ReachConfig::default(),
-        );
+        let reach = reach_at_origin(&r, &r.fk(&q), None);
         match reach.unreachable {
             Some(Unreachable::JointLimit {
                 joint,
@@ -544,13 +534,7 @@ fn robots_can_be_shared_between_threads() {
 fn reachability_serialises_with_its_reason() {
     let r = robot("abb_irb140");
     let far = Pose::new([5000.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-    let reach = check_reach(
-        &r,
-        &Mounting::default(),
-        &far,
-        None,
-        &ReachConfig::default(),
-    );
+    let reach = reach_at_origin(&r, &far, None);
     let json = serde_json::to_value(&reach).unwrap();
     assert_eq!(json["unreachable"]["reason"], "outside_reach");
     assert_eq!(

@@ -163,10 +163,7 @@ async fn errors_map_to_status_codes() {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn import_and_replay_errors_map_to_status_codes() {
     let app = spawn_app().await;
     let mut c = client(&app).await;

@@ -2,7 +2,6 @@
 //! items and model, and the same predictions when an imported routine is taught again.
 
 use nextpose::grpc::pb;
-use reqwest::StatusCode;
 use serde_json::{Value, json};
 use tonic::Code;
 
@@ -13,10 +12,7 @@ use crate::helpers::*;
 use crate::import::upload;
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn an_import_through_grpc_teaches_what_the_rest_import_teaches() {
     let app = spawn_app().await;
     let mut c = client(&app).await;
@@ -24,13 +20,7 @@ async fn an_import_through_grpc_teaches_what_the_rest_import_teaches() {
 
     // Cell A imports through REST, cell B through gRPC.
     let rest_cell = app.create_cell("rest").await;
-    let rest = app
-        .post_ok(
-            &format!("/v1/cells/{rest_cell}/imports"),
-            &json!({ "files": files }),
-            StatusCode::CREATED,
-        )
-        .await;
+    let rest = app.import(rest_cell, &json!({ "files": files })).await;
     let cell = create_cell(&mut c, "grpc").await;
     let imported = c
         .import_programs(pb::ImportProgramsRequest {

@@ -159,10 +159,7 @@ fn assert_same_scoreboard(rest: &Value, grpc: &pb::ReplayReport) {
 }
 
 #[tokio::test]
-#[cfg_attr(
-    not(corpus),
-    ignore = "needs the shared corpus (../shared/corpus) beside the checkout"
-)]
+#[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 async fn a_replay_through_grpc_is_the_rest_replay() {
     let app = spawn_app().await;
     let mut c = client(&app).await;
@@ -192,12 +189,8 @@ async fn a_replay_through_grpc_is_the_rest_replay() {
 
     // A cell's stored programs.
     let cell = app.create_cell("replayed").await;
-    app.post_ok(
-        &format!("/v1/cells/{cell}/imports"),
-        &json!({ "files": files, "learn": false }),
-        StatusCode::CREATED,
-    )
-    .await;
+    app.import(cell, &json!({ "files": files, "learn": false }))
+        .await;
     let rest = app
         .post_ok(
             "/v1/replays",
