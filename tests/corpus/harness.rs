@@ -327,6 +327,16 @@ fn malformed_json_is_an_error_naming_the_file() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The engine and the baselines `nextpose replay` reported first, in their order.
+const FIRST_METHODS: [&str; 6] = [
+    "engine",
+    "repeat_last",
+    "nearest_seq",
+    "nearest_seq_gated",
+    "nearest_seq_within",
+    "nearest_seq_within_gated",
+];
+
 /// The engine with `config`, then `others`.
 fn engine_and(config: &EngineConfig, others: Vec<Box<dyn Method>>) -> Vec<Box<dyn Method>> {
     let mut methods: Vec<Box<dyn Method>> =
@@ -350,14 +360,7 @@ fn report_json_has_the_stable_shape() {
 
     assert_eq!(json["config"]["horizon"], 3);
     assert_eq!(json["config"]["nearest_seq_gate"], 1.0);
-    let expected = [
-        "engine",
-        "repeat_last",
-        "nearest_seq",
-        "nearest_seq_gated",
-        "nearest_seq_within",
-        "nearest_seq_within_gated",
-    ];
+    let expected = FIRST_METHODS;
     let totals = json["totals"].as_object().unwrap();
     assert_eq!(totals.len(), expected.len());
     for name in expected {
@@ -632,31 +635,28 @@ fn report_with_new_baselines_and_oracles() {
     report.add_oracles(std::slice::from_ref(&prog));
     report.add_oracles(std::slice::from_ref(&prog)); // replaces, does not duplicate
     let json = serde_json::to_value(&report).unwrap();
-    let expected = [
-        "engine",
-        "repeat_last",
-        "nearest_seq",
-        "nearest_seq_gated",
-        "nearest_seq_within",
-        "nearest_seq_within_gated",
-        "abs_seq",
-        "abs_seq_gated",
-        "abs_seq_within",
-        "abs_seq_within_gated",
-        "work_seq",
-        "work_seq_gated",
-        "work_seq_within",
-        "work_seq_within_gated",
-        "oracle_tool",
-        "oracle_absolute",
-        "oracle_work",
-        "oracle_any",
-    ];
+    let expected: Vec<&str> = FIRST_METHODS
+        .into_iter()
+        .chain([
+            "abs_seq",
+            "abs_seq_gated",
+            "abs_seq_within",
+            "abs_seq_within_gated",
+            "work_seq",
+            "work_seq_gated",
+            "work_seq_within",
+            "work_seq_within_gated",
+            "oracle_tool",
+            "oracle_absolute",
+            "oracle_work",
+            "oracle_any",
+        ])
+        .collect();
     let names: Vec<&str> = report.totals.0.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, expected);
     let totals = json["totals"].as_object().unwrap();
     assert_eq!(totals.len(), expected.len());
-    for name in expected {
+    for &name in &expected {
         assert!(totals[name]["predictable"].is_u64(), "{name}");
         assert!(totals[name]["saved_pct"].is_number(), "{name}");
     }
@@ -688,7 +688,7 @@ fn report_with_new_baselines_and_oracles() {
         .find("Oracle bounds")
         .expect("an oracle table after the methods");
     let (methods_part, oracle_part) = table.split_at(split);
-    for name in expected {
+    for &name in &expected {
         let in_methods = methods_part.lines().any(|l| l.starts_with(name));
         let in_oracles = oracle_part.lines().any(|l| l.starts_with(name));
         assert_eq!(
