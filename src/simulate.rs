@@ -88,18 +88,19 @@ pub struct SessionOutcome {
     pub routine_ids: Vec<i64>,
 }
 
-/// A cell's settings as a session creates it: the condition's profile and overrides, the
-/// σs of the plan, the arm and its placement.
+/// A cell's settings as a session creates it: the condition's profile and overrides, the arm
+/// and its placement, and, when the condition tells the cell about its operator, the plan's σs,
+/// noise and tolerance (`None`: not set, the cell's own).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CellSetup {
     pub profile: Profile,
     pub delta: Option<f64>,
     pub phi_min: Option<f64>,
     pub horizon: Option<usize>,
-    pub sigma_t_mm: f64,
-    pub sigma_q: f64,
-    pub noise: Noise,
-    pub tolerance: Tolerance,
+    pub sigma_t_mm: Option<f64>,
+    pub sigma_q: Option<f64>,
+    pub noise: Option<Noise>,
+    pub tolerance: Option<Tolerance>,
     pub offer_threshold: Option<f64>,
     pub robot: String,
     pub base: Pose,
@@ -115,6 +116,7 @@ impl CellSetup {
         frames: &crate::kinematics::Mounting,
     ) -> CellSetup {
         let c = &session.condition;
+        let known = c.operator_known;
         let (sigma_t_mm, sigma_q) = plan.sigmas(c.profile);
         let (noise, tolerance) = plan.noise();
         CellSetup {
@@ -122,10 +124,10 @@ impl CellSetup {
             delta: c.delta,
             phi_min: c.phi_min,
             horizon: c.horizon,
-            sigma_t_mm,
-            sigma_q,
-            noise,
-            tolerance,
+            sigma_t_mm: known.then_some(sigma_t_mm),
+            sigma_q: known.then_some(sigma_q),
+            noise: known.then_some(noise),
+            tolerance: known.then_some(tolerance),
             offer_threshold: c.offer_threshold,
             robot: robot.to_string(),
             base: frames.base,
@@ -143,15 +145,15 @@ impl CellSetup {
                 delta: self.delta,
                 phi_min: self.phi_min,
                 horizon: self.horizon,
-                sigma_t_mm: Some(self.sigma_t_mm),
-                sigma_q: Some(self.sigma_q),
+                sigma_t_mm: self.sigma_t_mm,
+                sigma_q: self.sigma_q,
                 scale: None,
                 robot: Some(self.robot.clone()),
                 base: Some(PoseValues::from(&self.base)),
                 tool: Some(PoseValues::from(&self.tool)),
                 reach_policy: Some(self.reach_policy),
-                noise: Some(self.noise),
-                tolerance: Some(self.tolerance),
+                noise: self.noise,
+                tolerance: self.tolerance,
                 offer_threshold: self.offer_threshold,
                 export: None,
             },

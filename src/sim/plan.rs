@@ -43,6 +43,11 @@ pub struct Condition {
     pub horizon: Option<usize>,
     /// Override of the default profile's offer threshold on `p_useful`.
     pub offer_threshold: Option<f64>,
+    /// Whether the cell is told about its operator: σ_t and σ_q, teaching noise and tolerance
+    /// as the plan has them ([`Plan::sigmas`], [`Plan::noise`]: a calibration routine and the
+    /// operator's "close enough"). Without, the cell is the one a pendant creates: its arm and
+    /// where it stands, nothing else.
+    pub operator_known: bool,
     /// The seed's figure for this row, for reference.
     pub seed: Option<SeedFigure>,
 }
@@ -61,6 +66,7 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
         phi_min: Some(phi),
         horizon: Some(h),
         offer_threshold: None,
+        operator_known: true,
         seed: Some(fig),
     };
     vec![
@@ -73,6 +79,7 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
             phi_min: None,
             horizon: None,
             offer_threshold: None,
+            operator_known: false,
             seed: Some(SeedFigure {
                 mean_s: 292.2,
                 std_s: 78.61,
@@ -104,32 +111,45 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
                 confidence_pct: Some(99.99),
             },
         ),
-        Condition {
-            key: "default".into(),
-            label: "default profile".into(),
-            predictions: true,
-            profile: Profile::Default,
-            delta: None,
-            phi_min: None,
-            horizon: None,
-            offer_threshold: None,
-            seed: None,
-        },
-        Condition {
-            key: "default_p05".into(),
-            label: "default profile, p ≥ 0.5".into(),
-            predictions: true,
-            profile: Profile::Default,
-            delta: None,
-            phi_min: None,
-            horizon: None,
-            offer_threshold: Some(JOYSTICK_OFFER_THRESHOLD),
-            seed: None,
-        },
+        default_row("default", "default profile, arm only", false, None),
+        default_row(
+            "default_calibrated",
+            "default profile, calibrated",
+            true,
+            None,
+        ),
+        default_row(
+            "default_calibrated_p05",
+            "default profile, calibrated, p ≥ 0.5",
+            true,
+            Some(JOYSTICK_OFFER_THRESHOLD),
+        ),
     ]
 }
 
-/// The offer threshold of the default profile's second row: a suggestion more likely right than
+/// A row of the default profile: the cell as a pendant creates it (`operator_known` false), or
+/// told about its operator, at the profile's offer threshold or another.
+fn default_row(
+    key: &str,
+    label: &str,
+    operator_known: bool,
+    offer_threshold: Option<f64>,
+) -> Condition {
+    Condition {
+        key: key.into(),
+        label: label.into(),
+        predictions: true,
+        profile: Profile::Default,
+        delta: None,
+        phi_min: None,
+        horizon: None,
+        offer_threshold,
+        operator_known,
+        seed: None,
+    }
+}
+
+/// The offer threshold of the default profile's calibrated row: a suggestion more likely right than
 /// not (as the seed's second row lowers φ to 0.5). For a joystick operator a near miss is still
 /// a head start: fine-tuning from it is quicker than jogging the whole way.
 pub const JOYSTICK_OFFER_THRESHOLD: f64 = 0.5;
@@ -353,10 +373,20 @@ mod tests {
     #[test]
     fn the_table_has_the_seed_rows() {
         let c = table_4_1_conditions();
-        assert_eq!(c.len(), 5);
+        assert_eq!(c.len(), 6);
         assert!(!c[0].predictions);
-        assert_eq!(c[4].offer_threshold, Some(JOYSTICK_OFFER_THRESHOLD));
+        // The default row is the cell a pendant creates; the calibrated rows are told the
+        // operator's noise and tolerance, the last also a lower threshold.
+        assert_eq!(c[3].key, "default");
+        assert!(!c[3].operator_known);
+        assert!(c[4].operator_known && c[5].operator_known);
+        assert_eq!(c[5].offer_threshold, Some(JOYSTICK_OFFER_THRESHOLD));
         assert_eq!(c[3].offer_threshold, None);
+        assert_eq!(c[4].offer_threshold, None);
+        assert!(
+            c[1].operator_known,
+            "the seed set its σs from the users' scatter"
+        );
         assert_eq!(c[1].phi_min, Some(0.8));
         assert_eq!(c[2].horizon, Some(2));
         assert_eq!(c[1].seed.and_then(|s| s.change_pct), Some(-33.88));

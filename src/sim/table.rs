@@ -346,7 +346,8 @@ mod tests {
             results.push(result("seed_phi08_h3", 50.0 + i as f64));
             results.push(result("seed_phi05_h2", 100.0 + i as f64));
             results.push(result("default", 60.0 + i as f64));
-            results.push(result("default_p05", 55.0 + i as f64));
+            results.push(result("default_calibrated", 58.0 + i as f64));
+            results.push(result("default_calibrated_p05", 55.0 + i as f64));
         }
         let rows = summarise(&conditions, &results).unwrap();
         assert_eq!(rows[0].change_pct, None);
@@ -359,7 +360,7 @@ mod tests {
         let md = markdown(&rows);
         assert!(md.contains("| none | 20 | 109.5 |"), "{md}");
         assert!(md.contains("-33.88 %"), "{md}");
-        assert!(breakdown_markdown(&rows).contains("| default profile | 60 |"));
+        assert!(breakdown_markdown(&rows).contains("| default profile, arm only | 60 |"));
         let svg = change_chart_svg(&rows, "change <test>");
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(
