@@ -180,6 +180,26 @@ fn points(p: &Pose, lever: f64) -> [Point3<f64>; 4] {
     ]
 }
 
+/// The rigid transform that takes the points `a` closest to their counterparts `b` (least
+/// squares: Kabsch, with the reflection fixed); `None` when the SVD fails.
+pub(super) fn rigid_fit(a: &[Point3<f64>], b: &[Point3<f64>]) -> Option<Isometry3<f64>> {
+    let n = a.len() as f64;
+    let ca = a.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
+    let cb = b.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
+    let mut h = Matrix3::zeros();
+    for (p, q) in a.iter().zip(b) {
+        h += (p.coords - ca) * (q.coords - cb).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let v = v_t.transpose();
+    let d = (v * u.transpose()).determinant().signum();
+    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
+    let rotation = UnitQuaternion::from_matrix(&r);
+    let t = cb - rotation * ca;
+    Some(Isometry3::from_parts(Translation3::from(t), rotation))
+}
+
 /// The rigid transform taking `from` onto `to` (as many poses each), when every aligned pose is
 /// within `gate` of its counterpart; with the sum of squared position residuals (mm²).
 fn align(
@@ -190,21 +210,7 @@ fn align(
 ) -> Option<(Isometry3<f64>, f64)> {
     let a: Vec<Point3<f64>> = from.iter().flat_map(|p| points(p, lever)).collect();
     let b: Vec<Point3<f64>> = to.iter().flat_map(|p| points(p, lever)).collect();
-    let n = a.len() as f64;
-    let ca = a.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
-    let cb = b.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
-    let mut h = Matrix3::zeros();
-    for (p, q) in a.iter().zip(&b) {
-        h += (p.coords - ca) * (q.coords - cb).transpose();
-    }
-    let svd = h.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let v = v_t.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
-    let rotation = UnitQuaternion::from_matrix(&r);
-    let t = cb - rotation * ca;
-    let g = Isometry3::from_parts(Translation3::from(t), rotation);
+    let g = rigid_fit(&a, &b)?;
     let mut ss_mm = 0.0;
     for (p, q) in from.iter().zip(to) {
         let moved = Pose::from_isometry(g * p.isometry());

@@ -15,6 +15,8 @@
 //! RMS length of that difference. So the experts' gates are in units of the noise, and one
 //! profile serves exact and noisy cells: with no noise the tolerance is the given one.
 
+pub mod estimate;
+
 use serde::{Deserialize, Serialize};
 
 use super::frames::{Frame, Tolerance};

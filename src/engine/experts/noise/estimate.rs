@@ -1,0 +1,471 @@
+//! The teaching noise a cell learns from what it is taught, without a calibration routine.
+//!
+//! A task taught again somewhere else is an earlier stretch of waypoints moved by one rigid
+//! transform, plus the operator's errors in both. So the misfit of the best rigid alignment of a
+//! stretch of [`STRETCH`] waypoints onto an earlier one measures the noise: with a per-axis error
+//! σ on every waypoint, the sum of the squared position residuals is `2σ²·χ²(ν)`, `ν = 3·STRETCH
+//! − 6` (the transform takes six). The rotations between consecutive waypoints, which no rigid
+//! transform changes, differ by four rotation errors each, so their squared angles sum to
+//! `4σ_rad²·χ²(3·(STRETCH − 1))`.
+//!
+//! Not every earlier stretch with the same step lengths is a repeat. Each pair's misfit is read
+//! as drawn from a mixture: a repeat (the χ² above) or not (spread evenly over the logarithm of
+//! the misfit, between [`OTHER_MIN_MM2`] and [`OTHER_MAX_MM2`]); expectation-maximisation fits σ
+//! and the share of repeats. An exact program's repeats have no misfit at all and give σ ≈ 0.
+//! Until the pairs read as repeats count [`MIN_REPEATS`], there is no estimate.
+//!
+//! Pairs are found as the template expert finds its places ([`super::super::template`]): the
+//! waypoints are kept sorted by the length of the move into them, and only stretches whose every
+//! step is within [`STEP_GATE_MM`] of the new one's are aligned, at most [`MAX_PAIRS`] for each
+//! new stretch. Only finished routines are read, so undo never has to take a pair back, and a
+//! rebuild that learns the same routines in the same order gets the same estimate.
+
+use nalgebra::Point3;
+use statrs::distribution::{ChiSquared, Continuous};
+
+use super::Noise;
+use crate::engine::experts::template::rigid_fit;
+use crate::engine::pose::Pose;
+
+/// Waypoints in a stretch aligned at once.
+pub const STRETCH: usize = 6;
+/// How far apart the lengths of two corresponding steps may be, mm: a 20 mm RMS operator's step
+/// lengths differ by about 16 mm (one sigma) between two repeats.
+pub const STEP_GATE_MM: f64 = 60.0;
+/// How far the turns between corresponding steps may differ, rad (only between steps longer than
+/// [`STEP_GATE_MM`]).
+pub const TURN_GATE_RAD: f64 = 0.6;
+/// A stretch spanning less than this about its centroid, mm, fixes no rotation and is passed
+/// over.
+pub const MIN_EXTENT_MM: f64 = 25.0;
+/// Earlier stretches aligned with each new one, at the most.
+pub const MAX_PAIRS: usize = 16;
+/// Pairs read as repeats before there is an estimate.
+pub const MIN_REPEATS: f64 = 10.0;
+/// Pairs kept, the newest (a cell's operator may change; the estimate follows the recent ones).
+pub const MAX_SAMPLES: usize = 20_000;
+/// The misfits of stretches that are not repeats spread from this, mm² (a pair of unrelated
+/// stretches does not fit within a tenth of a millimetre) …
+pub const OTHER_MIN_MM2: f64 = 1e-2;
+/// … to this.
+pub const OTHER_MAX_MM2: f64 = 1e7;
+/// The smallest σ the fit goes down to, mm (an exact program's).
+const SIGMA_FLOOR_MM: f64 = 1e-3;
+/// The largest, mm per axis: beyond a 45 mm RMS operator, repeats cannot be told from other
+/// stretches of the same step lengths ([`STEP_GATE_MM`]).
+const SIGMA_CAP_MM: f64 = 25.0;
+/// EM iterations (it converges in a handful; the cap bounds the cost).
+const EM_STEPS: usize = 50;
+
+/// Degrees of freedom of a stretch's position misfit.
+const NU_MM: f64 = (3 * STRETCH - 6) as f64;
+/// … and of its relative rotations' misfit.
+const NU_RAD: f64 = (3 * (STRETCH - 1)) as f64;
+
+/// One pair of stretches: its squared misfits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Pair {
+    /// Sum of squared position residuals after the rigid fit, mm².
+    ss_mm: f64,
+    /// Sum of squared angles between corresponding relative rotations, rad².
+    ss_rad: f64,
+}
+
+/// The cell's finished routines and the misfits of the repeats found in them (module doc).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NoiseEstimator {
+    routines: Vec<Vec<Pose>>,
+    /// (length of the move into waypoint `j`, routine, `j`) for every stretch end `j`, sorted by
+    /// length.
+    by_length: Vec<(f64, u32, u32)>,
+    pairs: Vec<Pair>,
+    estimate: Option<Noise>,
+}
+
+impl NoiseEstimator {
+    pub fn new() -> NoiseEstimator {
+        NoiseEstimator::default()
+    }
+
+    /// The noise learned so far; `None` until enough repeats were seen.
+    pub fn estimate(&self) -> Option<Noise> {
+        self.estimate
+    }
+
+    /// Pairs of stretches compared so far (kept: at most [`MAX_SAMPLES`]).
+    pub fn pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Learns a finished routine: aligns each of its stretches with the earlier ones of the same
+    /// step lengths (in earlier routines, and earlier in this one without overlap), then fits
+    /// the noise again.
+    pub fn learn(&mut self, routine: &[Pose]) {
+        let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
+        for j in STRETCH - 1..routine.len() {
+            let stretch = &routine[j + 1 - STRETCH..=j];
+            if extent(stretch) < MIN_EXTENT_MM {
+                continue;
+            }
+            let earlier = self.earlier_ends(stretch, routine, j);
+            for (er, ej) in earlier {
+                let other: &[Pose] = if er == r {
+                    &routine[ej + 1 - STRETCH..=ej]
+                } else {
+                    &self.routines[er as usize][ej + 1 - STRETCH..=ej]
+                };
+                if let Some(pair) = compare(other, stretch) {
+                    self.pairs.push(pair);
+                }
+            }
+        }
+        let over = self.pairs.len().saturating_sub(MAX_SAMPLES);
+        self.pairs.drain(..over);
+        let mut fresh: Vec<(f64, u32, u32)> = (STRETCH - 1..routine.len())
+            .filter(|&j| extent(&routine[j + 1 - STRETCH..=j]) >= MIN_EXTENT_MM)
+            .map(|j| {
+                let len = routine[j].distance_to(&routine[j - 1]);
+                (len, r, u32::try_from(j).unwrap_or(u32::MAX))
+            })
+            .collect();
+        self.by_length.append(&mut fresh);
+        self.by_length.sort_by(|a, b| a.0.total_cmp(&b.0));
+        self.routines.push(routine.to_vec());
+        self.estimate = fit(&self.pairs);
+    }
+
+    /// The ends of the earlier stretches whose every step is about as long as `stretch`'s:
+    /// (routine, end), at most [`MAX_PAIRS`], those of earlier routines first (by the length of
+    /// the move into their last waypoint), then those earlier in `routine` before `j`'s stretch.
+    fn earlier_ends(&self, stretch: &[Pose], routine: &[Pose], j: usize) -> Vec<(u32, usize)> {
+        let last = stretch[STRETCH - 1].distance_to(&stretch[STRETCH - 2]);
+        let lo = self
+            .by_length
+            .partition_point(|e| e.0 < last - STEP_GATE_MM);
+        let own = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
+        self.by_length[lo..]
+            .iter()
+            .take_while(|e| e.0 <= last + STEP_GATE_MM)
+            .map(|&(_, r, e)| (r, e as usize))
+            .filter(|&(r, e)| steps_match(&self.routines[r as usize][e + 1 - STRETCH..=e], stretch))
+            .chain(
+                (STRETCH - 1..(j + 1).saturating_sub(STRETCH))
+                    .filter(|&e| steps_match(&routine[e + 1 - STRETCH..=e], stretch))
+                    .map(|e| (own, e)),
+            )
+            .take(MAX_PAIRS)
+            .collect()
+    }
+}
+
+/// How far the stretch's positions reach from their centroid, mm (the largest).
+fn extent(stretch: &[Pose]) -> f64 {
+    let n = stretch.len() as f64;
+    let c = stretch
+        .iter()
+        .map(|p| p.position())
+        .sum::<nalgebra::Vector3<f64>>()
+        / n;
+    stretch
+        .iter()
+        .map(|p| (p.position() - c).norm())
+        .fold(0.0, f64::max)
+}
+
+/// Whether every step of `a` is within [`STEP_GATE_MM`] as long as `b`'s, and every turn
+/// between two steps within [`TURN_GATE_RAD`] of `b`'s (no rigid transform changes either).
+fn steps_match(a: &[Pose], b: &[Pose]) -> bool {
+    let lengths = a
+        .windows(2)
+        .zip(b.windows(2))
+        .all(|(x, y)| (x[0].distance_to(&x[1]) - y[0].distance_to(&y[1])).abs() <= STEP_GATE_MM);
+    lengths
+        && a.windows(3)
+            .zip(b.windows(3))
+            .all(|(x, y)| match (turn(x), turn(y)) {
+                (Some(tx), Some(ty)) => (tx - ty).abs() <= TURN_GATE_RAD,
+                _ => true,
+            })
+}
+
+/// The angle between the steps into and out of the middle of three poses; `None` when a step
+/// is too short to have a direction under the noise.
+fn turn(p: &[Pose]) -> Option<f64> {
+    let (a, b) = (
+        p[1].position() - p[0].position(),
+        p[2].position() - p[1].position(),
+    );
+    (a.norm() >= STEP_GATE_MM && b.norm() >= STEP_GATE_MM).then(|| a.angle(&b))
+}
+
+/// The misfits of aligning stretch `a` onto `b` (module doc).
+fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
+    let pa: Vec<Point3<f64>> = a.iter().map(|p| Point3::from(p.position())).collect();
+    let pb: Vec<Point3<f64>> = b.iter().map(|p| Point3::from(p.position())).collect();
+    let g = rigid_fit(&pa, &pb)?;
+    let ss_mm = pa
+        .iter()
+        .zip(&pb)
+        .map(|(p, q)| (g * p - q).norm_squared())
+        .sum();
+    let ss_rad = a
+        .windows(2)
+        .zip(b.windows(2))
+        .map(|(x, y)| {
+            let rx = x[0].rotation().inverse() * x[1].rotation();
+            let ry = y[0].rotation().inverse() * y[1].rotation();
+            rx.angle_to(&ry).powi(2)
+        })
+        .sum();
+    Some(Pair { ss_mm, ss_rad })
+}
+
+/// The noise the pairs show (module doc), or `None` when too few read as repeats.
+fn fit(pairs: &[Pair]) -> Option<Noise> {
+    if (pairs.len() as f64) < MIN_REPEATS {
+        return None;
+    }
+    let chi = ChiSquared::new(NU_MM).ok()?;
+    let ln_range = (OTHER_MAX_MM2 / OTHER_MIN_MM2).ln();
+    // Log-density of a pair's misfit if it is not a repeat.
+    let other = |ss: f64| {
+        if (OTHER_MIN_MM2..=OTHER_MAX_MM2).contains(&ss) {
+            -ss.ln() - ln_range.ln()
+        } else {
+            f64::NEG_INFINITY
+        }
+    };
+    // Start from the lower quartile's σ and an even mixture.
+    let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm).collect();
+    sorted.sort_by(f64::total_cmp);
+    let floor = SIGMA_FLOOR_MM * SIGMA_FLOOR_MM;
+    let mut var = (sorted[sorted.len() / 4] / (2.0 * NU_MM)).max(floor);
+    let mut share: f64 = 0.5;
+    let mut weights = vec![0.0; pairs.len()];
+    for _ in 0..EM_STEPS {
+        let scale = 2.0 * var;
+        for (w, p) in weights.iter_mut().zip(pairs) {
+            let repeat = share.ln() + chi.ln_pdf(p.ss_mm.max(1e-300) / scale) - scale.ln();
+            let not = (1.0 - share).ln() + other(p.ss_mm);
+            *w = if not == f64::NEG_INFINITY {
+                1.0
+            } else {
+                1.0 / (1.0 + (not - repeat).exp())
+            };
+        }
+        let total: f64 = weights.iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let next = weights
+            .iter()
+            .zip(pairs)
+            .map(|(w, p)| w * p.ss_mm)
+            .sum::<f64>()
+            / (2.0 * NU_MM * total);
+        share = (total / pairs.len() as f64).clamp(1e-6, 1.0 - 1e-6);
+        let next = next.clamp(floor, SIGMA_CAP_MM * SIGMA_CAP_MM);
+        let converged = (next / var - 1.0).abs() < 1e-6;
+        var = next;
+        if converged {
+            break;
+        }
+    }
+    let total: f64 = weights.iter().sum();
+    if total < MIN_REPEATS {
+        return None;
+    }
+    // The rotations: the median over the pairs read surely as repeats (a few pairs read
+    // wrongly would otherwise carry their large turns into the mean).
+    let mut rad: Vec<f64> = weights
+        .iter()
+        .zip(pairs)
+        .filter(|(w, _)| **w >= 0.9)
+        .map(|(_, p)| p.ss_rad)
+        .collect();
+    rad.sort_by(f64::total_cmp);
+    let median_chi = NU_RAD * (1.0 - 2.0 / (9.0 * NU_RAD)).powi(3);
+    let var_rad = rad
+        .get(rad.len() / 2)
+        .map_or(0.0, |m| m / (4.0 * median_chi));
+    let mm = var.sqrt();
+    Some(Noise {
+        mm: if mm <= SIGMA_FLOOR_MM { 0.0 } else { mm },
+        rad: var_rad.sqrt(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::experts::frames::Tolerance;
+    use crate::engine::experts::noise::tests::gauss;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A task of 10 waypoints (a box seam with approach and retract, tool down, turning on the
+    /// way), placed at `(dx, dy)` turned by `turn` about the vertical.
+    fn task(dx: f64, dy: f64, turn: f64) -> Vec<Pose> {
+        let g = Isometry3::from_parts(
+            Translation3::new(600.0 + dx, dy, 150.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, turn),
+        );
+        let corners = [
+            [0.0, 0.0, 120.0],
+            [0.0, 0.0, 0.0],
+            [180.0, 0.0, 0.0],
+            [180.0, 90.0, 0.0],
+            [60.0, 140.0, 0.0],
+            [0.0, 90.0, 0.0],
+            [0.0, 90.0, 120.0],
+            [-150.0, 40.0, 200.0],
+            [-150.0, -200.0, 260.0],
+            [100.0, -240.0, 200.0],
+        ];
+        corners
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let down =
+                    UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2 * i as f64);
+                Pose::from_isometry(
+                    g * Isometry3::from_parts(Translation3::new(c[0], c[1], c[2]), down),
+                )
+            })
+            .collect()
+    }
+
+    fn noisy(poses: &[Pose], noise: &Noise, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+        poses
+            .iter()
+            .map(|p| {
+                let dp = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.mm;
+                let dr = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.rad;
+                Pose::from_isometry(Isometry3::from_parts(
+                    Translation3::from(p.position() + dp),
+                    UnitQuaternion::from_scaled_axis(dr) * p.rotation(),
+                ))
+            })
+            .collect()
+    }
+
+    /// A routine of `n` waypoints wandering at random: no stretch of it repeats another.
+    fn wander(n: usize, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+        let mut p = Vector3::new(500.0, 0.0, 300.0);
+        (0..n)
+            .map(|_| {
+                p += Vector3::new(
+                    rng.random_range(-250.0..250.0),
+                    rng.random_range(-250.0..250.0),
+                    rng.random_range(-150.0..150.0),
+                );
+                let q = UnitQuaternion::from_euler_angles(
+                    std::f64::consts::PI,
+                    rng.random_range(-0.5..0.5),
+                    rng.random_range(-3.0..3.0),
+                );
+                Pose::from_isometry(Isometry3::from_parts(Translation3::from(p), q))
+            })
+            .collect()
+    }
+
+    /// An operator with 11.5 mm and 0.02 rad per axis (the simulated online operator's 20 mm
+    /// RMS) teaches one task at six places, between routines of other work: the estimate is
+    /// within 20 % of both, with no calibration routine.
+    #[test]
+    fn a_repeated_task_shows_the_noise_it_was_taught_with() {
+        let truth = Noise {
+            mm: 11.5,
+            rad: 0.02,
+        };
+        for seed in 1..=8 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let mut e = NoiseEstimator::new();
+            assert_eq!(e.estimate(), None);
+            for k in 0..6 {
+                let placed = task(
+                    rng.random_range(-300.0..300.0),
+                    rng.random_range(-300.0..300.0),
+                    rng.random_range(-1.0..1.0) + f64::from(k),
+                );
+                e.learn(&noisy(&placed, &truth, &mut rng));
+                e.learn(&noisy(&wander(12, &mut rng), &truth, &mut rng));
+            }
+            let n = e.estimate().expect("an estimate");
+            eprintln!("seed {seed}: {n:?} from {} pairs", e.pairs());
+            assert!((n.mm / truth.mm - 1.0).abs() < 0.2, "seed {seed}: {n:?}");
+            assert!((n.rad / truth.rad - 1.0).abs() < 0.2, "seed {seed}: {n:?}");
+        }
+    }
+
+    /// The estimate converges within a few routines: after the task's third placement it is
+    /// there, within 30 %.
+    #[test]
+    fn a_few_repeats_are_enough() {
+        let truth = Noise { mm: 5.0, rad: 0.01 };
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut e = NoiseEstimator::new();
+        for k in 0..3 {
+            let placed = task(
+                100.0 * f64::from(k),
+                -50.0 * f64::from(k),
+                0.4 * f64::from(k),
+            );
+            e.learn(&noisy(&placed, &truth, &mut rng));
+        }
+        let n = e.estimate().expect("an estimate after three placements");
+        assert!((n.mm / truth.mm - 1.0).abs() < 0.3, "{n:?}");
+    }
+
+    /// Offline programs are exact: their repeats fit perfectly, and the estimate is too small to
+    /// widen any tolerance.
+    #[test]
+    fn exact_repeats_give_no_noise() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut e = NoiseEstimator::new();
+        for k in 0..4 {
+            e.learn(&task(90.0 * f64::from(k), 30.0, 0.3 * f64::from(k)));
+            e.learn(&wander(10, &mut rng));
+        }
+        let n = e.estimate().expect("an estimate");
+        assert!(n.is_negligible(&Tolerance::SEED), "{n:?}");
+    }
+
+    /// Without repeats there is nothing to learn from: no estimate, whatever the noise.
+    #[test]
+    fn no_repeats_no_estimate() {
+        for seed in 1..=8 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let mut e = NoiseEstimator::new();
+            let noise = Noise { mm: 8.0, rad: 0.02 };
+            for _ in 0..8 {
+                e.learn(&noisy(&wander(15, &mut rng), &noise, &mut rng));
+            }
+            assert_eq!(e.estimate(), None, "seed {seed}: {} pairs", e.pairs());
+        }
+    }
+
+    /// Learning the same routines in the same order gives the same estimate (a rebuild).
+    #[test]
+    fn the_estimate_depends_only_on_the_routines_in_order() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let noise = Noise { mm: 6.0, rad: 0.01 };
+        let routines: Vec<Vec<Pose>> = (0..5)
+            .map(|k| {
+                noisy(
+                    &task(50.0 * f64::from(k), 0.0, 0.2 * f64::from(k)),
+                    &noise,
+                    &mut rng,
+                )
+            })
+            .collect();
+        let (mut a, mut b) = (NoiseEstimator::new(), NoiseEstimator::new());
+        for r in &routines {
+            a.learn(r);
+            b.learn(r);
+        }
+        assert_eq!(a, b);
+        assert!(a.estimate().is_some());
+    }
+}
