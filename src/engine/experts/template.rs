@@ -226,7 +226,7 @@ fn align(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::experts::noise::tests::gauss;
+    use crate::engine::experts::noise::tests::noisy;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
@@ -245,20 +245,6 @@ mod tests {
                     down,
                 );
                 Pose::from_isometry(g * local)
-            })
-            .collect()
-    }
-
-    fn noisy(poses: &[Pose], noise: &Noise, rng: &mut ChaCha8Rng) -> Vec<Pose> {
-        poses
-            .iter()
-            .map(|p| {
-                let dp = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.mm;
-                let dr = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.rad;
-                Pose::from_isometry(Isometry3::from_parts(
-                    Translation3::from(p.position() + dp),
-                    UnitQuaternion::from_scaled_axis(dr) * p.rotation(),
-                ))
             })
             .collect()
     }

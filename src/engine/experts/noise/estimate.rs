@@ -102,11 +102,12 @@ impl NoiseEstimator {
     /// the noise again.
     pub fn learn(&mut self, routine: &[Pose]) {
         let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
-        for j in STRETCH - 1..routine.len() {
+        // The ends of the stretches spread enough to fix a rotation.
+        let ends: Vec<usize> = (STRETCH - 1..routine.len())
+            .filter(|&j| extent(&routine[j + 1 - STRETCH..=j]) >= MIN_EXTENT_MM)
+            .collect();
+        for &j in &ends {
             let stretch = &routine[j + 1 - STRETCH..=j];
-            if extent(stretch) < MIN_EXTENT_MM {
-                continue;
-            }
             let earlier = self.earlier_ends(stretch, routine, j);
             for (er, ej) in earlier {
                 let other: &[Pose] = if er == r {
@@ -121,8 +122,8 @@ impl NoiseEstimator {
         }
         let over = self.pairs.len().saturating_sub(MAX_SAMPLES);
         self.pairs.drain(..over);
-        let mut fresh: Vec<(f64, u32, u32)> = (STRETCH - 1..routine.len())
-            .filter(|&j| extent(&routine[j + 1 - STRETCH..=j]) >= MIN_EXTENT_MM)
+        let mut fresh: Vec<(f64, u32, u32)> = ends
+            .into_iter()
             .map(|j| {
                 let len = routine[j].distance_to(&routine[j - 1]);
                 (len, r, u32::try_from(j).unwrap_or(u32::MAX))
@@ -299,7 +300,7 @@ fn fit(pairs: &[Pair]) -> Option<Noise> {
 mod tests {
     use super::*;
     use crate::engine::experts::frames::Tolerance;
-    use crate::engine::experts::noise::tests::gauss;
+    use crate::engine::experts::noise::tests::noisy;
     use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -332,20 +333,6 @@ mod tests {
                 Pose::from_isometry(
                     g * Isometry3::from_parts(Translation3::new(c[0], c[1], c[2]), down),
                 )
-            })
-            .collect()
-    }
-
-    fn noisy(poses: &[Pose], noise: &Noise, rng: &mut ChaCha8Rng) -> Vec<Pose> {
-        poses
-            .iter()
-            .map(|p| {
-                let dp = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.mm;
-                let dr = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.rad;
-                Pose::from_isometry(Isometry3::from_parts(
-                    Translation3::from(p.position() + dp),
-                    UnitQuaternion::from_scaled_axis(dr) * p.rotation(),
-                ))
             })
             .collect()
     }

@@ -146,6 +146,22 @@ pub(crate) mod tests {
         (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
     }
 
+    /// `poses` as an operator with `noise` places them: each one's position and rotation off by
+    /// a Gaussian error per axis. The tests of the template expert and the estimator share it.
+    pub(crate) fn noisy(poses: &[Pose], noise: &Noise, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+        poses
+            .iter()
+            .map(|p| {
+                let dp = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.mm;
+                let dr = Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * noise.rad;
+                Pose::from_isometry(nalgebra::Isometry3::from_parts(
+                    nalgebra::Translation3::from(p.position() + dp),
+                    UnitQuaternion::from_scaled_axis(dr) * p.rotation(),
+                ))
+            })
+            .collect()
+    }
+
     /// An operator with 7 mm and 0.02 rad per axis records one point 400 times: the scatter
     /// recovers both within a few per cent.
     #[test]
