@@ -22,8 +22,9 @@
 //! long as the last taught one are looked at; of those, only the steps back whose lengths and
 //! turns match too are aligned.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 
+use super::alignment::rigid_fit;
 use super::frames::{Frame, Tolerance};
 use super::noise::Noise;
 use super::{Candidate, Evidence, Expert};
@@ -180,26 +181,6 @@ fn points(p: &Pose, lever: f64) -> [Point3<f64>; 4] {
     ]
 }
 
-/// The rigid transform that takes the points `a` closest to their counterparts `b` (least
-/// squares: Kabsch, with the reflection fixed); `None` when the SVD fails.
-pub(super) fn rigid_fit(a: &[Point3<f64>], b: &[Point3<f64>]) -> Option<Isometry3<f64>> {
-    let n = a.len() as f64;
-    let ca = a.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
-    let cb = b.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
-    let mut h = Matrix3::zeros();
-    for (p, q) in a.iter().zip(b) {
-        h += (p.coords - ca) * (q.coords - cb).transpose();
-    }
-    let svd = h.svd(true, true);
-    let (u, v_t) = (svd.u?, svd.v_t?);
-    let v = v_t.transpose();
-    let d = (v * u.transpose()).determinant().signum();
-    let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
-    let rotation = UnitQuaternion::from_matrix(&r);
-    let t = cb - rotation * ca;
-    Some(Isometry3::from_parts(Translation3::from(t), rotation))
-}
-
 /// The rigid transform taking `from` onto `to` (as many poses each), when every aligned pose is
 /// within `gate` of its counterpart; with the sum of squared position residuals (mm²).
 fn align(
@@ -227,6 +208,7 @@ fn align(
 mod tests {
     use super::*;
     use crate::engine::experts::noise::tests::noisy;
+    use nalgebra::{Translation3, UnitQuaternion};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

@@ -24,7 +24,7 @@ use nalgebra::Point3;
 use statrs::distribution::{ChiSquared, Continuous};
 
 use super::Noise;
-use crate::engine::experts::template::rigid_fit;
+use crate::engine::experts::alignment::rigid_fit;
 use crate::engine::pose::Pose;
 
 /// Waypoints in a stretch aligned at once.
