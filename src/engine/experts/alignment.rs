@@ -2,10 +2,11 @@
 //! template expert ([`super::template`]) and the noise estimate ([`super::noise::estimate`])
 //! both fit.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// The rigid transform that takes the points `a` closest to their counterparts `b` (least
-/// squares: Kabsch, with the reflection fixed); `None` when the SVD fails.
+/// squares: Kabsch, with the reflection fixed); `None` when the SVD fails or the points are not
+/// finite.
 pub fn rigid_fit(a: &[Point3<f64>], b: &[Point3<f64>]) -> Option<Isometry3<f64>> {
     let n = a.len() as f64;
     let ca = a.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / n;
@@ -19,7 +20,12 @@ pub fn rigid_fit(a: &[Point3<f64>], b: &[Point3<f64>]) -> Option<Isometry3<f64>>
     let v = v_t.transpose();
     let d = (v * u.transpose()).determinant().signum();
     let r = v * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * u.transpose();
-    let rotation = UnitQuaternion::from_matrix(&r);
+    if !r.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    // U and V are orthonormal, so r is a rotation already. (`UnitQuaternion::from_matrix`
+    // iterates towards one without a bound and never ended on some near-degenerate fits.)
+    let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
     let t = cb - rotation * ca;
     Some(Isometry3::from_parts(Translation3::from(t), rotation))
 }

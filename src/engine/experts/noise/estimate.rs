@@ -14,18 +14,38 @@
 //! and the share of repeats. An exact program's repeats have no misfit at all and give σ ≈ 0.
 //! Until the pairs read as repeats count [`MIN_REPEATS`], there is no estimate.
 //!
+//! An operator placing by hand never comes back to exactly the same spot, so a cell taught a
+//! waypoint exactly where an earlier one was ([`EXACT_REVISIT_MM`]) is taught exactly, however
+//! its repeats look: after [`EXACT_REVISITS`] such waypoints (not counting suggestions taken as
+//! offered, which are exact copies whoever teaches) the estimate is exact for good and no more
+//! pairs are aligned. Offline programs return to their named targets all the time; their
+//! stretches of about the same shape (welds of other pitches, a grid's rows) would otherwise
+//! read as repeats of a noisy operator (on the shared corpus, four exact programs read as 3 to
+//! 12 mm before this rule). For the same reason no noise is believed before [`MIN_ROUTINES`].
+//!
 //! Pairs are found as the template expert finds its places ([`super::super::template`]): the
 //! waypoints are kept sorted by the length of the move into them, and only stretches whose every
 //! step is within [`STEP_GATE_MM`] of the new one's are aligned, at most [`MAX_PAIRS`] for each
-//! new stretch. Only finished routines are read, so undo never has to take a pair back, and a
+//! new stretch, out of at most [`MAX_EXAMINED`] looked at (a long routine of equal steps costs
+//! no more than a short one per waypoint). Only finished routines are read, so undo never has to take a pair back, and a
 //! rebuild that learns the same routines in the same order gets the same estimate.
 
 use nalgebra::Point3;
-use statrs::distribution::{ChiSquared, Continuous};
+use statrs::function::gamma::ln_gamma;
 
 use super::Noise;
 use crate::engine::experts::alignment::rigid_fit;
 use crate::engine::pose::Pose;
+
+/// A waypoint this close to an earlier one, mm, is an exact revisit.
+pub const EXACT_REVISIT_MM: f64 = 1e-3;
+/// Exact revisits after which the cell is taught exactly (module doc).
+pub const EXACT_REVISITS: usize = 2;
+/// Routines a cell is taught before its noise is believed: the first routines of an offline
+/// program may not return to a named target yet (on the shared corpus one welding program read
+/// as 14 mm after its second routine and offered 26 wrong suggestions in its third, before its
+/// exact revisits showed).
+pub const MIN_ROUTINES: usize = 3;
 
 /// Waypoints in a stretch aligned at once.
 pub const STRETCH: usize = 6;
@@ -40,10 +60,12 @@ pub const TURN_GATE_RAD: f64 = 0.6;
 pub const MIN_EXTENT_MM: f64 = 25.0;
 /// Earlier stretches aligned with each new one, at the most.
 pub const MAX_PAIRS: usize = 16;
+/// Earlier stretches of about the same last step looked at for each new one, at the most.
+pub const MAX_EXAMINED: usize = 256;
 /// Pairs read as repeats before there is an estimate.
 pub const MIN_REPEATS: f64 = 10.0;
 /// Pairs kept, the newest (a cell's operator may change; the estimate follows the recent ones).
-pub const MAX_SAMPLES: usize = 20_000;
+pub const MAX_SAMPLES: usize = 4_000;
 /// The misfits of stretches that are not repeats spread from this, mm² (a pair of unrelated
 /// stretches does not fit within a tenth of a millimetre) …
 pub const OTHER_MIN_MM2: f64 = 1e-2;
@@ -79,7 +101,13 @@ pub struct NoiseEstimator {
     /// length.
     by_length: Vec<(f64, u32, u32)>,
     pairs: Vec<Pair>,
+    /// The mixture fitted last (σ², share of repeats): the next fit starts from it.
+    mixture: Option<(f64, f64)>,
     estimate: Option<Noise>,
+    /// The positions taught so far, on a grid of [`EXACT_REVISIT_MM`].
+    places: std::collections::HashSet<[i64; 3]>,
+    /// Waypoints taught exactly where an earlier one was (not as suggested).
+    exact_revisits: usize,
 }
 
 impl NoiseEstimator {
@@ -87,9 +115,24 @@ impl NoiseEstimator {
         NoiseEstimator::default()
     }
 
-    /// The noise learned so far; `None` until enough repeats were seen.
+    /// The noise learned so far; `None` until enough repeats were seen; exact once the cell
+    /// was taught exact revisits (module doc).
     pub fn estimate(&self) -> Option<Noise> {
+        if self.is_exact() {
+            return Some(Noise::EXACT);
+        }
         self.estimate
+            .filter(|_| self.routines.len() >= MIN_ROUTINES)
+    }
+
+    /// Whether the cell was taught [`EXACT_REVISITS`] waypoints exactly where earlier ones were.
+    pub fn is_exact(&self) -> bool {
+        self.exact_revisits >= EXACT_REVISITS
+    }
+
+    /// The routines learned, in order.
+    pub fn routines(&self) -> &[Vec<Pose>] {
+        &self.routines
     }
 
     /// Pairs of stretches compared so far (kept: at most [`MAX_SAMPLES`]).
@@ -97,19 +140,47 @@ impl NoiseEstimator {
         self.pairs.len()
     }
 
-    /// Learns a finished routine: aligns each of its stretches with the earlier ones of the same
-    /// step lengths (in earlier routines, and earlier in this one without overlap), then fits
-    /// the noise again.
+    /// Learns a finished routine taught by hand, no suggestion taken.
     pub fn learn(&mut self, routine: &[Pose]) {
+        self.learn_taught(routine, &[]);
+    }
+
+    /// Learns a finished routine, `suggested[i]` telling whether waypoint `i` was taught as the
+    /// cell offered it (missing: not): counts its exact revisits, aligns each of its stretches
+    /// with the earlier ones of the same step lengths (in earlier routines, and earlier in this
+    /// one without overlap), then fits the noise again.
+    pub fn learn_taught(&mut self, routine: &[Pose], suggested: &[bool]) {
+        for (i, w) in routine.iter().enumerate() {
+            let p = w.position() / EXACT_REVISIT_MM;
+            // Positions beyond i64's range are not a robot's; they saturate and count as one.
+            let key = [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64];
+            let fresh = self.places.insert(key);
+            if !fresh && !suggested.get(i).copied().unwrap_or(false) {
+                self.exact_revisits += 1;
+            }
+        }
+        if self.is_exact() {
+            // Nothing more to learn of the noise.
+            self.routines.push(routine.to_vec());
+            return;
+        }
         let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
-        // The ends of the stretches spread enough to fix a rotation.
-        let ends: Vec<usize> = (STRETCH - 1..routine.len())
+        // The ends of the stretches spread enough to fix a rotation, with the length of the
+        // move into them, sorted by it (this routine's own index of its earlier stretches).
+        let ends: Vec<(f64, u32, u32)> = (STRETCH - 1..routine.len())
             .filter(|&j| extent(&routine[j + 1 - STRETCH..=j]) >= MIN_EXTENT_MM)
+            .map(|j| {
+                let len = routine[j].distance_to(&routine[j - 1]);
+                (len, r, u32::try_from(j).unwrap_or(u32::MAX))
+            })
             .collect();
-        for &j in &ends {
+        let mut own = ends.clone();
+        own.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let before = self.pairs.len();
+        for &(_, _, j) in &ends {
+            let j = j as usize;
             let stretch = &routine[j + 1 - STRETCH..=j];
-            let earlier = self.earlier_ends(stretch, routine, j);
-            for (er, ej) in earlier {
+            for (er, ej) in self.earlier_ends(stretch, routine, j, &own) {
                 let other: &[Pose] = if er == r {
                     &routine[ej + 1 - STRETCH..=ej]
                 } else {
@@ -122,41 +193,50 @@ impl NoiseEstimator {
         }
         let over = self.pairs.len().saturating_sub(MAX_SAMPLES);
         self.pairs.drain(..over);
-        let mut fresh: Vec<(f64, u32, u32)> = ends
-            .into_iter()
-            .map(|j| {
-                let len = routine[j].distance_to(&routine[j - 1]);
-                (len, r, u32::try_from(j).unwrap_or(u32::MAX))
-            })
-            .collect();
-        self.by_length.append(&mut fresh);
+        // Both runs are sorted: the stable sort merges them.
+        self.by_length.append(&mut own);
         self.by_length.sort_by(|a, b| a.0.total_cmp(&b.0));
         self.routines.push(routine.to_vec());
-        self.estimate = fit(&self.pairs);
+        if self.pairs.len() != before || over > 0 {
+            let (estimate, mixture) = fit(&self.pairs, self.mixture);
+            self.estimate = estimate;
+            self.mixture = mixture.or(self.mixture);
+        }
     }
 
     /// The ends of the earlier stretches whose every step is about as long as `stretch`'s:
-    /// (routine, end), at most [`MAX_PAIRS`], those of earlier routines first (by the length of
-    /// the move into their last waypoint), then those earlier in `routine` before `j`'s stretch.
-    fn earlier_ends(&self, stretch: &[Pose], routine: &[Pose], j: usize) -> Vec<(u32, usize)> {
+    /// (routine, end), at most [`MAX_PAIRS`] out of at most [`MAX_EXAMINED`] of about the same
+    /// last step in earlier routines and as many earlier in `routine`, before `j`'s stretch
+    /// (`own` indexes `routine`'s stretch ends by length), those of earlier routines first.
+    fn earlier_ends(
+        &self,
+        stretch: &[Pose],
+        routine: &[Pose],
+        j: usize,
+        own: &[(f64, u32, u32)],
+    ) -> Vec<(u32, usize)> {
         let last = stretch[STRETCH - 1].distance_to(&stretch[STRETCH - 2]);
-        let lo = self
-            .by_length
-            .partition_point(|e| e.0 < last - STEP_GATE_MM);
-        let own = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
-        self.by_length[lo..]
-            .iter()
-            .take_while(|e| e.0 <= last + STEP_GATE_MM)
-            .map(|&(_, r, e)| (r, e as usize))
-            .filter(|&(r, e)| steps_match(&self.routines[r as usize][e + 1 - STRETCH..=e], stretch))
-            .chain(
-                (STRETCH - 1..(j + 1).saturating_sub(STRETCH))
-                    .filter(|&e| steps_match(&routine[e + 1 - STRETCH..=e], stretch))
-                    .map(|e| (own, e)),
-            )
-            .take(MAX_PAIRS)
-            .collect()
+        let earlier = near(&self.by_length, last)
+            .take(MAX_EXAMINED)
+            .filter(|&(r, e)| {
+                steps_match(&self.routines[r as usize][e + 1 - STRETCH..=e], stretch)
+            });
+        let within = near(own, last)
+            .filter(|&(_, e)| e + STRETCH <= j)
+            .take(MAX_EXAMINED)
+            .filter(|&(_, e)| steps_match(&routine[e + 1 - STRETCH..=e], stretch));
+        earlier.chain(within).take(MAX_PAIRS).collect()
     }
+}
+
+/// The entries of `index` (sorted by length) whose move is within [`STEP_GATE_MM`] of `last`:
+/// (routine, end).
+fn near(index: &[(f64, u32, u32)], last: f64) -> impl Iterator<Item = (u32, usize)> + '_ {
+    let lo = index.partition_point(|e| e.0 < last - STEP_GATE_MM);
+    index[lo..]
+        .iter()
+        .take_while(move |e| e.0 <= last + STEP_GATE_MM)
+        .map(|&(_, r, e)| (r, e as usize))
 }
 
 /// How far the stretch's positions reach from their centroid, mm (the largest).
@@ -221,12 +301,16 @@ fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
     Some(Pair { ss_mm, ss_rad })
 }
 
-/// The noise the pairs show (module doc), or `None` when too few read as repeats.
-fn fit(pairs: &[Pair]) -> Option<Noise> {
+/// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
+/// mixture fitted (σ², share of repeats), starting from `start` when given.
+fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64, f64)>) {
     if (pairs.len() as f64) < MIN_REPEATS {
-        return None;
+        return (None, None);
     }
-    let chi = ChiSquared::new(NU_MM).ok()?;
+    // ln of the χ²(ν) density, ν = NU_MM.
+    let half = NU_MM / 2.0;
+    let ln_norm = half * 2f64.ln() + ln_gamma(half);
+    let chi_ln_pdf = |x: f64| (half - 1.0) * x.ln() - x / 2.0 - ln_norm;
     let ln_range = (OTHER_MAX_MM2 / OTHER_MIN_MM2).ln();
     // Log-density of a pair's misfit if it is not a repeat.
     let other = |ss: f64| {
@@ -236,17 +320,25 @@ fn fit(pairs: &[Pair]) -> Option<Noise> {
             f64::NEG_INFINITY
         }
     };
-    // Start from the lower quartile's σ and an even mixture.
-    let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm).collect();
-    sorted.sort_by(f64::total_cmp);
+    // Start from the last fit's σ, or from the lowest decile's, and an even mixture (the last
+    // share could be near 0 before the first repeats, and EM would not leave it). From below:
+    // a task's repeats are the pairs that fit best, and stretches of about the same shape that
+    // are no repeats (welds of another pitch) fit worse; EM climbs to the first cluster.
     let floor = SIGMA_FLOOR_MM * SIGMA_FLOOR_MM;
-    let mut var = (sorted[sorted.len() / 4] / (2.0 * NU_MM)).max(floor);
+    let mut var = start.map_or_else(
+        || {
+            let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm).collect();
+            sorted.sort_by(f64::total_cmp);
+            (sorted[sorted.len() / 10] / (2.0 * NU_MM)).max(floor)
+        },
+        |(v, _)| v,
+    );
     let mut share: f64 = 0.5;
     let mut weights = vec![0.0; pairs.len()];
     for _ in 0..EM_STEPS {
         let scale = 2.0 * var;
         for (w, p) in weights.iter_mut().zip(pairs) {
-            let repeat = share.ln() + chi.ln_pdf(p.ss_mm.max(1e-300) / scale) - scale.ln();
+            let repeat = share.ln() + chi_ln_pdf(p.ss_mm.max(1e-300) / scale) - scale.ln();
             let not = (1.0 - share).ln() + other(p.ss_mm);
             *w = if not == f64::NEG_INFINITY {
                 1.0
@@ -256,7 +348,7 @@ fn fit(pairs: &[Pair]) -> Option<Noise> {
         }
         let total: f64 = weights.iter().sum();
         if total <= 0.0 {
-            return None;
+            return (None, None);
         }
         let next = weights
             .iter()
@@ -272,9 +364,10 @@ fn fit(pairs: &[Pair]) -> Option<Noise> {
             break;
         }
     }
+    let mixture = Some((var, share));
     let total: f64 = weights.iter().sum();
     if total < MIN_REPEATS {
-        return None;
+        return (None, mixture);
     }
     // The rotations: the median over the pairs read surely as repeats (a few pairs read
     // wrongly would otherwise carry their large turns into the mean).
@@ -290,14 +383,15 @@ fn fit(pairs: &[Pair]) -> Option<Noise> {
         .get(rad.len() / 2)
         .map_or(0.0, |m| m / (4.0 * median_chi));
     let mm = var.sqrt();
-    Some(Noise {
+    let noise = Noise {
         mm: if mm <= SIGMA_FLOOR_MM { 0.0 } else { mm },
         rad: var_rad.sqrt(),
-    })
+    };
+    (Some(noise), mixture)
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::engine::experts::frames::Tolerance;
     use crate::engine::experts::noise::tests::noisy;
@@ -307,7 +401,7 @@ mod tests {
 
     /// A task of 10 waypoints (a box seam with approach and retract, tool down, turning on the
     /// way), placed at `(dx, dy)` turned by `turn` about the vertical.
-    fn task(dx: f64, dy: f64, turn: f64) -> Vec<Pose> {
+    pub(crate) fn task(dx: f64, dy: f64, turn: f64) -> Vec<Pose> {
         let g = Isometry3::from_parts(
             Translation3::new(600.0 + dx, dy, 150.0),
             UnitQuaternion::from_euler_angles(0.0, 0.0, turn),
@@ -338,7 +432,7 @@ mod tests {
     }
 
     /// A routine of `n` waypoints wandering at random: no stretch of it repeats another.
-    fn wander(n: usize, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+    pub(crate) fn wander(n: usize, rng: &mut ChaCha8Rng) -> Vec<Pose> {
         let mut p = Vector3::new(500.0, 0.0, 300.0);
         (0..n)
             .map(|_| {
@@ -454,5 +548,36 @@ mod tests {
         }
         assert_eq!(a, b);
         assert!(a.estimate().is_some());
+    }
+
+    /// Waypoints taught exactly where earlier ones were make the cell exact, however noisy its
+    /// other repeats look; a suggestion taken as offered is no such evidence.
+    #[test]
+    fn exact_revisits_show_an_exact_teacher() {
+        let noise = Noise { mm: 6.0, rad: 0.01 };
+        let home = task(0.0, 0.0, 0.0)[0];
+        let run = |suggested: bool| {
+            let mut rng = ChaCha8Rng::seed_from_u64(13);
+            let mut e = NoiseEstimator::new();
+            for k in 0..4 {
+                let mut r = vec![home];
+                r.extend(noisy(
+                    &task(70.0 * f64::from(k), 20.0, 0.3 * f64::from(k)),
+                    &noise,
+                    &mut rng,
+                ));
+                // Home again at the start of every routine: suggested or not.
+                let flags: Vec<bool> = (0..r.len()).map(|i| i == 0 && suggested).collect();
+                e.learn_taught(&r, &flags);
+            }
+            e
+        };
+        let by_hand = run(false);
+        assert!(by_hand.is_exact());
+        assert_eq!(by_hand.estimate(), Some(Noise::EXACT));
+        let suggested = run(true);
+        assert!(!suggested.is_exact());
+        let n = suggested.estimate().expect("an estimate");
+        assert!(n.mm > 3.0, "{n:?}");
     }
 }

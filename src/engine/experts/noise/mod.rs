@@ -26,6 +26,11 @@ use crate::engine::pose::Pose;
 /// norm of a 3-D Gaussian difference exceeds 1.5 times its RMS length about 5 % of the time.
 pub const MATCH_SIGMAS: f64 = 1.5;
 
+/// Per-axis sigmas from the meant waypoint within which an operator takes a suggestion as is:
+/// half the effective target width 4.133 σ (Crossman; MacKenzie 1992), as the simulated
+/// operator decides (`sim/operator.rs`).
+pub const ACCEPT_SIGMAS: f64 = 4.133 / 2.0;
+
 /// Teaching noise: one-sigma error per axis of a taught waypoint.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -91,6 +96,17 @@ impl Noise {
         let k = Noise::errors_per_element(frame);
         let f = (6.0 * k).sqrt();
         (f * self.mm, f * self.rad)
+    }
+
+    /// The tolerance an operator with this noise accepts a suggestion within, before any
+    /// feedback tells: half the effective target width of their own placements (Crossman's
+    /// 4.133 σ, as the simulated operator has it, [`ACCEPT_SIGMAS`]), never tighter than the
+    /// seed's 1 mm / 0.1 rad.
+    pub fn tolerance(&self) -> Tolerance {
+        Tolerance {
+            mm: Tolerance::SEED.mm.max(ACCEPT_SIGMAS * self.mm),
+            rad: Tolerance::SEED.rad.max(ACCEPT_SIGMAS * self.rad),
+        }
     }
 
     /// Whether the noise is too small to matter at this tolerance: no element's match tolerance
