@@ -155,6 +155,7 @@ impl CellSetup {
                 noise: self.noise,
                 tolerance: self.tolerance,
                 offer_threshold: self.offer_threshold,
+                target_precision: None,
                 export: None,
             },
         }

@@ -47,22 +47,31 @@ pub struct CellSettings {
     pub tool: PoseValues,
     /// Predictions the arm cannot reach: withheld (default) or offered flagged.
     pub reach_policy: ReachPolicy,
-    /// Teaching noise, one sigma per axis of a taught waypoint (0 for exact, offline programs;
-    /// for a joystick operator, the scatter of a calibration routine: one point recorded several
-    /// times). The experts match within the tolerance widened by it.
-    #[serde(default)]
-    pub noise: Noise,
-    /// Acceptance tolerance: a suggestion this close to what is then taught counts as right
-    /// (the seed's 1 mm / 0.1 rad by default; a joystick cell's is the operator's "close
-    /// enough"). The offer rule's calibration learns from it.
-    #[serde(default)]
-    pub tolerance: Tolerance,
-    /// The offer rule's threshold: a suggestion is offered when its `p_useful` reaches it
-    /// (0–1; the default profile's 0.7 gives ≥ 90 % precision on exact programs; a joystick
-    /// cell may take less, since a near miss still saves most of a jog). None for a profile
-    /// without an offer rule (seed).
+    /// Teaching noise, one sigma per axis of a taught waypoint. Null (a new cell's default):
+    /// learned from the repeats in what the cell is taught, exact until they show otherwise
+    /// (the cell's stats give the estimate). Given: fixed (0 for exact, offline programs; for
+    /// a joystick operator, the scatter of a calibration routine: one point recorded several
+    /// times). The experts match within the tolerance widened by it. A cell stored before noise
+    /// was a setting reads as exact.
+    #[serde(default = "exact_noise")]
+    pub noise: Option<Noise>,
+    /// Acceptance tolerance: a suggestion this close to what is then taught counts as right.
+    /// Null (a new cell's default): learned, the seed's 1 mm / 0.1 rad until the cell's noise
+    /// says its operator places less precisely (half their effective target width). Given:
+    /// fixed (a joystick cell's is the operator's "close enough"). The offer rule's
+    /// calibration learns from it. A cell stored before tolerance was a setting reads as 1 mm /
+    /// 0.1 rad.
+    #[serde(default = "seed_tolerance")]
+    pub tolerance: Option<Tolerance>,
+    /// A fixed offer threshold: a suggestion is offered when its `p_useful` reaches it (0–1).
+    /// Null: the cell steers its own threshold so that `target_precision` of its offers are
+    /// right (the default profile), or the profile has no offer rule (seed).
     #[serde(default)]
     pub offer_threshold: Option<f64>,
+    /// The share of offers that should be right (0–1, default 0.85) when the cell steers its
+    /// own threshold. Unused with a fixed `offer_threshold` or without an offer rule.
+    #[serde(default = "target_precision")]
+    pub target_precision: f64,
     /// Speed, zone, work object and tool written into exported controller programs.
     #[serde(default)]
     pub export: ExportSettings,
@@ -86,5 +95,18 @@ pub struct CellSettingsInput {
     pub noise: Option<Noise>,
     pub tolerance: Option<Tolerance>,
     pub offer_threshold: Option<f64>,
+    pub target_precision: Option<f64>,
     pub export: Option<ExportSettings>,
+}
+
+fn exact_noise() -> Option<Noise> {
+    Some(Noise::EXACT)
+}
+
+fn seed_tolerance() -> Option<Tolerance> {
+    Some(Tolerance::SEED)
+}
+
+fn target_precision() -> f64 {
+    crate::engine::OfferRule::TARGET
 }

@@ -49,23 +49,30 @@ impl CellSettingsInput {
             base: self.base.unwrap_or_else(identity),
             tool: self.tool.unwrap_or_else(identity),
             reach_policy: self.reach_policy.unwrap_or_default(),
-            noise: self.noise.unwrap_or(base.noise),
-            tolerance: self
-                .tolerance
-                .or(base.offer.map(|o| o.tolerance))
-                .unwrap_or_default(),
-            offer_threshold: match (self.offer_threshold, base.offer) {
-                (Some(t), Some(_)) => Some(t),
-                (Some(_), None) => {
+            noise: self.noise.or(base.noise),
+            tolerance: self.tolerance.or(base.offer.and_then(|o| o.tolerance)),
+            offer_threshold: self
+                .offer_threshold
+                .or(base.offer.and_then(|o| o.threshold)),
+            target_precision: self
+                .target_precision
+                .or(base.offer.map(|o| o.target))
+                .unwrap_or(crate::engine::OfferRule::TARGET),
+            export: self.export.unwrap_or_default(),
+        };
+        if base.offer.is_none() {
+            for (name, given) in [
+                ("offer_threshold", self.offer_threshold.is_some()),
+                ("target_precision", self.target_precision.is_some()),
+            ] {
+                if given {
                     return Err(AppError::Invalid(format!(
-                        "offer_threshold: the {} profile has no offer rule",
+                        "{name}: the {} profile has no offer rule",
                         profile.name()
                     )));
                 }
-                (None, rule) => rule.map(|r| r.threshold),
-            },
-            export: self.export.unwrap_or_default(),
-        };
+            }
+        }
         settings.validate()?;
         Ok(settings)
     }
@@ -73,7 +80,7 @@ impl CellSettingsInput {
 
 impl CellSettingsInput {
     /// `self`'s fields over `base`'s: a partial change of settings. A new profile brings its
-    /// own engine values (δ, φ_min, horizon, σ, scale, offer threshold) for the fields not
+    /// own engine values (δ, φ_min, horizon, σ, scale, offer threshold and target) for the fields not
     /// given; the robot, frames, reach policy, noise, tolerance and export keep theirs.
     pub fn over(self, base: CellSettingsInput) -> CellSettingsInput {
         let new_profile = self.profile.is_some_and(|p| Some(p) != base.profile);
@@ -95,6 +102,7 @@ impl CellSettingsInput {
             noise: self.noise.or(base.noise),
             tolerance: self.tolerance.or(base.tolerance),
             offer_threshold: self.offer_threshold.or(keep(base.offer_threshold)),
+            target_precision: self.target_precision.or(keep(base.target_precision)),
             export: self.export.or(base.export),
         }
     }
@@ -115,9 +123,11 @@ impl CellSettings {
             base: Some(self.base),
             tool: Some(self.tool),
             reach_policy: Some(self.reach_policy),
-            noise: Some(self.noise),
-            tolerance: Some(self.tolerance),
+            noise: self.noise,
+            tolerance: self.tolerance,
             offer_threshold: self.offer_threshold,
+            target_precision: Some(self.target_precision)
+                .filter(|_| EngineConfig::profile(self.profile).offer.is_some()),
             export: Some(self.export.clone()),
         }
     }
@@ -136,9 +146,8 @@ impl CellSettings {
         c.noise = self.noise;
         if let Some(o) = c.offer.as_mut() {
             o.tolerance = self.tolerance;
-            if let Some(t) = self.offer_threshold {
-                o.threshold = t;
-            }
+            o.threshold = self.offer_threshold;
+            o.target = self.target_precision;
         }
         c
     }
@@ -147,11 +156,13 @@ impl CellSettings {
         self.export
             .validate()
             .map_err(|e| AppError::Invalid(format!("export: {e}")))?;
+        let noise = self.noise.unwrap_or(crate::engine::Noise::EXACT);
+        let tolerance = self.tolerance.unwrap_or(crate::engine::Tolerance::SEED);
         for (name, value) in [
-            ("noise.mm", self.noise.mm),
-            ("noise.rad", self.noise.rad),
-            ("tolerance.mm", self.tolerance.mm),
-            ("tolerance.rad", self.tolerance.rad),
+            ("noise.mm", noise.mm),
+            ("noise.rad", noise.rad),
+            ("tolerance.mm", tolerance.mm),
+            ("tolerance.rad", tolerance.rad),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(AppError::Invalid(format!(
@@ -159,17 +170,20 @@ impl CellSettings {
                 )));
             }
         }
-        if let Some(t) = self.offer_threshold
-            && !(0.0..=1.0).contains(&t)
-        {
-            return Err(AppError::Invalid(format!(
-                "offer_threshold = {t} is outside 0 to 1"
-            )));
+        for (name, value) in [
+            ("offer_threshold", self.offer_threshold),
+            ("target_precision", Some(self.target_precision)),
+        ] {
+            if let Some(v) = value
+                && !(0.0..=1.0).contains(&v)
+            {
+                return Err(AppError::Invalid(format!("{name} = {v} is outside 0 to 1")));
+            }
         }
-        if self.noise.mm > NOISE_MM_MAX || self.noise.rad > NOISE_RAD_MAX {
+        if noise.mm > NOISE_MM_MAX || noise.rad > NOISE_RAD_MAX {
             return Err(AppError::Invalid(format!(
                 "noise {} mm / {} rad is above the most a cell may have ({NOISE_MM_MAX} mm, {NOISE_RAD_MAX} rad)",
-                self.noise.mm, self.noise.rad
+                noise.mm, noise.rad
             )));
         }
         self.engine_config().validate()?;

@@ -43,10 +43,15 @@ pub struct EngineArgs {
     /// distance allowed), or "none".
     #[arg(long, value_name = "K[:COST]|none", value_parser = parse_gate)]
     pub recall: Option<GateArg>,
-    /// The experts' offer rule: the p_useful a candidate needs to be offered (0–1), or "none"
-    /// for the model alone with its own gates (the seed).
+    /// The experts' offer rule: a fixed p_useful a candidate needs to be offered (0–1), or
+    /// "none" for the model alone with its own gates (the seed). Left out, the default profile's
+    /// cell steers its own threshold to `--target-precision`.
     #[arg(long, value_name = "P|none", value_parser = parse_limit)]
     pub offer_threshold: Option<Limit>,
+    /// The share of offers that should be right when the cell steers its own threshold (0–1;
+    /// default 0.85).
+    #[arg(long, value_name = "P")]
+    pub target_precision: Option<f64>,
 }
 
 /// A recall gate given on the command line, `None` meaning "off".
@@ -151,10 +156,16 @@ impl EngineArgs {
             c.predict.recall = v;
         }
         if let Some(Limit(v)) = self.offer_threshold {
-            c.offer = v.map(|threshold| crate::engine::config::OfferRule {
-                threshold,
+            c.offer = v.map(|threshold| crate::engine::OfferRule {
+                threshold: Some(threshold),
                 ..c.offer.unwrap_or_default()
             });
+        }
+        if let Some(target) = self.target_precision {
+            let Some(o) = c.offer.as_mut() else {
+                anyhow::bail!("--target-precision: these settings have no offer rule");
+            };
+            o.target = target;
         }
         c.validate().context("invalid engine settings")?;
         Ok(c)

@@ -31,7 +31,7 @@ pub mod pose;
 pub mod teach;
 
 pub use cdhmm::predict::{Prediction, Withheld};
-pub use config::{EngineConfig, PredictOptions, Profile};
+pub use config::{EngineConfig, OfferRule, PredictOptions, Profile};
 pub use error::{ConfigError, PoseError};
 pub use experts::frames::Tolerance;
 pub use experts::noise::Noise;

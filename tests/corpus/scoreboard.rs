@@ -112,11 +112,15 @@ fn default_profile_is_precise_and_beats_every_baseline() {
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     let programs = programs();
-    let config = EngineConfig::profile(Profile::Default);
-    let threshold = config
+    // A fixed threshold (a cell with `offer_threshold` set), so that the curve has the engine's
+    // line on it; a cell's own threshold moves as it learns.
+    let threshold = 0.7;
+    let mut config = EngineConfig::profile(Profile::Default);
+    config
         .offer
+        .as_mut()
         .expect("the default profile has an offer rule")
-        .threshold;
+        .threshold = Some(threshold);
     let r = nextpose::replay::report::scoreboard(
         &programs,
         "default",
@@ -170,7 +174,7 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
         assert!(w[1].useful <= w[0].useful, "{w:?}");
     }
     // The engine offers exactly its candidates with p_useful ≥ the threshold, so the curve at
-    // the profile's threshold is the scoreboard's line.
+    // the cell's threshold is the scoreboard's line.
     assert_eq!(
         (c.as_offered.offered, c.as_offered.useful),
         (e.n2.offered, e.n2.useful)
@@ -179,7 +183,7 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     let at = curve
         .iter()
         .find(|p| p.threshold.is_some_and(|t| (t - threshold).abs() < 1e-12))
-        .expect("the profile's threshold is on the grid");
+        .expect("the cell's threshold is on the grid");
     assert_eq!((at.offered, at.useful), (e.n2.offered, e.n2.useful));
     assert_eq!(at.precision_pct, e.n2.precision_pct);
     if let Some(p) = &c.threshold_for_target_precision.point {

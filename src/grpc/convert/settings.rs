@@ -16,9 +16,9 @@ both_ways!(plain ExportSettings => ExportSettings { speed_mm_s, zone_mm, work_ob
 
 both_ways!(CellSettingsInput => CellSettingsInput {
     profile, delta, phi_min, horizon, sigma_t_mm, sigma_q, scale, robot, base, tool,
-    reach_policy, noise, tolerance, offer_threshold, export,
+    reach_policy, noise, tolerance, offer_threshold, export, target_precision,
 });
 both_ways!(CellSettings => CellSettings {
     profile, delta, phi_min, horizon, sigma_t_mm, sigma_q, scale, robot, base, tool,
-    reach_policy, noise, tolerance, offer_threshold, export,
+    reach_policy, noise, tolerance, offer_threshold, export, target_precision,
 });

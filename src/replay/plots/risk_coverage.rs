@@ -63,7 +63,10 @@ where
         let threshold = data
             .config
             .offer
-            .map_or_else(String::new, |o| format!(" (threshold {})", o.threshold));
+            .map_or_else(String::new, |o| match o.threshold {
+                Some(t) => format!(" (threshold {t})"),
+                None => format!(" (the cell's threshold for {} % right)", 100.0 * o.target),
+            });
         (
             x,
             format!(
