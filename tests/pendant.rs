@@ -191,7 +191,7 @@ impl Page {
     }
 
     /// Waits until the statistics panel shows `n` for `stat`.
-    async fn wait_for_stat(&self, stat: &str, n: i64) {
+    async fn wait_for_stat(&self, stat: &str, n: impl std::fmt::Display) {
         let xpath =
             format!("//*[@id='stats']//*[@data-stat='{stat}' and normalize-space(text())='{n}']");
         self.wait_until(
@@ -399,6 +399,27 @@ async fn a_person_teaches_through_the_pendant_page() {
     assert_eq!(page.waypoints().await, 6);
     page.click("#finish").await;
     page.wait_for("#stats [data-stat=states]").await;
+    // A cell created with its arm only learns its operator and steers its own threshold: the
+    // panel says so (one routine shows no repeats yet: exact, the seed's tolerance).
+    page.wait_for_stat("noise", "0.0 mm (learned)").await;
+    page.wait_for_stat("tolerance", "1.0 mm (learned)").await;
+    let steered = page
+        .wait_until(
+            Locator::XPath(
+                "//*[@id='stats']//*[@data-stat='threshold' and contains(text(), '(steered)')]",
+            ),
+            "a steered threshold in the statistics",
+        )
+        .await;
+    let shown: f64 = steered
+        .text()
+        .await
+        .expect("threshold text")
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse().ok())
+        .expect("a number first");
+    assert!((0.0..=1.0).contains(&shown), "{shown}");
 
     let programs = api.get(&format!("/v1/cells/{cell_id}/programs")).await;
     let program_id = programs[0]["id"].as_i64().expect("program id");

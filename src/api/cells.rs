@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::settings::{CellSettings, CellSettingsInput};
+use crate::engine::{Noise, Tolerance};
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -74,9 +75,29 @@ pub struct FeedbackStats {
     pub median_adjustment_mm: Option<f64>,
 }
 
+/// What the cell makes of its operator and how it offers now: each value set in the cell's
+/// settings, or learned from what it was taught.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct TeachingStats {
+    /// Teaching noise, one sigma per axis of a taught waypoint.
+    pub noise: Noise,
+    /// The noise is learned from the repeats in the cell's routines (not set).
+    pub noise_learned: bool,
+    /// What counts as right: a suggestion this close to what is then taught.
+    pub tolerance: Tolerance,
+    /// The tolerance follows the noise (not set).
+    pub tolerance_learned: bool,
+    /// The threshold on `p_useful` a suggestion must reach to be offered now; null for a
+    /// profile without an offer rule (seed).
+    pub offer_threshold: Option<f64>,
+    /// The cell steers the threshold itself, for `target_precision` (not set).
+    pub threshold_steered: bool,
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct CellStats {
     pub cell_id: i64,
     pub model: ModelInfo,
+    pub teaching: TeachingStats,
     pub feedback: FeedbackStats,
 }

@@ -5,7 +5,7 @@ use super::error::AppError;
 use super::reach::CellArm;
 use super::robots::Robots;
 use super::settings::parse_settings;
-use crate::api::ModelInfo;
+use crate::api::{ModelInfo, TeachingStats};
 use crate::engine::{Pose, PoseValues, Teacher};
 use crate::kinematics::Reachability;
 use crate::storage::{CellRow, CellState, Store, WaypointRow};
@@ -276,6 +276,20 @@ impl CellModel {
             && self.open == other.open
             && self.teacher.routine() == other.teacher.routine()
             && self.arm.as_ref().map(CellArm::trail) == other.arm.as_ref().map(CellArm::trail)
+    }
+
+    /// The operator the cell has learned or been told of, and its offer threshold now.
+    pub fn teaching(&self) -> TeachingStats {
+        let t = &self.teacher;
+        let rule = t.config().offer;
+        TeachingStats {
+            noise: t.noise(),
+            noise_learned: t.learns_noise(),
+            tolerance: t.tolerance(),
+            tolerance_learned: rule.is_some_and(|r| r.tolerance.is_none()),
+            offer_threshold: t.threshold(),
+            threshold_steered: rule.is_some_and(|r| r.threshold.is_none()),
+        }
     }
 
     pub fn info(&self) -> ModelInfo {

@@ -53,9 +53,10 @@ impl App {
 
     pub async fn cell_stats(&self, id: i64) -> Result<CellStats> {
         self.cell_row(id).await?;
-        let model = {
+        let (model, teaching) = {
             let mut locked = self.lock_cell_id(id).await?;
-            locked.model()?.info()
+            let m = locked.model()?;
+            (m.info(), m.teaching())
         };
         let counts = self.store.feedback_counts(id).await?;
         let judged = counts.accepted + counts.adjusted + counts.rejected;
@@ -69,6 +70,7 @@ impl App {
         Ok(CellStats {
             cell_id: id,
             model,
+            teaching,
             feedback: FeedbackStats {
                 offered: counts.offered,
                 accepted: counts.accepted,

@@ -537,12 +537,50 @@ async fn a_joystick_cell_gets_noisy_repeats_offered_within_its_tolerance() {
     assert!(offered >= 4, "only {offered} offered: {errors:?}");
     assert!(2 * within > offered, "{errors:?}");
 
-    // An exact cell has no noise, the seed's tolerance and the default threshold.
-    let exact = app.create_cell("exact").await;
-    let s = &app.get_ok(&format!("/v1/cells/{exact}")).await["settings"];
-    assert_eq!(s["noise"], json!({ "mm": 0.0, "rad": 0.0 }));
-    assert_eq!(s["tolerance"], json!({ "mm": 1.0, "rad": 0.1 }));
-    assert_eq!(s["offer_threshold"], 0.7);
+    // What the cell was told is what it uses: nothing learned, the threshold fixed.
+    let t = &app.get_ok(&format!("/v1/cells/{cell}/stats")).await["teaching"];
+    assert_eq!(t["noise"], json!({ "mm": 5.0, "rad": 0.01 }));
+    assert_eq!(t["tolerance"], json!({ "mm": 15.0, "rad": 0.1 }));
+    assert_eq!(t["offer_threshold"], 0.5);
+    for learned in ["noise_learned", "tolerance_learned", "threshold_steered"] {
+        assert_eq!(t[learned], false, "{t}");
+    }
+
+    // A cell created with its arm only is told nothing: it learns noise and tolerance and
+    // steers its threshold for 85 % of its offers right.
+    let learning = app.create_cell("learning").await;
+    let s = &app.get_ok(&format!("/v1/cells/{learning}")).await["settings"];
+    assert_eq!(s["noise"], json!(null));
+    assert_eq!(s["tolerance"], json!(null));
+    assert_eq!(s["offer_threshold"], json!(null));
+    assert_eq!(s["target_precision"], 0.85);
+    let t = &app.get_ok(&format!("/v1/cells/{learning}/stats")).await["teaching"];
+    assert_eq!(
+        t["noise"],
+        json!({ "mm": 0.0, "rad": 0.0 }),
+        "nothing taught: {t}"
+    );
+    for learned in ["noise_learned", "tolerance_learned", "threshold_steered"] {
+        assert_eq!(t[learned], true, "{t}");
+    }
+    // Taught the same noisy seams (about 5 mm per axis), it finds the scatter from the repeats
+    // and widens what counts as right to match.
+    let program = app.create_program(learning, "seams").await;
+    for k in 0..6 {
+        let f = f64::from(k);
+        let seam = scatter(
+            u_seam([300.0 + 15.0 * f, -40.0 + 10.0 * f, 250.0], 0.05 * f),
+            f,
+        );
+        app.teach_routine(program, &seam).await;
+    }
+    let t = &app.get_ok(&format!("/v1/cells/{learning}/stats")).await["teaching"];
+    let noise = t["noise"]["mm"].as_f64().expect("noise.mm");
+    assert!((2.5..=8.0).contains(&noise), "{t}");
+    assert!(
+        t["tolerance"]["mm"].as_f64().expect("tolerance.mm") > 2.0 * noise,
+        "{t}"
+    );
 
     // Bad values are refused by name, and the seed profile has no offer rule to set.
     for (settings, names) in [
@@ -553,6 +591,7 @@ async fn a_joystick_cell_gets_noisy_repeats_offered_within_its_tolerance() {
             "tolerance.rad",
         ),
         (json!({ "offer_threshold": 1.5 }), "offer_threshold"),
+        (json!({ "target_precision": 1.5 }), "target_precision"),
         (
             json!({ "profile": "seed", "offer_threshold": 0.5 }),
             "no offer rule",

@@ -1,7 +1,7 @@
 //! Cells: a cell with its settings ([`super::settings`]), what its model holds, and its
 //! feedback counts.
 
-use crate::api::{Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo};
+use crate::api::{Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo, TeachingStats};
 use crate::grpc::pb;
 
 use super::wire::{In, both_ways};
@@ -13,7 +13,10 @@ both_ways!(ModelInfo => ModelInfo {
 both_ways!(plain FeedbackStats => FeedbackStats {
     offered, accepted, adjusted, rejected, pending, acceptance, median_adjustment_mm,
 });
-both_ways!(CellStats => CellStats { cell_id, model, feedback });
+both_ways!(TeachingStats => TeachingStats {
+    noise, noise_learned, tolerance, tolerance_learned, offer_threshold, threshold_steered,
+});
+both_ways!(CellStats => CellStats { cell_id, model, teaching, feedback });
 
 pub fn create_cell(r: pb::CreateCellRequest) -> In<CreateCell> {
     Ok(CreateCell {

@@ -153,6 +153,16 @@ async function refreshStats() {
   };
   for (const k of ['offered', 'accepted', 'adjusted', 'rejected']) set(k, s.feedback[k]);
   set('states', s.model.states);
+  const t = s.teaching;
+  const how = (learned) => (learned ? ' (learned)' : ' (set)');
+  set('noise', `${t.noise.mm.toFixed(1)} mm${how(t.noise_learned)}`);
+  set('tolerance', `${t.tolerance.mm.toFixed(1)} mm${how(t.tolerance_learned)}`);
+  set(
+    'threshold',
+    t.offer_threshold == null
+      ? 'confidence gate'
+      : `${t.offer_threshold.toFixed(2)}${t.threshold_steered ? ' (steered)' : ' (set)'}`,
+  );
 }
 
 // ---- pickers ----
