@@ -9,6 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use prost::Message;
+use sha2::{Digest, Sha256};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let proto = "proto/nextpose/v1/nextpose.proto";
@@ -20,6 +21,44 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR")?);
     corpus(&manifest.join("../shared"));
+    placement_code(&manifest)?;
+    Ok(())
+}
+
+/// Sets `NEXTPOSE_PLACEMENT_CODE` to the SHA-256 of the placement's code: every file under
+/// `src/kinematics/` and `src/engine/pose.rs`, by path in sorted order, path and contents.
+fn placement_code(manifest: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    let roots = [
+        manifest.join("src/kinematics"),
+        manifest.join("src/engine/pose.rs"),
+    ];
+    let mut files = Vec::new();
+    let mut pending: Vec<PathBuf> = roots.to_vec();
+    while let Some(path) = pending.pop() {
+        if path.is_dir() {
+            for entry in std::fs::read_dir(&path)? {
+                pending.push(entry?.path());
+            }
+        } else {
+            files.push(path);
+        }
+    }
+    files.sort();
+    let mut digest = Sha256::new();
+    for file in &files {
+        let name = file.strip_prefix(manifest)?.to_string_lossy().into_owned();
+        digest.update(name.as_bytes());
+        digest.update([0]);
+        digest.update(std::fs::read(file)?);
+        digest.update([0]);
+    }
+    for root in &roots {
+        println!("cargo::rerun-if-changed={}", root.display());
+    }
+    println!(
+        "cargo::rustc-env=NEXTPOSE_PLACEMENT_CODE={:x}",
+        digest.finalize()
+    );
     Ok(())
 }
 

@@ -15,6 +15,7 @@ use crate::replay::Method;
 use crate::replay::load_paths;
 use crate::replay::methods::baselines::DEFAULT_NEAREST_SEQ_GATE;
 use crate::replay::methods::map::{MapMethod, MapSettings, comparison as map_comparison};
+use crate::replay::placements::PlacementCache;
 #[cfg(feature = "plots")]
 use crate::replay::plots::{PlotGrid, plot_data, write_plots};
 use crate::replay::report::scoreboard_with;
@@ -39,6 +40,14 @@ pub struct ReplayArgs {
     /// Print only the totals table (no per-program table).
     #[arg(long)]
     pub quiet: bool,
+    /// Where the programs' arm placements are kept between runs (the search is most of a
+    /// replay's time; an entry's key holds everything it depends on, so none goes stale).
+    /// Default: $XDG_CACHE_HOME/nextpose/placements, else ~/.cache/nextpose/placements.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_placement_cache")]
+    pub placement_cache: Option<PathBuf>,
+    /// Search every program's arm placement afresh and keep none.
+    #[arg(long)]
+    pub no_placement_cache: bool,
     /// Also run `map`, the seed's MAP structure-estimation baseline (best-first state merging,
     /// predicting like the engine at the run's settings), and print its comparison with the
     /// engine by confidence threshold (seed Figure 4.14; use with --profile seed). Off by
@@ -79,6 +88,16 @@ pub struct SweepArgs {
     pub json: Option<PathBuf>,
 }
 
+/// The placement cache directory the arguments ask for (none with `--no-placement-cache`).
+fn placement_cache(args: &ReplayArgs) -> Option<PathBuf> {
+    if args.no_placement_cache {
+        return None;
+    }
+    args.placement_cache
+        .clone()
+        .or_else(PlacementCache::user_dir)
+}
+
 pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
     let config = args.engine.config()?;
     if !(args.gate.is_finite() && args.gate >= 0.0) {
@@ -99,8 +118,22 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
         &config,
         args.gate,
         extra,
+        placement_cache(args),
     )?;
 
+    if let Some(used) = report.placements {
+        let dir = placement_cache(args).unwrap_or_default();
+        eprintln!(
+            "arm placements: {} from the cache in {}, {} searched{}",
+            used.hits,
+            dir.display(),
+            used.searched,
+            match used.unwritten {
+                0 => String::new(),
+                n => format!(" ({n} could not be written there)"),
+            }
+        );
+    }
     let mut out = std::io::stdout().lock();
     if !args.quiet {
         writeln!(out, "{}", report.program_table("engine"))?;

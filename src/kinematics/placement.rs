@@ -15,7 +15,7 @@
 //!   replay and the simulation did before the library (an IRB 140 for RAPID).
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::catalog::{ArmFacts, load_catalog};
 use super::designation::catalog_arm;
@@ -86,7 +86,7 @@ impl Default for HeuristicSetup {
 }
 
 /// How a program's arm was chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ArmChoice {
     /// The program names it (its family is in the library).
@@ -112,7 +112,7 @@ impl ArmChoice {
 }
 
 /// A program's arm and placement, and how many of its taught waypoints it reaches.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProgramArm {
     /// Robot model (`abb_irb6700`).
     pub robot: String,
@@ -194,22 +194,39 @@ impl ReachCheck {
                     .iter()
                     .filter(|p| self.reaches(robot, &cell, p))
                     .count();
-                Ok(Some(PlacedArm {
-                    arm: ProgramArm {
-                        robot: robot.name().to_string(),
-                        model: facts.as_ref().map(|f| f.model.clone()),
-                        chosen: ArmChoice::Heuristic,
-                        named: named.map(str::to_string),
-                        base: cell.base.values(),
-                        reached,
-                        waypoints: poses.len(),
-                    },
-                    robot: robot.clone(),
-                    cell,
+                Ok(self.placed(ProgramArm {
+                    robot: robot.name().to_string(),
+                    model: facts.as_ref().map(|f| f.model.clone()),
+                    chosen: ArmChoice::Heuristic,
+                    named: named.map(str::to_string),
+                    base: cell.base.values(),
+                    reached,
+                    waypoints: poses.len(),
                 }))
             }
-            ReachSetup::Fitted(fit) => self.fit(fit, language, named, poses),
+            ReachSetup::Fitted(fit) => Ok(self
+                .fit(fit, language, named, poses)?
+                .and_then(|arm| self.placed(arm))),
         }
+    }
+
+    /// The setup's arm `arm` names, standing where it says (its base as written there, TCP at
+    /// the flange); `None` when the setup has no arm of that name or the base is no pose. What
+    /// [`ReachCheck::place`] answers is this of what it chose, so a placement kept as its
+    /// [`ProgramArm`] (the replay's cache) comes back equal.
+    pub fn placed(&self, arm: ProgramArm) -> Option<PlacedArm> {
+        let (_, robot) = self.arms.iter().find(|(_, r)| r.name() == arm.robot)?;
+        let base = arm.base.to_pose().ok()?;
+        Some(PlacedArm {
+            robot: robot.clone(),
+            cell: Mounting::new(base, Pose::identity()),
+            arm,
+        })
+    }
+
+    /// The setup the arms were loaded for.
+    pub fn setup(&self) -> &ReachSetup {
+        &self.setup
     }
 
     fn fit(
@@ -218,7 +235,7 @@ impl ReachCheck {
         language: &str,
         named: Option<&str>,
         poses: &[Pose],
-    ) -> Result<Option<PlacedArm>, LayoutError> {
+    ) -> Result<Option<ProgramArm>, LayoutError> {
         let facts: Vec<ArmFacts> = self.arms.iter().filter_map(|(f, _)| f.clone()).collect();
         let own = named.and_then(|d| catalog_arm(d, &facts)).map(|f| &f.name);
         let mut candidates: Vec<&(Option<ArmFacts>, Robot)> = match own {
@@ -250,7 +267,7 @@ impl ReachCheck {
         // not searched while a larger candidate is left.
         let span = span_mm(poses);
         let last = candidates.len().saturating_sub(1);
-        let mut best: Option<PlacedArm> = None;
+        let mut best: Option<ProgramArm> = None;
         for (i, (facts, robot)) in candidates.iter().enumerate() {
             let reach = facts.as_ref().map_or(f64::INFINITY, |f| f.reach_mm);
             if i < last && span > TOO_SMALL_SPAN_PER_REACH * reach {
@@ -266,20 +283,16 @@ impl ReachCheck {
                 (false, true) => ArmChoice::Fitted,
                 (false, false) => ArmChoice::Partial,
             };
-            let placed = PlacedArm {
-                arm: ProgramArm {
-                    robot: robot.name().to_string(),
-                    model: facts.as_ref().map(|f| f.model.clone()),
-                    chosen,
-                    named: named.map(str::to_string),
-                    base: placement.base.values(),
-                    reached,
-                    waypoints: poses.len(),
-                },
-                robot: robot.clone(),
-                cell: Mounting::new(placement.base, Pose::identity()),
+            let placed = ProgramArm {
+                robot: robot.name().to_string(),
+                model: facts.as_ref().map(|f| f.model.clone()),
+                chosen,
+                named: named.map(str::to_string),
+                base: placement.base.values(),
+                reached,
+                waypoints: poses.len(),
             };
-            if best.as_ref().is_none_or(|b| reached > b.arm.reached) {
+            if best.as_ref().is_none_or(|b| reached > b.reached) {
                 best = Some(placed);
             }
             if all {

@@ -19,6 +19,8 @@
 //!   bounds, reachability of the guesses, calibration of `p_useful`.
 //! - [`report`]: all methods on all programs ([`replay_all`]), the scoreboard of the CLI and
 //!   the service ([`report::scoreboard`]), JSON and text tables.
+//! - [`placements`]: each program's arm placement, searched once and kept in a cache
+//!   directory (the search is most of a corpus replay's time).
 //! - [`sweep`]: the engine over a grid of settings.
 //! - [`table`]: the plain text tables the report, the calibration section and the sweep print.
 //! - `plots` (cargo feature `plots`, on by default): the seed's figures (φ_min, δ, learning
@@ -28,6 +30,7 @@ pub mod corpus;
 pub mod frames;
 pub mod method;
 pub mod methods;
+pub mod placements;
 pub mod playback;
 #[cfg(feature = "plots")]
 pub mod plots;

@@ -34,6 +34,8 @@
 //! [`scoreboard`] is the one scoreboard `nextpose replay` and the service's replay both
 //! produce: the engine, every baseline, the oracles and the calibration.
 
+use std::path::PathBuf;
+
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
@@ -45,6 +47,7 @@ use crate::kinematics::KinematicsError;
 use super::corpus::Program;
 use super::method::Method;
 use super::methods::{EngineMethod, baselines};
+use super::placements::{CacheUse, PlacementCache};
 use super::playback::{ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
 use super::score::metrics::{Scores, saved_pct};
 use super::score::oracle::{ORACLES, is_oracle, oracle_records};
@@ -68,6 +71,11 @@ pub struct RunConfig {
     pub useful_max_rad: f64,
     /// The arm whose reachability of the guesses is reported (`null`: not checked).
     pub reachability: Option<ReachSetup>,
+    /// A directory keeping the programs' arm placements between runs
+    /// ([`super::placements`]); none: searched on every run. Not part of the report: the
+    /// figures are the same with it.
+    #[serde(skip)]
+    pub placement_cache: Option<PathBuf>,
 }
 
 impl RunConfig {
@@ -79,6 +87,7 @@ impl RunConfig {
             useful_max_mm: USEFUL_MAX_MM,
             useful_max_rad: USEFUL_MAX_RAD,
             reachability: Some(ReachSetup::default()),
+            placement_cache: None,
         }
     }
 }
@@ -140,6 +149,10 @@ pub struct Report {
     #[serde(skip_serializing_if = "Calibrations::is_empty")]
     pub calibration: Calibrations,
     pub programs: Vec<ProgramReport>,
+    /// How the arms' placements were found with a cache ([`RunConfig::placement_cache`]);
+    /// none without one. Not part of the report's JSON: the figures are the same either way.
+    #[serde(skip)]
+    pub placements: Option<CacheUse>,
 }
 
 /// Why [`scoreboard`] could not be produced.
@@ -170,26 +183,28 @@ pub fn scoreboard(
     config: &EngineConfig,
     gate: f64,
 ) -> Result<Report, ScoreboardError> {
-    scoreboard_with(programs, profile, config, gate, Vec::new())
+    scoreboard_with(programs, profile, config, gate, Vec::new(), None)
 }
 
 /// [`scoreboard`] with further methods, run after the engine and before the baselines (e.g.
-/// `nextpose replay --map`'s [`super::methods::MapMethod`]).
+/// `nextpose replay --map`'s [`super::methods::MapMethod`]), and the arms' placements kept in
+/// `placement_cache` ([`RunConfig::placement_cache`]).
 pub fn scoreboard_with(
     programs: &[Program],
     profile: &str,
     config: &EngineConfig,
     gate: f64,
     extra: Vec<Box<dyn Method>>,
+    placement_cache: Option<PathBuf>,
 ) -> Result<Report, ScoreboardError> {
     let mut methods: Vec<Box<dyn Method>> = vec![Box::new(EngineMethod::new(config.clone())?)];
     methods.extend(extra);
     methods.extend(baselines::scoreboard(config, gate));
-    let mut report = replay_all(
-        programs,
-        &mut methods,
-        RunConfig::new(profile, config.clone(), gate),
-    )?;
+    let run = RunConfig {
+        placement_cache,
+        ..RunConfig::new(profile, config.clone(), gate)
+    };
+    let mut report = replay_all(programs, &mut methods, run)?;
     report.add_oracles(programs);
     Ok(report)
 }
@@ -240,18 +255,29 @@ pub fn replay_all(
         .clone()
         .map(ReachCheck::new)
         .transpose()?;
+    // A cache that cannot start (the arm library does not read) is no cache: placements are
+    // searched, and the report says none came from a cache.
+    let cache = config
+        .placement_cache
+        .as_ref()
+        .and_then(|dir| PlacementCache::new(dir).ok());
+    let mut used = CacheUse::default();
     let arms: Vec<Option<PlacedArm>> = match &check {
         None => vec![None; programs.len()],
         Some(check) => programs
             .iter()
             .map(|p| {
                 let poses: Vec<Pose> = p.poses().copied().collect();
-                check
-                    .place(&p.language, p.arm_designation(), &poses)
-                    .map_err(|e| ReachError::Layout(p.name.clone(), e))
+                let (language, named) = (&p.language, p.arm_designation());
+                match &cache {
+                    Some(cache) => cache.place(check, language, named, &poses, &mut used),
+                    None => check.place(language, named, &poses),
+                }
+                .map_err(|e| ReachError::Layout(p.name.clone(), e))
             })
             .collect::<Result<_, _>>()?,
     };
+
     // records[m][p], reach[m][p]: method m on program p.
     let (records, reach): (Vec<Vec<ProgramRecord>>, Vec<Vec<Vec<ReachRecord>>>) = methods
         .iter_mut()
@@ -321,6 +347,7 @@ pub fn replay_all(
         oracles: None,
         calibration,
         programs,
+        placements: cache.map(|_| used),
     })
 }
 

@@ -135,12 +135,16 @@ fn replay_cli_writes_plots_into_the_directory() {
     let mut args: Vec<String> = vec!["nextpose".into(), "replay".into(), "--quiet".into()];
     args.extend(subset().iter().map(|p| p.display().to_string()));
     args.extend(["--plots".into(), out.display().to_string()]);
+    // Placements kept in the test's directory, not the user's cache.
+    let cache = dir.path().join("placements");
+    args.extend(["--placement-cache".into(), cache.display().to_string()]);
     run_cli(Cli::try_parse_from(args).unwrap()).unwrap();
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
+    assert!(std::fs::read_dir(&cache).unwrap().count() > 0, "placements kept");
     let mut expected: Vec<String> = Figure::ALL
         .iter()
         .flat_map(|f| ["png", "svg"].map(|ext| format!("{}.{ext}", f.file_stem())))

@@ -520,6 +520,36 @@ fn replay_report_gains_reachability_figures() {
     }
     // The IRB 140 and IRB 1200 are too small for a 2 m span: a larger arm was needed.
     assert_ne!(json["programs"][0]["arm"]["robot"], "abb_irb140");
+    assert!(report.placements.is_none(), "no cache was asked for");
+
+    // With a placement cache: the first run searches and keeps both placements, the second
+    // reads them; the arms and the reach figures are those of the run without it.
+    let dir = tempfile::tempdir().unwrap();
+    let reach_figures = |json: &serde_json::Value| -> Vec<serde_json::Value> {
+        (0..2)
+            .flat_map(|p| {
+                let m = &json["programs"][p]["methods"]["repeat_last"];
+                [
+                    json["programs"][p]["arm"].clone(),
+                    m["reachable_pct"].clone(),
+                    m["taught_reachable_pct"].clone(),
+                ]
+            })
+            .collect()
+    };
+    for (hits, searched) in [(0, 2), (2, 0)] {
+        let mut run = RunConfig::new("default", EngineConfig::default(), 1.0);
+        run.placement_cache = Some(dir.path().join("placements"));
+        let cached = replay_all(&[program("rapid"), program("fanuc")], &mut methods, run)
+            .expect("the library loads");
+        let used = cached.placements.expect("a cache was asked for");
+        assert_eq!(
+            (used.hits, used.searched, used.unwritten),
+            (hits, searched, 0)
+        );
+        let cached = serde_json::to_value(&cached).unwrap();
+        assert_eq!(reach_figures(&cached), reach_figures(&json));
+    }
 }
 
 #[test]
