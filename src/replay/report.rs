@@ -49,6 +49,7 @@ use super::method::Method;
 use super::methods::{EngineMethod, baselines};
 use super::placements::{CacheUse, PlacementCache};
 use super::playback::{ProgramRecord, USEFUL_MAX_MM, USEFUL_MAX_RAD, replay_program};
+use super::score::matched::{AtPrecision, at_precision};
 use super::score::metrics::{Scores, saved_pct};
 use super::score::oracle::{ORACLES, is_oracle, oracle_records};
 use super::score::reach::{ReachRecord, ReachRecorder, reach_figures};
@@ -149,6 +150,11 @@ pub struct Report {
     #[serde(skip_serializing_if = "Calibrations::is_empty")]
     pub calibration: Calibrations,
     pub programs: Vec<ProgramReport>,
+    /// Each other method offering only its most confident guesses, at the cut that saves most
+    /// with the engine's precision or better ([`super::score::matched`]), most saved first;
+    /// absent without an engine or where no method reaches its precision.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub at_engine_precision: Vec<AtPrecision>,
     /// How the arms' placements were found with a cache ([`RunConfig::placement_cache`]);
     /// none without one. Not part of the report's JSON: the figures are the same either way.
     #[serde(skip)]
@@ -315,6 +321,17 @@ pub fn replay_all(
             })
             .collect(),
     );
+    let engine_precision = totals.get("engine").and_then(|m| m.n2.precision_pct);
+    let mut at_engine_precision: Vec<AtPrecision> = match engine_precision {
+        None => Vec::new(),
+        Some(floor) => names
+            .iter()
+            .zip(&records)
+            .filter(|(name, _)| name.as_str() != "engine")
+            .filter_map(|(name, recs)| at_precision(name, recs, floor))
+            .collect(),
+    };
+    at_engine_precision.sort_by(|a, b| b.saved_pct.total_cmp(&a.saved_pct));
     let calibration = ByMethod(
         names
             .iter()
@@ -347,6 +364,7 @@ pub fn replay_all(
         oracles: None,
         calibration,
         programs,
+        at_engine_precision,
         placements: cache.map(|_| used),
     })
 }
@@ -488,6 +506,38 @@ impl Report {
     }
 
     /// Totals, one row per method.
+    /// The other methods at the engine's precision ([`Report::at_engine_precision`]); `None`
+    /// when there are none.
+    pub fn matched_table(&self) -> Option<String> {
+        let first = self.at_engine_precision.first()?;
+        let floor = self.totals.get("engine")?.n2.precision_pct?;
+        let mut t = Table::new(&[
+            "method",
+            "confidence ≥",
+            "offered %",
+            "precision %",
+            "saved %",
+        ]);
+        for m in &self.at_engine_precision {
+            t.row(vec![
+                m.method.clone(),
+                m.min_confidence
+                    .map_or("(all)".to_string(), |c| fmt(Some(c), 3)),
+                fmt(pct(m.offered, m.predictable), 1),
+                fmt(Some(m.precision_pct), 1),
+                fmt(Some(m.saved_pct), 1),
+            ]);
+        }
+        Some(format!(
+            "At the engine's precision ({}) or better, each method offering only its most \
+             confident guesses (the cut that saves most; best: {}, {} saved):\n{}",
+            fmt(Some(floor), 1) + " %",
+            first.method,
+            fmt(Some(first.saved_pct), 1) + " %",
+            t.render()
+        ))
+    }
+
     pub fn totals_table(&self) -> String {
         let mut t = Table::new(&[
             "method",
@@ -530,6 +580,10 @@ impl Report {
             self.config.useful_max_rad,
             t.render()
         );
+        if let Some(table) = self.matched_table() {
+            text.push('\n');
+            text.push_str(&table);
+        }
         if let Some(table) = self.oracle_table() {
             text.push('\n');
             text.push_str(&table);

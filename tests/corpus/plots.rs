@@ -144,7 +144,10 @@ fn replay_cli_writes_plots_into_the_directory() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert!(std::fs::read_dir(&cache).unwrap().count() > 0, "placements kept");
+    assert!(
+        std::fs::read_dir(&cache).unwrap().count() > 0,
+        "placements kept"
+    );
     let mut expected: Vec<String> = Figure::ALL
         .iter()
         .flat_map(|f| ["png", "svg"].map(|ext| format!("{}.{ext}", f.file_stem())))
