@@ -5,7 +5,7 @@ use nextpose::grpc::pb;
 use serde_json::{Value, json};
 use tonic::Code;
 
-use super::client::{client, create_cell, pb_files};
+use super::client::{client, pb_files};
 use super::session::Teach;
 use super::teach::assert_same_prediction;
 use crate::helpers::*;
@@ -18,10 +18,28 @@ async fn an_import_through_grpc_teaches_what_the_rest_import_teaches() {
     let mut c = client(&app).await;
     let files = upload("ravenorb__abb-robot-welder");
 
-    // Cell A imports through REST, cell B through gRPC.
-    let rest_cell = app.create_cell("rest").await;
+    // Cell A imports through REST, cell B through gRPC; both with a fixed threshold, so that
+    // something is offered to compare (steering its own, a cell with this record offers
+    // nothing: tests/api/import.rs).
+    let rest_cell = app
+        .create_cell_with(
+            "rest",
+            json!({ "reach_policy": "flag", "offer_threshold": 0.7 }),
+        )
+        .await;
     let rest = app.import(rest_cell, &json!({ "files": files })).await;
-    let cell = create_cell(&mut c, "grpc").await;
+    let cell = c
+        .create_cell(pb::CreateCellRequest {
+            name: "grpc".into(),
+            settings: Some(pb::CellSettingsInput {
+                reach_policy: pb::ReachPolicy::Flag.into(),
+                offer_threshold: Some(0.7),
+                ..Default::default()
+            }),
+        })
+        .await
+        .expect("create cell")
+        .into_inner();
     let imported = c
         .import_programs(pb::ImportProgramsRequest {
             cell_id: cell.id,
