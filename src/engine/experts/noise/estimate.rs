@@ -23,6 +23,10 @@
 //! read as repeats of a noisy operator (on the shared corpus, four exact programs read as 3 to
 //! 12 mm before this rule). For the same reason no noise is believed before [`MIN_ROUTINES`].
 //!
+//! A routine shorter than a stretch (a pick, a place, a tack weld of three to five waypoints)
+//! is aligned whole with the earlier routines of its length ([`SHORT_ROUTINE`]); each pair's
+//! misfit then has its own degrees of freedom (`3n − 6`), and the fit weighs them so.
+//!
 //! Pairs are found as the template expert finds its places ([`super::super::template`]): the
 //! waypoints are kept sorted by the length of the move into them, and only stretches whose every
 //! step is within [`STEP_GATE_MM`] of the new one's are aligned, at most [`MAX_PAIRS`] for each
@@ -79,18 +83,22 @@ const SIGMA_CAP_MM: f64 = 25.0;
 /// EM iterations (it converges in a handful; the cap bounds the cost).
 const EM_STEPS: usize = 50;
 
-/// Degrees of freedom of a stretch's position misfit.
-const NU_MM: f64 = (3 * STRETCH - 6) as f64;
-/// … and of its relative rotations' misfit.
-const NU_RAD: f64 = (3 * (STRETCH - 1)) as f64;
+/// The fewest waypoints of a routine shorter than [`STRETCH`] that is aligned whole with the
+/// earlier routines of its length: three fix a rigid transform and leave three degrees of
+/// freedom of misfit.
+pub const SHORT_ROUTINE: usize = 3;
 
-/// One pair of stretches: its squared misfits.
+/// One pair of stretches: its squared misfits and their degrees of freedom (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Pair {
     /// Sum of squared position residuals after the rigid fit, mm².
     ss_mm: f64,
     /// Sum of squared angles between corresponding relative rotations, rad².
     ss_rad: f64,
+    /// Degrees of freedom of `ss_mm` (`3n − 6` for `n` waypoints) …
+    nu_mm: f64,
+    /// … and of `ss_rad` (`3(n − 1)`).
+    nu_rad: f64,
 }
 
 /// The cell's finished routines and the misfits of the repeats found in them (module doc).
@@ -108,6 +116,9 @@ pub struct NoiseEstimator {
     places: std::collections::HashSet<[i64; 3]>,
     /// Waypoints taught exactly where an earlier one was (not as suggested).
     exact_revisits: usize,
+    /// The routines shorter than [`STRETCH`] (at least [`SHORT_ROUTINE`] waypoints) by length:
+    /// their indexes in `routines`, oldest first.
+    short: std::collections::BTreeMap<usize, Vec<u32>>,
 }
 
 impl NoiseEstimator {
@@ -177,6 +188,7 @@ impl NoiseEstimator {
         let mut own = ends.clone();
         own.sort_by(|a, b| a.0.total_cmp(&b.0));
         let before = self.pairs.len();
+        self.align_short(routine, r);
         for &(_, _, j) in &ends {
             let j = j as usize;
             let stretch = &routine[j + 1 - STRETCH..=j];
@@ -202,6 +214,27 @@ impl NoiseEstimator {
             self.estimate = estimate;
             self.mixture = mixture.or(self.mixture);
         }
+    }
+
+    /// A routine too short for a stretch ([`SHORT_ROUTINE`] to [`STRETCH`] − 1 waypoints,
+    /// spread enough to fix a rotation) is aligned whole with the newest earlier routines of its
+    /// length whose steps match, at most [`MAX_PAIRS`] of them: programs of many short routines
+    /// (a pick, a place, a tack weld) show their operator's noise too.
+    fn align_short(&mut self, routine: &[Pose], r: u32) {
+        let n = routine.len();
+        if !(SHORT_ROUTINE..STRETCH).contains(&n) || extent(routine) < MIN_EXTENT_MM {
+            return;
+        }
+        let earlier = self.short.entry(n).or_default();
+        for &e in earlier.iter().rev().take(MAX_EXAMINED) {
+            let other = &self.routines[e as usize];
+            if steps_match(other, routine)
+                && let Some(pair) = compare(other, routine)
+            {
+                self.pairs.push(pair);
+            }
+        }
+        earlier.push(r);
     }
 
     /// The ends of the earlier stretches whose every step is about as long as `stretch`'s:
@@ -284,6 +317,7 @@ fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
     let pa: Vec<Point3<f64>> = a.iter().map(|p| Point3::from(p.position())).collect();
     let pb: Vec<Point3<f64>> = b.iter().map(|p| Point3::from(p.position())).collect();
     let g = rigid_fit(&pa, &pb)?;
+    let n = a.len().min(b.len()) as f64;
     let ss_mm = pa
         .iter()
         .zip(&pb)
@@ -298,7 +332,12 @@ fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
             rx.angle_to(&ry).powi(2)
         })
         .sum();
-    Some(Pair { ss_mm, ss_rad })
+    Some(Pair {
+        ss_mm,
+        ss_rad,
+        nu_mm: 3.0 * n - 6.0,
+        nu_rad: 3.0 * (n - 1.0),
+    })
 }
 
 /// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
@@ -307,10 +346,11 @@ fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64
     if (pairs.len() as f64) < MIN_REPEATS {
         return (None, None);
     }
-    // ln of the χ²(ν) density, ν = NU_MM.
-    let half = NU_MM / 2.0;
-    let ln_norm = half * 2f64.ln() + ln_gamma(half);
-    let chi_ln_pdf = |x: f64| (half - 1.0) * x.ln() - x / 2.0 - ln_norm;
+    // ln of the χ²(ν) density.
+    let chi_ln_pdf = |x: f64, nu: f64| {
+        let half = nu / 2.0;
+        (half - 1.0) * x.ln() - x / 2.0 - half * 2f64.ln() - ln_gamma(half)
+    };
     let ln_range = (OTHER_MAX_MM2 / OTHER_MIN_MM2).ln();
     // Log-density of a pair's misfit if it is not a repeat.
     let other = |ss: f64| {
@@ -327,9 +367,9 @@ fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64
     let floor = SIGMA_FLOOR_MM * SIGMA_FLOOR_MM;
     let mut var = start.map_or_else(
         || {
-            let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm).collect();
+            let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm / (2.0 * p.nu_mm)).collect();
             sorted.sort_by(f64::total_cmp);
-            (sorted[sorted.len() / 10] / (2.0 * NU_MM)).max(floor)
+            sorted[sorted.len() / 10].max(floor)
         },
         |(v, _)| v,
     );
@@ -338,7 +378,7 @@ fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64
     for _ in 0..EM_STEPS {
         let scale = 2.0 * var;
         for (w, p) in weights.iter_mut().zip(pairs) {
-            let repeat = share.ln() + chi_ln_pdf(p.ss_mm.max(1e-300) / scale) - scale.ln();
+            let repeat = share.ln() + chi_ln_pdf(p.ss_mm.max(1e-300) / scale, p.nu_mm) - scale.ln();
             let not = (1.0 - share).ln() + other(p.ss_mm);
             *w = if not == f64::NEG_INFINITY {
                 1.0
@@ -355,7 +395,12 @@ fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64
             .zip(pairs)
             .map(|(w, p)| w * p.ss_mm)
             .sum::<f64>()
-            / (2.0 * NU_MM * total);
+            / (2.0
+                * weights
+                    .iter()
+                    .zip(pairs)
+                    .map(|(w, p)| w * p.nu_mm)
+                    .sum::<f64>());
         share = (total / pairs.len() as f64).clamp(1e-6, 1.0 - 1e-6);
         let next = next.clamp(floor, SIGMA_CAP_MM * SIGMA_CAP_MM);
         let converged = (next / var - 1.0).abs() < 1e-6;
@@ -371,17 +416,17 @@ fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64
     }
     // The rotations: the median over the pairs read surely as repeats (a few pairs read
     // wrongly would otherwise carry their large turns into the mean).
+    // Each pair's squared angles over the median of its χ² (Wilson–Hilferty), so that pairs
+    // of other lengths read alike.
+    let median_chi = |nu: f64| nu * (1.0 - 2.0 / (9.0 * nu)).powi(3);
     let mut rad: Vec<f64> = weights
         .iter()
         .zip(pairs)
         .filter(|(w, _)| **w >= 0.9)
-        .map(|(_, p)| p.ss_rad)
+        .map(|(_, p)| p.ss_rad / (4.0 * median_chi(p.nu_rad)))
         .collect();
     rad.sort_by(f64::total_cmp);
-    let median_chi = NU_RAD * (1.0 - 2.0 / (9.0 * NU_RAD)).powi(3);
-    let var_rad = rad
-        .get(rad.len() / 2)
-        .map_or(0.0, |m| m / (4.0 * median_chi));
+    let var_rad = rad.get(rad.len() / 2).copied().unwrap_or(0.0);
     let mm = var.sqrt();
     let noise = Noise {
         mm: if mm <= SIGMA_FLOOR_MM { 0.0 } else { mm },
@@ -477,6 +522,36 @@ pub(crate) mod tests {
             eprintln!("seed {seed}: {n:?} from {} pairs", e.pairs());
             assert!((n.mm / truth.mm - 1.0).abs() < 0.2, "seed {seed}: {n:?}");
             assert!((n.rad / truth.rad - 1.0).abs() < 0.2, "seed {seed}: {n:?}");
+        }
+    }
+
+    /// A program of short routines (a pick and a place of four waypoints each, at new places,
+    /// between short moves of other work) shows its noise too: no routine holds a stretch, so
+    /// whole routines are aligned with the earlier ones of their length.
+    #[test]
+    fn short_routines_show_the_noise_they_were_taught_with() {
+        let truth = Noise {
+            mm: 11.5,
+            rad: 0.02,
+        };
+        for seed in 1..=8 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let mut e = NoiseEstimator::new();
+            for k in 0..8 {
+                let placed = task(
+                    rng.random_range(-300.0..300.0),
+                    rng.random_range(-300.0..300.0),
+                    rng.random_range(-1.0..1.0) + f64::from(k),
+                );
+                // The task's approach, the two ends of its seam and the retract.
+                let pick = [placed[0], placed[1], placed[2], placed[6]];
+                assert!(pick.len() < STRETCH);
+                e.learn(&noisy(&pick, &truth, &mut rng));
+                e.learn(&noisy(&wander(3, &mut rng), &truth, &mut rng));
+            }
+            let n = e.estimate().expect("an estimate");
+            eprintln!("seed {seed}: {n:?} from {} pairs", e.pairs());
+            assert!((n.mm / truth.mm - 1.0).abs() < 0.25, "seed {seed}: {n:?}");
         }
     }
 
