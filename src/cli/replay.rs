@@ -112,17 +112,17 @@ pub(super) fn run_replay(args: &ReplayArgs) -> Result<()> {
     } else {
         Vec::new()
     };
+    let cache = placement_cache(args);
     let report = scoreboard_with(
         &programs,
         args.engine.profile_name(),
         &config,
         args.gate,
         extra,
-        placement_cache(args),
+        cache.clone(),
     )?;
 
-    if let Some(used) = report.placements {
-        let dir = placement_cache(args).unwrap_or_default();
+    if let (Some(used), Some(dir)) = (report.placements, cache) {
         eprintln!(
             "arm placements: {} from the cache in {}, {} searched{}",
             used.hits,
