@@ -546,6 +546,27 @@ async fn a_person_teaches_through_the_pendant_page() {
     assert_eq!(stats["feedback"]["rejected"], 1, "{stats}");
     assert_eq!(stats["model"]["routines"], 2, "{stats}");
 
+    // The optional calibration: one point recorded three times, turning the tool away and back
+    // between records. Jogs are exact, so the scatter is none: the cell's noise is set to 0.
+    page.click("#calibration summary").await;
+    for k in 0..3 {
+        if k > 0 {
+            page.jog("rz+", 1).await;
+            page.jog("rz-", 1).await;
+        }
+        page.click("#calib-record").await;
+        page.wait_for(&format!("#calib-count[data-count=\"{}\"]", k + 1))
+            .await;
+    }
+    page.click("#calib-apply").await;
+    page.wait_for_stat("noise", "0.0 mm (set)").await;
+    page.wait_for("#calib-count[data-count=\"0\"]").await;
+    let cell = api.get(&format!("/v1/cells/{cell_id}")).await;
+    let noise = &cell["settings"]["noise"];
+    assert!(noise["mm"].as_f64().expect("noise set") < 1e-6, "{noise}");
+    let stats = api.get(&format!("/v1/cells/{cell_id}/stats")).await;
+    assert_eq!(stats["teaching"]["noise_learned"], false, "{stats}");
+
     // At a pendant's 800×600 the view and every action button are on screen.
     page.c.set_window_size(800, 600).await.expect("resize");
     let off_screen = page

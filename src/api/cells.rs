@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+use super::PoseValues;
 use super::settings::{CellSettings, CellSettingsInput};
 use crate::engine::{Noise, Tolerance};
 
@@ -100,4 +101,15 @@ pub struct CellStats {
     pub model: ModelInfo,
     pub teaching: TeachingStats,
     pub feedback: FeedbackStats,
+}
+
+/// A calibration routine: one point recorded again and again by the cell's operator (jogging
+/// away and back each time). The scatter of the poses about their mean becomes the cell's
+/// teaching noise (set, no longer learned), and its tolerance follows unless set.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationRoutine {
+    /// The recorded poses of the one point, in the cell's work frame (at least 3).
+    #[schema(min_items = 3)]
+    pub poses: Vec<PoseValues>,
 }

@@ -39,7 +39,10 @@ use serde::{Deserialize, Deserializer};
 pub use arm::{
     ArmFrames, FramesQuery, LinkFrame, Placement, PlacementSearch, Placements, ReachQuery,
 };
-pub use cells::{Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo, TeachingStats};
+pub use cells::{
+    CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo,
+    TeachingStats,
+};
 pub use error::{ErrorBody, ErrorDetail};
 pub use feedback::{Feedback, FeedbackRecorded, Verdict};
 pub use imports::{ImportRequest, ImportResult, ImportedProgram, Skipped, UploadedFile};

@@ -23,6 +23,7 @@
 //! cell's import does not stall other cells' requests.
 
 mod arm;
+mod calibration;
 mod cell_model;
 mod cells;
 mod editing;

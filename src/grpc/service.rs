@@ -160,6 +160,12 @@ impl Nextpose for Service {
         reply(self.app.edit_cell(id, patch).await)
     }
 
+    async fn calibrate_cell(&self, r: Request<pb::CalibrateCellRequest>) -> Reply<pb::Cell> {
+        let r = r.into_inner();
+        let id = r.cell_id;
+        reply(self.app.calibrate(id, convert::calibration(r)).await)
+    }
+
     async fn delete_cell(
         &self,
         r: Request<pb::DeleteCellRequest>,

@@ -10,8 +10,8 @@ use utoipa_axum::routes;
 use super::error::ApiError;
 use super::error::extract::{Id, Json, Path, Query};
 use crate::api::{
-    ArmFrames, Cell, CellPatch, CellStats, CreateCell, ErrorBody, FramesQuery, ModelInfo,
-    ReachQuery, Reachability,
+    ArmFrames, CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, ErrorBody, FramesQuery,
+    ModelInfo, ReachQuery, Reachability,
 };
 use crate::app::{App, frames_joints};
 
@@ -21,6 +21,7 @@ pub fn router() -> OpenApiRouter<Arc<App>> {
         .routes(routes!(get_cell, edit_cell, delete_cell))
         .routes(routes!(cell_stats))
         .routes(routes!(rebuild_model))
+        .routes(routes!(calibrate))
         .routes(routes!(arm_frames))
         .routes(routes!(reach))
 }
@@ -97,6 +98,28 @@ async fn rebuild_model(
     Path(Id(cell_id)): Path<Id>,
 ) -> Result<axum::Json<ModelInfo>, ApiError> {
     Ok(axum::Json(app.rebuild(cell_id).await?))
+}
+
+/// A calibration routine: one point recorded several times (at least 3) by the cell's
+/// operator. The poses' scatter becomes the cell's teaching noise, set (no longer learned), as
+/// a settings change: the model is learned again with it and its version advances.
+#[utoipa::path(post, path = "/v1/cells/{cell_id}/calibration", tag = "cells",
+    params(("cell_id" = i64, Path, description = "Cell id")),
+    request_body = CalibrationRoutine,
+    responses(
+        (status = 200, description = "The cell with its new noise", body = Cell),
+        (status = 400, description = "Malformed request", body = ErrorBody),
+        (status = 404, description = "No such cell", body = ErrorBody),
+        (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
+        (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
+        (status = 422, description = "Fewer than 3 poses, a pose that is none, or a scatter above the most a cell may have", body = ErrorBody),
+    ))]
+async fn calibrate(
+    State(app): State<Arc<App>>,
+    Path(Id(cell_id)): Path<Id>,
+    Json(body): Json<CalibrationRoutine>,
+) -> Result<axum::Json<Cell>, ApiError> {
+    Ok(axum::Json(app.calibrate(cell_id, body).await?))
 }
 
 /// Rename a cell and/or change its settings (engine overrides, tolerance and noise, robot,

@@ -2,7 +2,7 @@
 //! predictions, undo, completion, feedback and statistics.
 
 use reqwest::StatusCode;
-use serde_json::json;
+use serde_json::{Value, json};
 
 use crate::helpers::*;
 
@@ -611,4 +611,83 @@ async fn a_joystick_cell_gets_noisy_repeats_offered_within_its_tolerance() {
         let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
         assert!(message.contains(names), "{message}");
     }
+}
+
+/// A calibration routine: one point recorded five times, a few millimetres apart. Its scatter
+/// becomes the cell's noise (set, no longer learned), the tolerance follows it, the model's
+/// version advances; bad routines are refused by name and change nothing.
+#[tokio::test]
+async fn a_calibration_routine_sets_the_cells_noise() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("calibrated").await;
+    let version = app.get_ok(&format!("/v1/cells/{cell}/stats")).await["model"]["version"].clone();
+    let offsets = [
+        [2.0, 0.0, -1.0],
+        [-2.0, 1.0, 0.0],
+        [0.0, -2.0, 1.0],
+        [1.0, 2.0, -2.0],
+        [-1.0, -1.0, 2.0],
+    ];
+    let poses: Vec<Value> = offsets
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let turn = 0.01 * (i as f64 - 2.0);
+            pose([400.0 + o[0], o[1], 300.0 + o[2]], [turn, 3.0, 0.0])
+        })
+        .collect();
+    let calibrated = app
+        .post_ok(
+            &format!("/v1/cells/{cell}/calibration"),
+            &json!({ "poses": poses }),
+            StatusCode::OK,
+        )
+        .await;
+    let expected =
+        nextpose::engine::Noise::from_scatter(&poses.iter().map(pose_of).collect::<Vec<_>>())
+            .expect("a scatter");
+    // The positions scatter 2 mm at most per axis: about 1.5 mm per axis.
+    assert!((1.0..2.0).contains(&expected.mm), "{expected:?}");
+    let noise = &calibrated["settings"]["noise"];
+    assert!(
+        (noise["mm"].as_f64().unwrap() - expected.mm).abs() < 1e-9,
+        "{noise}"
+    );
+    assert!(
+        (noise["rad"].as_f64().unwrap() - expected.rad).abs() < 1e-9,
+        "{noise}"
+    );
+    let stats = app.get_ok(&format!("/v1/cells/{cell}/stats")).await;
+    let t = &stats["teaching"];
+    assert_eq!(t["noise_learned"], false, "{t}");
+    assert_eq!(t["tolerance_learned"], true, "{t}");
+    assert_eq!(t["noise"], *noise);
+    assert!(
+        t["tolerance"]["mm"].as_f64().unwrap() > 2.0 * expected.mm,
+        "{t}"
+    );
+    assert_ne!(stats["model"]["version"], version);
+
+    // Refused, naming what is wrong; the cell keeps its noise.
+    let mut not_a_pose = poses.clone();
+    not_a_pose[1]["qw"] = json!(0.0);
+    not_a_pose[1]["qx"] = json!(0.0);
+    not_a_pose[1]["qy"] = json!(0.0);
+    not_a_pose[1]["qz"] = json!(0.0);
+    for (body, names) in [
+        (json!({ "poses": &poses[..2] }), "at least 3"),
+        (json!({ "poses": not_a_pose }), "poses[1]"),
+    ] {
+        let r = app
+            .post(&format!("/v1/cells/{cell}/calibration"), &body)
+            .await;
+        let message = expect_error(r, StatusCode::UNPROCESSABLE_ENTITY, "invalid").await;
+        assert!(message.contains(names), "{message}");
+    }
+    let r = app
+        .post("/v1/cells/99999/calibration", &json!({ "poses": poses }))
+        .await;
+    expect_error(r, StatusCode::NOT_FOUND, "not_found").await;
+    let after = app.get_ok(&format!("/v1/cells/{cell}")).await;
+    assert_eq!(after["settings"]["noise"], *noise);
 }

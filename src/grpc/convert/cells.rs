@@ -1,7 +1,10 @@
 //! Cells: a cell with its settings ([`super::settings`]), what its model holds, and its
 //! feedback counts.
 
-use crate::api::{Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo, TeachingStats};
+use crate::api::{
+    CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo,
+    TeachingStats,
+};
 use crate::grpc::pb;
 
 use super::wire::{In, both_ways};
@@ -30,6 +33,12 @@ pub fn cell_patch(r: pb::UpdateCellRequest) -> In<CellPatch> {
         name: r.name,
         settings: r.settings.map(TryInto::try_into).transpose()?,
     })
+}
+
+pub fn calibration(r: pb::CalibrateCellRequest) -> CalibrationRoutine {
+    CalibrationRoutine {
+        poses: r.poses.into_iter().map(Into::into).collect(),
+    }
 }
 
 /// The request as a client sends it.

@@ -25,7 +25,7 @@ mod waypoints;
 mod wire;
 
 pub use arm::{placement_search, reach_query};
-pub use cells::{cell_patch, create_cell, create_cell_request};
+pub use cells::{calibration, cell_patch, create_cell, create_cell_request};
 pub use feedback::{feedback, feedback_request};
 pub use imports::{import_programs_request, import_request};
 pub use predictions::{predict_query, predict_request};

@@ -434,3 +434,44 @@ async fn retarget_over_grpc_stores_the_moved_copy() {
         .expect_err("neither frame nor points");
     assert_eq!(neither.code(), tonic::Code::InvalidArgument);
 }
+
+/// A calibration routine over gRPC sets the noise that the same routine sets over REST; fewer
+/// than three poses are refused with INVALID_ARGUMENT.
+#[tokio::test]
+async fn a_calibration_routine_over_grpc_sets_what_rest_sets() {
+    let app = spawn_app().await;
+    let mut c = client(&app).await;
+    let poses: Vec<serde_json::Value> = [[1.0, 0.0, 0.0], [-1.0, 0.5, 0.0], [0.0, -0.5, 1.5]]
+        .iter()
+        .map(|o| pose([300.0 + o[0], o[1], 200.0 + o[2]], [0.0, 3.0, 0.0]))
+        .collect();
+    let rest_cell = app.create_cell("rest").await;
+    let rest = app
+        .post_ok(
+            &format!("/v1/cells/{rest_cell}/calibration"),
+            &serde_json::json!({ "poses": poses }),
+            reqwest::StatusCode::OK,
+        )
+        .await;
+    let cell = create_cell(&mut c, "grpc").await;
+    let calibrated = c
+        .calibrate_cell(pb::CalibrateCellRequest {
+            cell_id: cell.id,
+            poses: poses.iter().map(pb_pose).collect(),
+        })
+        .await
+        .expect("calibrate")
+        .into_inner();
+    let noise = calibrated.settings.unwrap().noise.expect("noise set");
+    assert_eq!(rest["settings"]["noise"]["mm"].as_f64(), Some(noise.mm));
+    assert_eq!(rest["settings"]["noise"]["rad"].as_f64(), Some(noise.rad));
+    assert!(noise.mm > 0.0);
+    let e = c
+        .calibrate_cell(pb::CalibrateCellRequest {
+            cell_id: cell.id,
+            poses: poses[..2].iter().map(pb_pose).collect(),
+        })
+        .await
+        .expect_err("two poses");
+    assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+}

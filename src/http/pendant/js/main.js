@@ -324,6 +324,39 @@ $('create-routine').addEventListener('click', () =>
   }),
 );
 
+// ---- calibration: one point recorded several times sets the cell's noise ----
+
+const calibration = [];
+let calibrationCell = null; // the cell the recorded points are of
+function renderCalibration() {
+  $('calib-count').textContent = `${calibration.length} recorded`;
+  $('calib-count').dataset.count = String(calibration.length);
+  $('calib-apply').disabled = calibration.length < 3 || !session.cell;
+}
+$('calib-record').addEventListener('click', () =>
+  run(async () => {
+    if (!session.frames) throw new Error('no arm pose yet: choose a cell');
+    if (calibrationCell !== session.cell.id) calibration.length = 0;
+    calibrationCell = session.cell.id;
+    calibration.push(session.frames.tcp);
+    renderCalibration();
+  }),
+);
+$('calib-clear').addEventListener('click', () => {
+  calibration.length = 0;
+  renderCalibration();
+});
+$('calib-apply').addEventListener('click', () =>
+  run(async () => {
+    if (calibrationCell !== session.cell.id) throw new Error('the points were recorded in another cell: clear them');
+    const cell = await api.post(`/v1/cells/${session.cell.id}/calibration`, { poses: calibration });
+    calibration.length = 0;
+    renderCalibration();
+    await refreshStats();
+    status(`noise set: ${cell.settings.noise.mm.toFixed(2)} mm per axis`);
+  }),
+);
+
 const edits = {
   'wp-reteach': () => session.reteach(selected),
   'wp-rename': () => {
