@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 
 use super::write_json;
@@ -23,6 +23,27 @@ pub struct LabArgs {
     /// Number of programs (the seed's lab: 44).
     #[arg(long, default_value_t = 44)]
     pub programs: usize,
+    /// The tasks taught: the seed's four (dodecagram, pentagram, pipe seam, box seam), or four
+    /// variants (pick and place, pocket, stitches, grid) to check settings on tasks they were
+    /// not chosen on.
+    #[arg(long, value_enum, default_value_t = RepertoireArg::Seed)]
+    pub repertoire: RepertoireArg,
+}
+
+/// [`lab::Repertoire`] on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RepertoireArg {
+    Seed,
+    Variants,
+}
+
+impl From<RepertoireArg> for lab::Repertoire {
+    fn from(r: RepertoireArg) -> lab::Repertoire {
+        match r {
+            RepertoireArg::Seed => lab::Repertoire::Seed,
+            RepertoireArg::Variants => lab::Repertoire::Variants,
+        }
+    }
 }
 
 pub(super) fn run_lab(args: &LabArgs) -> Result<()> {
@@ -41,6 +62,7 @@ pub(super) fn run_lab(args: &LabArgs) -> Result<()> {
     }
     let config = LabConfig {
         programs: args.programs,
+        repertoire: args.repertoire.into(),
         ..LabConfig::default()
     };
     let programs = lab::generate(&config, args.seed);

@@ -44,6 +44,11 @@
 //! that error instead ([`super::operator::OperatorModel::place`]'s model: Gaussian, 20 mm 3-D RMS
 //! and 0.035 rad RMS, the figures of [`OperatorModel::online`]).
 //!
+//! **Variants** ([`Repertoire::Variants`], `nextpose lab --repertoire variants`): a pick and
+//! place, a pocket, weld stitches and a palletising grid (6, 7, 10 and 12 waypoints, mean
+//! steps of 40 to 156 mm), so that what was chosen on the seed's four tasks can be checked on
+//! shapes it was not chosen on. Placement, users and errors as above.
+//!
 //! Deterministic given the seed: program `i` draws from its own ChaCha8 stream, so a lab of
 //! fewer programs is a prefix of the full one.
 
@@ -94,6 +99,34 @@ pub enum Task {
     Pentagram,
     PipeSeam,
     BoxSeam,
+    /// Variant: a pick and a place (approach, down, lift at each), the part turned 90° between.
+    PickPlace,
+    /// Variant: a rectangular pocket's contour, plunged into and retracted from.
+    Pocket,
+    /// Variant: three weld stitches along a straight fillet joint, lifting between them.
+    Stitches,
+    /// Variant: a 2 × 3 grid of places, approached from above each (palletising).
+    Grid,
+}
+
+/// Which repertoire a lab teaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Repertoire {
+    /// The seed's four tasks (what the engine's lab figures were chosen on).
+    #[default]
+    Seed,
+    /// Four other task shapes and spacings (pick and place, pocket, stitches, grid): a lab
+    /// the engine was not tuned on.
+    Variants,
+}
+
+impl Repertoire {
+    pub fn tasks(self) -> &'static [Task] {
+        match self {
+            Repertoire::Seed => &Task::ALL,
+            Repertoire::Variants => &Task::VARIANTS,
+        }
+    }
 }
 
 impl Task {
@@ -105,18 +138,25 @@ impl Task {
         Task::BoxSeam,
     ];
 
+    /// The variant repertoire ([`Repertoire::Variants`]): 6, 7, 10 and 12 waypoints.
+    pub const VARIANTS: [Task; 4] = [Task::PickPlace, Task::Pocket, Task::Stitches, Task::Grid];
+
     pub fn name(self) -> &'static str {
         match self {
             Task::Dodecagram => "dodecagram",
             Task::Pentagram => "pentagram",
             Task::PipeSeam => "pipe_seam",
             Task::BoxSeam => "box_seam",
+            Task::PickPlace => "pick_place",
+            Task::Pocket => "pocket",
+            Task::Stitches => "stitches",
+            Task::Grid => "grid",
         }
     }
 
-    /// Whether it is one of the two arc-welding tasks (the others are planar patterns).
+    /// Whether it is an arc-welding task (the seed's two seams, the stitches).
     pub fn is_weld(self) -> bool {
-        matches!(self, Task::PipeSeam | Task::BoxSeam)
+        matches!(self, Task::PipeSeam | Task::BoxSeam | Task::Stitches)
     }
 
     /// Its waypoints in the work piece's frame (z up, the table at z = 0), noiseless.
@@ -126,8 +166,73 @@ impl Task {
             Task::Pentagram => pentagram(),
             Task::PipeSeam => turned(pipe_seam(), SEAM_TURN_RAD),
             Task::BoxSeam => turned(box_seam(), SEAM_TURN_RAD),
+            Task::PickPlace => pick_place(),
+            Task::Pocket => pocket(),
+            Task::Stitches => stitches(),
+            Task::Grid => grid(),
         }
     }
+}
+
+/// Pick at (0, −150), place at (0, 150), each approached and left 120 mm above; the tool turns
+/// 90° about its axis between them.
+fn pick_place() -> Vec<Pose> {
+    let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), FRAC_PI_4 * 2.0);
+    let (pick, place) = (tool_down(), turn * tool_down());
+    let at = |y: f64, z: f64, q: UnitQuaternion<f64>| pose(Vector3::new(0.0, y, z), q);
+    vec![
+        at(-150.0, 120.0, pick),
+        at(-150.0, 0.0, pick),
+        at(-150.0, 120.0, pick),
+        at(150.0, 120.0, place),
+        at(150.0, 0.0, place),
+        at(150.0, 120.0, place),
+    ]
+}
+
+/// A 160 × 100 mm pocket 10 mm deep: above a corner, plunge, the contour around, retract.
+fn pocket() -> Vec<Pose> {
+    let at = |x: f64, y: f64, z: f64| pose(Vector3::new(x, y, z), tool_down());
+    vec![
+        at(-80.0, -50.0, 60.0),
+        at(-80.0, -50.0, -10.0),
+        at(80.0, -50.0, -10.0),
+        at(80.0, 50.0, -10.0),
+        at(-80.0, 50.0, -10.0),
+        at(-80.0, -50.0, -10.0),
+        at(-80.0, -50.0, 60.0),
+    ]
+}
+
+/// Three 50 mm stitches 40 mm apart along a fillet joint running in x (the wall on the +y side),
+/// each approached 40 mm above its start, and a retract above the last end.
+fn stitches() -> Vec<Pose> {
+    let (n, t) = (-Vector3::y(), Vector3::x());
+    let mut out = Vec::new();
+    for k in 0..3 {
+        let x0 = -115.0 + 90.0 * f64::from(k);
+        out.push(torch(Vector3::new(x0, 0.0, 40.0), n, t));
+        out.push(torch(Vector3::new(x0, 0.0, 0.0), n, t));
+        out.push(torch(Vector3::new(x0 + 50.0, 0.0, 0.0), n, t));
+    }
+    out.push(torch(Vector3::new(85.0, 0.0, 40.0), n, t));
+    out
+}
+
+/// A 2 × 3 grid of places 120 mm apart, each approached 50 mm above and set down.
+fn grid() -> Vec<Pose> {
+    let mut out = Vec::new();
+    for row in 0..2 {
+        for col in 0..3 {
+            let (x, y) = (
+                -120.0 + 120.0 * f64::from(col),
+                -60.0 + 120.0 * f64::from(row),
+            );
+            out.push(pose(Vector3::new(x, y, 50.0), tool_down()));
+            out.push(pose(Vector3::new(x, y, 0.0), tool_down()));
+        }
+    }
+    out
 }
 
 /// The tool pointing straight down (its z axis along −z of the work piece).
@@ -264,6 +369,8 @@ pub struct LabConfig {
     /// Work-piece placement: ± offset in x and y, mm, and ± turn about the vertical, rad.
     pub offset_mm: f64,
     pub yaw_rad: f64,
+    /// The tasks: program `i` teaches `tasks[i mod len]`.
+    pub repertoire: Repertoire,
 }
 
 impl Default for LabConfig {
@@ -277,6 +384,7 @@ impl Default for LabConfig {
             rotation_rms_rad: 0.0,
             offset_mm: PLACEMENT_OFFSET_MM,
             yaw_rad: PLACEMENT_YAW_RAD,
+            repertoire: Repertoire::Seed,
         }
     }
 }
@@ -318,7 +426,8 @@ pub fn generate(config: &LabConfig, seed: u64) -> Vec<LabProgram> {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(LAB_STREAM.wrapping_add(i as u64));
             let user = i % users;
-            let task = Task::ALL[i % Task::ALL.len()];
+            let tasks = config.repertoire.tasks();
+            let task = tasks[i % tasks.len()];
             let mut uniform = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
             let offset = Vector3::new(uniform(config.offset_mm), uniform(config.offset_mm), 0.0);
             let yaw = uniform(config.yaw_rad);
@@ -443,6 +552,35 @@ mod tests {
             "{} of {total} out of reach: {missed:?}",
             missed.len()
         );
+    }
+
+    /// The variants are other shapes with other spacings (all under the seed's 186 mm), and
+    /// the IRB 140 reaches them as the simulation places it.
+    #[test]
+    fn the_variant_repertoire_is_other_tasks_the_arm_reaches() {
+        use crate::kinematics::placement::{ReachCheck, ReachSetup};
+        let counts: Vec<usize> = Task::VARIANTS.iter().map(|t| t.waypoints().len()).collect();
+        assert_eq!(counts, [6, 7, 10, 12]);
+        for t in Task::VARIANTS {
+            let m = mean_spacing_mm(&t.waypoints());
+            assert!((40.0..170.0).contains(&m), "{}: {m}", t.name());
+        }
+        let config = LabConfig {
+            repertoire: Repertoire::Variants,
+            ..LabConfig::default()
+        };
+        let lab = generate(&config, 1);
+        assert_eq!(lab[2].task, Task::Stitches);
+        let check = ReachCheck::new(ReachSetup::default()).unwrap();
+        for p in &lab {
+            let poses: Vec<Pose> = p.program.poses().copied().collect();
+            let arm = check
+                .place(LAB_LANGUAGE, p.program.arm_designation(), &poses)
+                .unwrap()
+                .unwrap();
+            assert_eq!(arm.arm.robot, "abb_irb140");
+            assert_eq!(arm.arm.reached, poses.len(), "{}", p.program.name);
+        }
     }
 
     #[test]
