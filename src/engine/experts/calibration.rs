@@ -76,6 +76,11 @@ pub fn band(p: f64) -> usize {
         .unwrap_or(BANDS.len() - 1)
 }
 
+/// The lower edge of band `b` (0 for the first).
+fn band_floor(b: usize) -> f64 {
+    b.checked_sub(1).map_or(0.0, |below| BANDS[below])
+}
+
 /// A coarse class of evidence (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Coarse {
@@ -254,8 +259,7 @@ impl Calibration {
     /// cell's) the middle of the band.
     fn band_prior_rate(&self, b: usize) -> f64 {
         if self.uninformed {
-            let lo = if b == 0 { 0.0 } else { BANDS[b - 1] };
-            return 0.5 * (lo + BANDS[b]);
+            return 0.5 * (band_floor(b) + BANDS[b]);
         }
         let (n, u) = CHOSEN_PRIOR[b];
         (f64::from(u) + 1.0) / (f64::from(n) + 2.0)
@@ -300,11 +304,7 @@ impl Calibration {
     /// The first-stage estimate from which the cell offers at a `target` precision: the lower
     /// edge of [`Calibration::offer_band`] (1 when it offers nothing).
     pub fn threshold(&self, target: f64) -> f64 {
-        match self.offer_band(target) {
-            Some(0) => 0.0,
-            Some(b) => BANDS[b - 1],
-            None => 1.0,
-        }
+        self.offer_band(target).map_or(1.0, band_floor)
     }
 
     /// Counts the outcome of a chosen candidate with this first-stage estimate.
@@ -495,8 +495,7 @@ mod tests {
                         here
                     })
                     .unwrap();
-                let lo = if b == 0 { 0.0 } else { BANDS[b - 1] };
-                let first = rng.random_range(lo..BANDS[b]);
+                let first = rng.random_range(band_floor(b)..BANDS[b]);
                 let useful = f64::from(u8::from(rng.random_bool(truth(first))));
                 if i >= warm_up && c.offers(first, target) {
                     offered += 1;

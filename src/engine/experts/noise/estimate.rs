@@ -496,6 +496,15 @@ pub(crate) mod tests {
             .collect()
     }
 
+    /// The task placed anew: within ±300 mm, turned by `k` rad and up to 1 rad more.
+    fn placed_anew(k: i32, rng: &mut ChaCha8Rng) -> Vec<Pose> {
+        task(
+            rng.random_range(-300.0..300.0),
+            rng.random_range(-300.0..300.0),
+            rng.random_range(-1.0..1.0) + f64::from(k),
+        )
+    }
+
     /// An operator with 11.5 mm and 0.02 rad per axis (the simulated online operator's 20 mm
     /// RMS) teaches one task at six places, between routines of other work: the estimate is
     /// within 20 % of both, with no calibration routine.
@@ -510,11 +519,7 @@ pub(crate) mod tests {
             let mut e = NoiseEstimator::new();
             assert_eq!(e.estimate(), None);
             for k in 0..6 {
-                let placed = task(
-                    rng.random_range(-300.0..300.0),
-                    rng.random_range(-300.0..300.0),
-                    rng.random_range(-1.0..1.0) + f64::from(k),
-                );
+                let placed = placed_anew(k, &mut rng);
                 e.learn(&noisy(&placed, &truth, &mut rng));
                 e.learn(&noisy(&wander(12, &mut rng), &truth, &mut rng));
             }
@@ -538,11 +543,7 @@ pub(crate) mod tests {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             let mut e = NoiseEstimator::new();
             for k in 0..8 {
-                let placed = task(
-                    rng.random_range(-300.0..300.0),
-                    rng.random_range(-300.0..300.0),
-                    rng.random_range(-1.0..1.0) + f64::from(k),
-                );
+                let placed = placed_anew(k, &mut rng);
                 // The task's approach, the two ends of its seam and the retract.
                 let pick = [placed[0], placed[1], placed[2], placed[6]];
                 assert!(pick.len() < STRETCH);
