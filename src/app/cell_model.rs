@@ -6,9 +6,10 @@ use super::reach::CellArm;
 use super::robots::Robots;
 use super::settings::parse_settings;
 use crate::api::{ModelInfo, TeachingStats};
+use crate::engine::experts::acceptance::Verdict;
 use crate::engine::{Pose, PoseValues, Teacher};
 use crate::kinematics::Reachability;
-use crate::storage::{CellRow, CellState, Store, WaypointRow};
+use crate::storage::{CellRow, CellState, Store, TeachingVerdictRow, WaypointRow};
 
 #[derive(Debug)]
 pub(crate) struct CellModel {
@@ -65,6 +66,71 @@ pub(crate) fn stored_joints(w: &WaypointRow) -> Result<Option<Vec<f64>>, AppErro
         .map_err(|e| AppError::Internal(format!("stored joints of waypoint {}: {e}", w.id)))
 }
 
+/// A verdict on a suggestion, as stored (`adjusted` with the pose finally taught).
+pub(crate) fn verdict_of(s: &str) -> Result<Verdict, AppError> {
+    match s {
+        "accepted" => Ok(Verdict::Accepted),
+        "adjusted" => Ok(Verdict::Adjusted),
+        "rejected" => Ok(Verdict::Rejected),
+        other => Err(AppError::Internal(format!(
+            "stored verdict {other:?} is unknown"
+        ))),
+    }
+}
+
+/// The feedback that teaches a routine's waypoints (see `app::feedback`), as the model applies
+/// it: each verdict right after the waypoint taught after its prediction, at the place the
+/// prediction was made and after the waypoint that was then the last.
+#[derive(Debug, Default)]
+pub(crate) struct Verdicts(Vec<TeachingVerdict>);
+
+#[derive(Debug)]
+struct TeachingVerdict {
+    index: usize,
+    after: Option<i64>,
+    offered: Pose,
+    verdict: Verdict,
+    taught_as: Option<Pose>,
+}
+
+impl Verdicts {
+    /// Routine `id`'s verdicts that teach.
+    pub async fn of(store: &Store, id: i64) -> Result<Verdicts, AppError> {
+        store
+            .teaching_verdicts(id)
+            .await?
+            .iter()
+            .map(TeachingVerdict::from_row)
+            .collect::<Result<_, _>>()
+            .map(Verdicts)
+    }
+
+    /// Applies to `teacher` the verdicts about waypoint `index` of its routine (just taught),
+    /// taught after the waypoint `after` (None: the routine's first).
+    pub fn apply(&self, teacher: &mut Teacher, index: usize, after: Option<i64>) {
+        for v in self
+            .0
+            .iter()
+            .filter(|v| v.index == index && v.after == after)
+        {
+            teacher.feedback(index, &v.offered, v.verdict, v.taught_as.as_ref());
+        }
+    }
+}
+
+impl TeachingVerdict {
+    fn from_row(r: &TeachingVerdictRow) -> Result<TeachingVerdict, AppError> {
+        Ok(TeachingVerdict {
+            index: usize::try_from(r.after_seq)
+                .map_err(|_| AppError::Internal(format!("stored place {}", r.after_seq)))?,
+            after: r.after_waypoint_id,
+            offered: stored_pose_values(&r.offered)?,
+            verdict: verdict_of(&r.verdict)?,
+            taught_as: r.taught_as.as_ref().map(stored_pose_values).transpose()?,
+        })
+    }
+}
+
 impl CellModel {
     /// Learns the cell's finished routines in the order they were finished, then takes up the
     /// routine being taught, exactly as incremental teaching did. The database is read first;
@@ -86,22 +152,22 @@ impl CellModel {
         let mut last_finish_seq = 0;
         for r in store.finished_routines(cell.id).await? {
             last_finish_seq = r.finish_seq.unwrap_or(last_finish_seq);
-            let poses = store
+            let waypoints = store
                 .waypoints(r.id)
                 .await?
                 .iter()
-                .map(stored_pose)
-                .collect::<Result<Vec<_>, _>>()?;
-            finished.push(poses);
+                .map(|w| Ok((stored_pose(w)?, w.id)))
+                .collect::<Result<Vec<_>, AppError>>()?;
+            finished.push((waypoints, Verdicts::of(store, r.id).await?));
         }
         let open = store.open_routine(cell.id).await?;
         let mut taught = Vec::new();
-        let mut open_ids = Vec::new();
+        let mut open_verdicts = Verdicts::default();
         if let Some(r) = &open {
             for w in store.waypoints(r.id).await? {
-                taught.push((stored_pose(&w)?, stored_joints(&w)?));
-                open_ids.push(w.id);
+                taught.push((stored_pose(&w)?, stored_joints(&w)?, w.id));
             }
+            open_verdicts = Verdicts::of(store, r.id).await?;
         }
         // The cell's row was read before the routines: what was loaded is at least as new as
         // its revision (catching up from there is idempotent).
@@ -111,9 +177,12 @@ impl CellModel {
         let version = cell.model_version;
         super::blocking(move || -> Result<CellModel, AppError> {
             let mut teacher = Teacher::new(config)?;
-            for routine in &finished {
-                for pose in routine {
+            for (routine, verdicts) in &finished {
+                let mut after = None;
+                for (i, (pose, id)) in routine.iter().enumerate() {
                     teacher.teach(*pose);
+                    verdicts.apply(&mut teacher, i, after);
+                    after = Some(*id);
                 }
                 teacher.finish_routine();
             }
@@ -123,12 +192,12 @@ impl CellModel {
                 open,
                 version,
                 revision,
-                open_ids,
+                open_ids: Vec::new(),
                 last_finish_seq,
                 needs_check: false,
             };
-            for (pose, joints) in &taught {
-                model.teach(*pose, joints.as_deref());
+            for (pose, joints, id) in &taught {
+                model.teach_stored(*pose, joints.as_deref(), *id, &open_verdicts);
             }
             Ok(model)
         })
@@ -190,11 +259,30 @@ impl CellModel {
             self.take_back();
         }
         self.open_ids.truncate(common);
+        let verdicts = Verdicts::of(store, id).await?;
         for w in store.waypoints_after(id, common as i64).await? {
-            self.teach(stored_pose(&w)?, stored_joints(&w)?.as_deref());
-            self.open_ids.push(w.id);
+            self.teach_stored(
+                stored_pose(&w)?,
+                stored_joints(&w)?.as_deref(),
+                w.id,
+                &verdicts,
+            );
         }
         Ok(())
+    }
+
+    /// Teaches a stored waypoint `id` of the open routine, then the verdicts about it.
+    fn teach_stored(&mut self, pose: Pose, joints: Option<&[f64]>, id: i64, verdicts: &Verdicts) {
+        self.teach(pose, joints);
+        self.judged(verdicts);
+        self.open_ids.push(id);
+    }
+
+    /// Applies the verdicts about the open routine's last waypoint, just taught (before its id
+    /// joins `open_ids`).
+    pub fn judged(&mut self, verdicts: &Verdicts) {
+        let index = self.teacher.routine().len().saturating_sub(1);
+        verdicts.apply(&mut self.teacher, index, self.open_ids.last().copied());
     }
 
     /// Teaches a pose of the open routine: the teacher learns it and the arm extends its joint
@@ -273,6 +361,8 @@ impl CellModel {
     /// taught and the arm's joint trail.
     pub fn in_step_with(&self, other: &CellModel) -> bool {
         self.info() == other.info()
+            && self.teaching() == other.teaching()
+            && self.teacher.calibration() == other.teacher.calibration()
             && self.open == other.open
             && self.teacher.routine() == other.teacher.routine()
             && self.arm.as_ref().map(CellArm::trail) == other.arm.as_ref().map(CellArm::trail)

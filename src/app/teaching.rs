@@ -1,6 +1,7 @@
 //! Teaching: append a waypoint and get the prediction for the next one, undo, predict again
 //! with per-request overrides or an open-loop completion.
 
+use super::cell_model::Verdicts;
 use super::error::AppError;
 use super::offer;
 use super::registry::{blocking, stale_check};
@@ -57,11 +58,15 @@ impl App {
         // gives bit-identical results.
         let pose = stored.to_pose()?;
         let (mut locked, r) = self.lock_open_routine(routine_id).await?;
+        // A verdict given before the waypoint is taught (the pendant judges, then records)
+        // teaches with it; read with the cell's lock held, as verdicts are stored.
+        let verdicts = Verdicts::of(&self.store, routine_id).await?;
         let model = locked.model()?;
         if let (Some(arm), Some(j)) = (&model.arm, &input.joints) {
             arm.check_joints(j)?;
         }
         let taught_reach = model.teach(pose, input.joints.as_deref());
+        model.judged(&verdicts);
         let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let record = offer::record(&r, after, model.version, &checked);

@@ -20,6 +20,7 @@
 
 use std::sync::Arc;
 
+use super::cell_model::Verdicts;
 use super::error::AppError;
 use super::offer;
 use super::registry::{blocking, stale_check};
@@ -117,6 +118,9 @@ impl App {
         prepared: Arc<Prepared>,
     ) -> Result<TrajectoryAnswer> {
         let (mut locked, r) = self.lock_open_routine(routine_id).await?;
+        // A verdict given before the first waypoint is taught teaches with it (as for one
+        // waypoint); the others' predictions are made here.
+        let verdicts = Verdicts::of(&self.store, routine_id).await?;
         let targets = {
             let model = locked.model()?;
             if let Some(arm) = &model.arm {
@@ -138,10 +142,13 @@ impl App {
             let mut locked = locked;
             let model = locked.model()?;
             let mut taught = Vec::with_capacity(order.len());
-            for &i in &order {
+            for (k, &i) in order.iter().enumerate() {
                 let pose = work.samples[i].pose;
                 let joints = work.joints[i].as_deref();
                 let reach = model.teach(pose, joints);
+                if k == 0 {
+                    model.judged(&verdicts);
+                }
                 let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
                 taught.push(Step {
                     sample: i,

@@ -45,7 +45,8 @@ pub use error::StorageError;
 pub use group_commit::{Append, Appended};
 pub use rows::{
     CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
-    NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, WaypointRow, WaypointValues,
+    NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, WaypointRow,
+    WaypointValues,
 };
 
 /// The store: SQLite (one file, this process the only writer) or PostgreSQL (shared by several

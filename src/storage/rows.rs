@@ -312,6 +312,9 @@ pub struct PredictionRow {
     pub cell_id: i64,
     pub routine_id: i64,
     pub after_seq: i64,
+    /// The routine's last waypoint when the prediction was made (None: none, or made before
+    /// this was kept).
+    pub after_waypoint_id: Option<i64>,
     #[sqlx(flatten)]
     pub pose: PoseValues,
     pub phi: f64,
@@ -325,7 +328,7 @@ pub struct PredictionRow {
 }
 
 impl Stored for PredictionRow {
-    const COLUMNS: &'static str = "p.id, p.cell_id, p.routine_id, p.after_seq, \
+    const COLUMNS: &'static str = "p.id, p.cell_id, p.routine_id, p.after_seq, p.after_waypoint_id, \
         p.x, p.y, p.z, p.qw, p.qx, p.qy, p.qz, p.phi, p.psi, p.misfit, \
         p.end_probability, p.model_version, p.created_at, f.verdict";
     const FROM: &'static str = "predictions p LEFT JOIN feedback f ON f.prediction_id = p.id";
@@ -338,6 +341,55 @@ pub struct NewFeedback {
     pub verdict: &'static str,
     pub pose: Option<PoseValues>,
     pub adjustment_mm: Option<f64>,
+    /// Given while its routine was being taught, about the waypoint taught after the
+    /// prediction: the cell's model applies it with that waypoint (`app::feedback`).
+    pub teaches: bool,
+}
+
+/// Feedback that teaches the cell, with the prediction it is about: what a model applies with
+/// the waypoint taught after `after_waypoint_id` at place `after_seq + 1` of its routine.
+#[derive(Debug, Clone)]
+pub struct TeachingVerdictRow {
+    pub after_seq: i64,
+    pub after_waypoint_id: Option<i64>,
+    /// The pose offered.
+    pub offered: PoseValues,
+    /// `accepted`, `adjusted` or `rejected`.
+    pub verdict: String,
+    /// The pose finally taught (adjusted only).
+    pub taught_as: Option<PoseValues>,
+}
+
+impl<'r> FromRow<'r, AnyRow> for TeachingVerdictRow {
+    fn from_row(row: &'r AnyRow) -> Result<Self, sqlx::Error> {
+        let f = |c: &str| row.try_get::<Option<f64>, _>(c);
+        let taught_as = match (f("fx")?, f("fy")?, f("fz")?, f("fqw")?) {
+            (Some(x), Some(y), Some(z), Some(qw)) => Some(PoseValues {
+                x,
+                y,
+                z,
+                qw,
+                qx: f("fqx")?.unwrap_or_default(),
+                qy: f("fqy")?.unwrap_or_default(),
+                qz: f("fqz")?.unwrap_or_default(),
+            }),
+            _ => None,
+        };
+        Ok(TeachingVerdictRow {
+            after_seq: row.try_get("after_seq")?,
+            after_waypoint_id: row.try_get("after_waypoint_id")?,
+            offered: PoseValues::from_row(row)?,
+            verdict: row.try_get("verdict")?,
+            taught_as,
+        })
+    }
+}
+
+impl Stored for TeachingVerdictRow {
+    const COLUMNS: &'static str = "p.after_seq, p.after_waypoint_id, p.x, p.y, p.z, p.qw, p.qx, \
+        p.qy, p.qz, f.verdict, f.x AS fx, f.y AS fy, f.z AS fz, f.qw AS fqw, f.qx AS fqx, \
+        f.qy AS fqy, f.qz AS fqz";
+    const FROM: &'static str = "feedback f JOIN predictions p ON p.id = f.prediction_id";
 }
 
 #[derive(Debug, Clone, Default)]

@@ -9,6 +9,7 @@ mod durability;
 mod editing;
 mod errors;
 mod export;
+mod feedback;
 mod grpc;
 mod helpers;
 mod import;

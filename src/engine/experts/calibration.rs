@@ -352,14 +352,21 @@ impl Calibration {
         self.fine.entry(f).or_default().add(useful);
     }
 
-    /// Takes back an outcome [`Calibration::record`] counted.
+    /// Takes back an outcome [`Calibration::record`] counted. A class left with no outcome is
+    /// dropped, so the calibration is equal to one that never counted it (what a rebuild gives).
     pub fn forget(&mut self, expert: Expert, evidence: &Evidence, useful: f64) {
         let f = Fine::of(expert, evidence);
         if let Some(c) = self.coarse.get_mut(&f.coarse) {
             c.remove(useful);
+            if c.n == 0.0 {
+                self.coarse.remove(&f.coarse);
+            }
         }
         if let Some(c) = self.fine.get_mut(&f) {
             c.remove(useful);
+            if c.n == 0.0 {
+                self.fine.remove(&f);
+            }
         }
     }
 

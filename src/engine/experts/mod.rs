@@ -20,6 +20,7 @@
 //! occurred, how many of those agree on what followed, and whether the most recent one is in the
 //! routine being taught.
 
+pub mod acceptance;
 pub mod alignment;
 pub mod calibration;
 pub mod frames;
