@@ -31,8 +31,12 @@
 //! waypoints are kept sorted by the length of the move into them, and only stretches whose every
 //! step is within [`STEP_GATE_MM`] of the new one's are aligned, at most [`MAX_PAIRS`] for each
 //! new stretch, out of at most [`MAX_EXAMINED`] looked at (a long routine of equal steps costs
-//! no more than a short one per waypoint). Only finished routines are read, so undo never has to take a pair back, and a
-//! rebuild that learns the same routines in the same order gets the same estimate.
+//! no more than a short one per waypoint). Finished routines are learned for good; the routine
+//! being taught shows the noise too, its newest stretch aligned as each waypoint is taught
+//! ([`NoiseEstimator::open_pairs`], [`NoiseEstimator::estimate_with`]: a cell whose first repeats
+//! come within one long routine learns its operator there and then). The teacher keeps those
+//! pairs with their waypoint, so undo takes them back, and a rebuild that learns the same
+//! routines in the same order gets the same estimate.
 
 use nalgebra::Point3;
 use statrs::function::gamma::ln_gamma;
@@ -90,7 +94,7 @@ pub const SHORT_ROUTINE: usize = 3;
 
 /// One pair of stretches: its squared misfits and their degrees of freedom (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Pair {
+pub struct Pair {
     /// Sum of squared position residuals after the rigid fit, mm².
     ss_mm: f64,
     /// Sum of squared angles between corresponding relative rotations, rad².
@@ -151,6 +155,69 @@ impl NoiseEstimator {
         self.pairs.len()
     }
 
+    /// The pairs the newest stretch of the routine being taught (ending at its last waypoint)
+    /// makes with the earlier ones: exactly those [`NoiseEstimator::learn_taught`] finds for it
+    /// when the routine is finished. None once the cell is exact.
+    pub fn open_pairs(&self, routine: &[Pose]) -> Vec<Pair> {
+        let Some(j) = routine.len().checked_sub(1) else {
+            return Vec::new();
+        };
+        if self.is_exact()
+            || j + 1 < STRETCH
+            || extent(&routine[j + 1 - STRETCH..=j]) < MIN_EXTENT_MM
+        {
+            return Vec::new();
+        }
+        let r = u32::try_from(self.routines.len()).unwrap_or(u32::MAX);
+        let mut own: Vec<(f64, u32, u32)> = (STRETCH - 1..j)
+            .filter(|&e| extent(&routine[e + 1 - STRETCH..=e]) >= MIN_EXTENT_MM)
+            .map(|e| {
+                let len = routine[e].distance_to(&routine[e - 1]);
+                (len, r, u32::try_from(e).unwrap_or(u32::MAX))
+            })
+            .collect();
+        own.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let stretch = &routine[j + 1 - STRETCH..=j];
+        self.earlier_ends(stretch, routine, j, &own)
+            .into_iter()
+            .filter_map(|(er, ej)| {
+                let other: &[Pose] = if er == r {
+                    &routine[ej + 1 - STRETCH..=ej]
+                } else {
+                    &self.routines[er as usize][ej + 1 - STRETCH..=ej]
+                };
+                compare(other, stretch)
+            })
+            .collect()
+    }
+
+    /// Whether `pose`, taught by hand after `before` in the routine being taught, is an exact
+    /// revisit (module doc) of a finished routine's waypoint or of one of `before`.
+    pub fn is_revisit(&self, pose: &Pose, before: &[Pose]) -> bool {
+        let key = place(pose);
+        self.places.contains(&key) || before.iter().any(|w| place(w) == key)
+    }
+
+    /// The noise the finished routines and the routine being taught show so far: with its
+    /// stretches' pairs `open` and its exact revisits (module doc). The estimate the cell uses
+    /// while it teaches; learning the routine when it is finished gives it for good.
+    pub fn estimate_with(&self, open: &[Pair], open_revisits: usize) -> Option<Noise> {
+        if self.exact_revisits + open_revisits >= EXACT_REVISITS {
+            return Some(Noise::EXACT);
+        }
+        if open.is_empty() {
+            return self.estimate();
+        }
+        if self.routines.len() < MIN_ROUTINES {
+            return None;
+        }
+        let mut all = Vec::with_capacity(self.pairs.len() + open.len());
+        all.extend_from_slice(&self.pairs);
+        all.extend_from_slice(open);
+        let over = all.len().saturating_sub(MAX_SAMPLES);
+        fit(&all[over..], self.mixture).0
+    }
+
     /// Learns a finished routine taught by hand, no suggestion taken.
     pub fn learn(&mut self, routine: &[Pose]) {
         self.learn_taught(routine, &[]);
@@ -162,10 +229,7 @@ impl NoiseEstimator {
     /// one without overlap), then fits the noise again.
     pub fn learn_taught(&mut self, routine: &[Pose], suggested: &[bool]) {
         for (i, w) in routine.iter().enumerate() {
-            let p = w.position() / EXACT_REVISIT_MM;
-            // Positions beyond i64's range are not a robot's; they saturate and count as one.
-            let key = [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64];
-            let fresh = self.places.insert(key);
+            let fresh = self.places.insert(place(w));
             if !fresh && !suggested.get(i).copied().unwrap_or(false) {
                 self.exact_revisits += 1;
             }
@@ -260,6 +324,13 @@ impl NoiseEstimator {
             .filter(|&(_, e)| steps_match(&routine[e + 1 - STRETCH..=e], stretch));
         earlier.chain(within).take(MAX_PAIRS).collect()
     }
+}
+
+/// A waypoint's place on the grid of [`EXACT_REVISIT_MM`]. Positions beyond i64's range are not
+/// a robot's; they saturate and count as one.
+fn place(w: &Pose) -> [i64; 3] {
+    let p = w.position() / EXACT_REVISIT_MM;
+    [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64]
 }
 
 /// The entries of `index` (sorted by length) whose move is within [`STEP_GATE_MM`] of `last`:
