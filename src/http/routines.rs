@@ -219,7 +219,9 @@ async fn predict(
 }
 
 /// Feedback on an offered prediction: accepted as is, accepted after adjustment (with the
-/// pose finally taught), or rejected. Once per prediction.
+/// pose finally taught), or rejected. Once per prediction. Given just before or just after the
+/// waypoint it is about, it teaches the cell (a rejection counts as wrong, adjustments tighten
+/// the learned tolerance); an undo of that waypoint takes it back.
 #[utoipa::path(post, path = "/v1/predictions/{prediction_id}/feedback", tag = "teaching",
     params(("prediction_id" = i64, Path, description = "Prediction id (from a prediction's `id`)")),
     request_body = Feedback,

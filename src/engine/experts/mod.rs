@@ -9,7 +9,9 @@
 //! rigid transform to the last few waypoints and an earlier stretch of the same shape. Each
 //! proposal, the CDHMM's included ([`Expert::Model`]), is a [`Candidate`] with its
 //! [`Evidence`]; [`calibration`] turns that evidence into `p_useful`, and learns from every
-//! waypoint taught whether each candidate would have been right.
+//! waypoint taught whether each candidate would have been right; [`acceptance`] reads the
+//! operator's verdicts on what was offered (a rejection counts as wrong, adjustments tighten
+//! the tolerance).
 //!
 //! This file holds what they share and the sequence experts themselves: a [`SequenceExpert`] keeps
 //! the elements of every finished routine (tool-frame moves, work-frame moves or absolute
