@@ -290,7 +290,9 @@ impl Teacher {
         counted.pairs = e.open_pairs(&self.routine);
         counted.revisit =
             !counted.suggested && e.is_revisit(&self.routine[n - 1], &self.routine[..n - 1]);
-        if counted.pairs.is_empty() && !counted.revisit {
+        // Only a pair that could be a repeat (or an exact revisit) can change the estimate
+        // much; the others wait for the routine's end (a fit costs more than a prediction).
+        if !counted.revisit && !counted.pairs.iter().any(Pair::could_repeat) {
             return;
         }
         let pairs: Vec<Pair> = self

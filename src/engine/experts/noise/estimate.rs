@@ -105,6 +105,14 @@ pub struct Pair {
     nu_rad: f64,
 }
 
+impl Pair {
+    /// Whether the pair could be a repeat: its misfit reads as a per-axis error no larger than
+    /// the largest the fit believes ([`SIGMA_CAP_MM`]). Unrelated stretches fit far worse.
+    pub fn could_repeat(&self) -> bool {
+        self.nu_mm > 0.0 && self.ss_mm / (2.0 * self.nu_mm) <= SIGMA_CAP_MM * SIGMA_CAP_MM
+    }
+}
+
 /// The cell's finished routines and the misfits of the repeats found in them (module doc).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct NoiseEstimator {
