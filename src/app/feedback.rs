@@ -7,7 +7,6 @@ use super::registry::stale_check;
 use super::{App, Result};
 use crate::api::{Feedback, FeedbackRecorded, PoseValues, Verdict};
 use crate::engine::Pose;
-use crate::engine::experts::acceptance;
 use crate::storage::{NewFeedback, PredictionRow};
 
 impl App {
@@ -78,8 +77,9 @@ impl App {
     /// with the waypoint the prediction was made after still the one before its place, and
     /// either before the next waypoint is taught (the pendant judges, then records) or just
     /// after (judged when recorded). The model applies it with that waypoint (now, or when it
-    /// is taught: `cell_model::Verdicts`); a rebuild does the same from the database. Later feedback is
-    /// kept and counted and teaches nothing (the waypoints taught since were judged without it).
+    /// is taught: `cell_model::Verdicts`); a rebuild does the same from the database. Later
+    /// feedback is kept and counted and teaches nothing (the waypoints taught since were judged
+    /// without it).
     async fn store_feedback(&self, mut fb: NewFeedback, judged: Judged) -> Result<()> {
         let routine = judged.pr.routine_id;
         let (mut locked, r) = match self.lock_open_routine(routine).await {
@@ -104,7 +104,7 @@ impl App {
         model.moved_to(state.revision);
         if place < model.open_ids.len() {
             let taught_as = judged.taught_as.as_ref();
-            let verdict = engine_verdict(judged.verdict);
+            let verdict = cell_model::verdict_of(judged.verdict.as_str())?;
             model
                 .teacher
                 .feedback(place, &judged.predicted, verdict, taught_as);
@@ -133,14 +133,5 @@ impl Judged {
             Some(id) => id.is_some() && id == self.pr.after_waypoint_id,
         };
         (context_holds && (open.len() == place || open.len() == place + 1)).then_some(place)
-    }
-}
-
-/// The engine's verdict for the API's.
-fn engine_verdict(v: Verdict) -> acceptance::Verdict {
-    match v {
-        Verdict::Accepted => acceptance::Verdict::Accepted,
-        Verdict::Adjusted => acceptance::Verdict::Adjusted,
-        Verdict::Rejected => acceptance::Verdict::Rejected,
     }
 }
