@@ -4,26 +4,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::PoseValues;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Verdict {
-    /// Accepted as is.
-    Accepted,
-    /// Accepted, then adjusted to the given pose.
-    Adjusted,
-    Rejected,
-}
-
-impl Verdict {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Verdict::Accepted => "accepted",
-            Verdict::Adjusted => "adjusted",
-            Verdict::Rejected => "rejected",
-        }
-    }
-}
+pub use crate::engine::experts::acceptance::Verdict;
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]

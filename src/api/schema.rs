@@ -1,6 +1,6 @@
 //! The OpenAPI schemas of the engine's types that travel on the wire as they are (a pose's seven
 //! numbers, the teaching noise, the acceptance tolerance, the profile, the segmentation
-//! criterion).
+//! criterion, the operator's verdict on a suggestion).
 //!
 //! The engine is pure and knows nothing of the web: it derives `Serialize`/`Deserialize` for
 //! these types, not `utoipa::ToSchema`. Their schemas are described here instead, by a mirror of
@@ -15,6 +15,7 @@ use utoipa::{PartialSchema, ToSchema};
 
 use crate::engine::Noise;
 use crate::engine::Tolerance;
+use crate::engine::experts::acceptance::Verdict;
 use crate::engine::lead_through::segment::Criterion;
 use crate::engine::{PoseValues, Profile};
 
@@ -40,6 +41,7 @@ schema_of!(Noise, mirror::Noise);
 schema_of!(Tolerance, mirror::Tolerance);
 schema_of!(Profile, mirror::Profile);
 schema_of!(Criterion, mirror::Criterion);
+schema_of!(Verdict, mirror::Verdict);
 
 /// Schema-only copies of the engine's wire types; never built outside the tests.
 #[allow(dead_code)]
@@ -105,6 +107,16 @@ mod mirror {
         /// Eq. 5.7 as written: error over step length.
         Seed,
     }
+
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Verdict {
+        /// Accepted as is.
+        Accepted,
+        /// Accepted, then adjusted to the given pose.
+        Adjusted,
+        Rejected,
+    }
 }
 
 #[cfg(test)]
@@ -148,6 +160,11 @@ mod tests {
         for c in [Criterion::Direction, Criterion::Seed] {
             same_wire::<_, mirror::Criterion>(c);
         }
+        for v in Verdict::ALL {
+            same_wire::<_, mirror::Verdict>(v);
+            assert_eq!(Verdict::named(v.as_str()), Some(v));
+            assert_eq!(serde_json::to_value(v).expect("serialises"), v.as_str());
+        }
     }
 
     #[test]
@@ -157,5 +174,6 @@ mod tests {
         assert_eq!(<Tolerance as ToSchema>::name(), "Tolerance");
         assert_eq!(<Profile as ToSchema>::name(), "Profile");
         assert_eq!(<Criterion as ToSchema>::name(), "Criterion");
+        assert_eq!(<Verdict as ToSchema>::name(), "Verdict");
     }
 }

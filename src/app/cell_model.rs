@@ -66,16 +66,9 @@ pub(crate) fn stored_joints(w: &WaypointRow) -> Result<Option<Vec<f64>>, AppErro
         .map_err(|e| AppError::Internal(format!("stored joints of waypoint {}: {e}", w.id)))
 }
 
-/// A verdict on a suggestion, as stored (`adjusted` with the pose finally taught).
-pub(crate) fn verdict_of(s: &str) -> Result<Verdict, AppError> {
-    match s {
-        "accepted" => Ok(Verdict::Accepted),
-        "adjusted" => Ok(Verdict::Adjusted),
-        "rejected" => Ok(Verdict::Rejected),
-        other => Err(AppError::Internal(format!(
-            "stored verdict {other:?} is unknown"
-        ))),
-    }
+/// A verdict on a suggestion, as stored.
+fn verdict_of(s: &str) -> Result<Verdict, AppError> {
+    Verdict::named(s).ok_or_else(|| AppError::Internal(format!("stored verdict {s:?} is unknown")))
 }
 
 /// The feedback that teaches a routine's waypoints (see `app::feedback`), as the model applies

@@ -104,10 +104,9 @@ impl App {
         model.moved_to(state.revision);
         if place < model.open_ids.len() {
             let taught_as = judged.taught_as.as_ref();
-            let verdict = cell_model::verdict_of(judged.verdict.as_str())?;
             model
                 .teacher
-                .feedback(place, &judged.predicted, verdict, taught_as);
+                .feedback(place, &judged.predicted, judged.verdict, taught_as);
         }
         Ok(())
     }

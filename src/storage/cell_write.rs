@@ -28,6 +28,15 @@ impl CellWrite {
         }
     }
 
+    /// A write the model in memory made at revision `expected` and follows itself, which a
+    /// model of the cell in another instance cannot follow (it learns the cell again).
+    pub fn following_alone(expected: i64) -> CellWrite {
+        CellWrite {
+            reload: true,
+            ..CellWrite::following(expected)
+        }
+    }
+
     /// An edit: models elsewhere learn the cell again (and this one is rebuilt) when `reload`.
     pub fn edit(advance: bool, reload: bool) -> CellWrite {
         CellWrite {

@@ -27,11 +27,7 @@ impl Store {
         expected: i64,
     ) -> Result<CellState> {
         let mut tx = self.pool.begin().await?;
-        let write = CellWrite {
-            reload: true,
-            ..CellWrite::following(expected)
-        };
-        let state = touch_cell(&mut tx, cell_id, write).await?;
+        let state = touch_cell(&mut tx, cell_id, CellWrite::following_alone(expected)).await?;
         insert(&mut tx, fb).await?;
         tx.commit().await?;
         Ok(state)

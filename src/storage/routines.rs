@@ -158,11 +158,7 @@ impl Store {
         expected: i64,
     ) -> Result<CellState> {
         let mut tx = self.pool.begin().await?;
-        let write = CellWrite {
-            reload: true,
-            ..CellWrite::following(expected)
-        };
-        let state = touch_cell(&mut tx, cell_id, write).await?;
+        let state = touch_cell(&mut tx, cell_id, CellWrite::following_alone(expected)).await?;
         found(
             sqlx::query(
                 "DELETE FROM routines WHERE id = $1 AND finish_seq IS NULL AND imported = 0",

@@ -45,6 +45,22 @@ pub enum Verdict {
 }
 
 impl Verdict {
+    pub const ALL: [Verdict; 3] = [Verdict::Accepted, Verdict::Adjusted, Verdict::Rejected];
+
+    /// Its name on the wire and in the database.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Accepted => "accepted",
+            Verdict::Adjusted => "adjusted",
+            Verdict::Rejected => "rejected",
+        }
+    }
+
+    /// The verdict of that name.
+    pub fn named(name: &str) -> Option<Verdict> {
+        Verdict::ALL.into_iter().find(|v| v.as_str() == name)
+    }
+
     /// Whether the operator found the suggestion right as it was.
     pub fn right(self) -> bool {
         self == Verdict::Accepted
