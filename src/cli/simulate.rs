@@ -23,6 +23,11 @@ pub struct SimulateArgs {
     /// The operator's precision: online (20 mm RMS, the seed's lab) or precise (0.05 mm).
     #[arg(long, value_enum, default_value_t = OperatorArg::Online)]
     pub operator: OperatorArg,
+    /// The online operator's 3-D RMS placement error instead of the seed's 20 mm (with
+    /// `--operator online`; the rotation error in proportion, the tolerance half the effective
+    /// width): to check settings against steadier or shakier operators (5–30 mm).
+    #[arg(long, value_name = "MM")]
+    pub operator_mm: Option<f64>,
     /// What the cell knows before teaching: nothing; the earlier programs (in the order given)
     /// of the same repository, taught exactly (offline programs); or those programs as online
     /// operators taught them, each waypoint with the operator's placement error (the seed's
@@ -94,6 +99,11 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
     }
+    if let Some(mm) = args.operator_mm
+        && !(mm.is_finite() && (0.1..=200.0).contains(&mm))
+    {
+        bail!("--operator-mm must be between 0.1 and 200 mm, not {mm}");
+    }
     let mut programs = load_paths(&args.paths)?;
     if let Some(n) = args.programs {
         programs.truncate(n);
@@ -106,9 +116,15 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
     let plan = Plan {
         conditions: sim::table_4_1_conditions(),
         seeds: (1..=args.seeds).collect(),
-        operator: match args.operator {
-            OperatorArg::Online => OperatorModel::online(limits.tcp_mm_s),
-            OperatorArg::Precise => OperatorModel::precise(limits.tcp_mm_s),
+        operator: match (args.operator, args.operator_mm) {
+            (OperatorArg::Online, None) => OperatorModel::online(limits.tcp_mm_s),
+            (OperatorArg::Online, Some(mm)) => OperatorModel::online_at(limits.tcp_mm_s, mm),
+            (OperatorArg::Precise, None) => OperatorModel::precise(limits.tcp_mm_s),
+            (OperatorArg::Precise, Some(_)) => {
+                bail!(
+                    "--operator-mm sets the online operator's error; use it with --operator online"
+                )
+            }
         },
         limits,
         history: match args.history {

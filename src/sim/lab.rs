@@ -49,6 +49,16 @@
 //! steps of 40 to 156 mm), so that what was chosen on the seed's four tasks can be checked on
 //! shapes it was not chosen on. Placement, users and errors as above.
 //!
+//! **A welding cell** ([`Repertoire::Welding`], `nextpose lab --repertoire welding`): offline
+//! programs of the shape real arc-welding modules have, for `nextpose replay` (the issue's
+//! "synthetic welding-like set"): each program welds parts at 3–5 stations, one routine per
+//! station from the arm's home ([`HOME_MM`], fixed in the world) back to it; two parts in three
+//! are the program's main family (bracket, flange, gusset or frame: 8 to 16 waypoints of seams,
+//! each approached and left [`WELD_STANDOFF_MM`] back along the torch), the others one other
+//! family; a station's part stands within ±100 mm and ±30° of nominal, at 0.8–1.25 times its
+//! nominal size. Written exact, as an offline program is. The seed's and the variant labs are
+//! unchanged by it (its draws come after theirs).
+//!
 //! Deterministic given the seed: program `i` draws from its own ChaCha8 stream, so a lab of
 //! fewer programs is a prefix of the full one.
 
@@ -107,6 +117,14 @@ pub enum Task {
     Stitches,
     /// Variant: a 2 × 3 grid of places, approached from above each (palletising).
     Grid,
+    /// Welding cell: two fillet seams along either side of an upright plate.
+    Bracket,
+    /// Welding cell: a fillet seam around a flange (six points over 300°).
+    Flange,
+    /// Welding cell: a horizontal seam and a vertical seam up the inside corner of a gusset.
+    Gusset,
+    /// Welding cell: a short seam in each inside corner of a rectangular frame.
+    Frame,
 }
 
 /// Which repertoire a lab teaches.
@@ -118,6 +136,11 @@ pub enum Repertoire {
     /// Four other task shapes and spacings (pick and place, pocket, stitches, grid): a lab
     /// the engine was not tuned on.
     Variants,
+    /// A welding cell's offline programs ([`Task::WELDING`]): each starts and ends at the
+    /// arm's home, welds its part's seams (approach and retract along the torch), and the parts
+    /// come in sizes 0.8–1.25 of nominal. Written exact, as offline programs are: a synthetic
+    /// welding-like set for `nextpose replay`, checked against the baselines.
+    Welding,
 }
 
 impl Repertoire {
@@ -125,6 +148,7 @@ impl Repertoire {
         match self {
             Repertoire::Seed => &Task::ALL,
             Repertoire::Variants => &Task::VARIANTS,
+            Repertoire::Welding => &Task::WELDING,
         }
     }
 }
@@ -141,6 +165,10 @@ impl Task {
     /// The variant repertoire ([`Repertoire::Variants`]): 6, 7, 10 and 12 waypoints.
     pub const VARIANTS: [Task; 4] = [Task::PickPlace, Task::Pocket, Task::Stitches, Task::Grid];
 
+    /// The welding cell's parts ([`Repertoire::Welding`]): 8, 8, 8 and 16 waypoints at the
+    /// part, 2 more for home.
+    pub const WELDING: [Task; 4] = [Task::Bracket, Task::Flange, Task::Gusset, Task::Frame];
+
     pub fn name(self) -> &'static str {
         match self {
             Task::Dodecagram => "dodecagram",
@@ -151,17 +179,41 @@ impl Task {
             Task::Pocket => "pocket",
             Task::Stitches => "stitches",
             Task::Grid => "grid",
+            Task::Bracket => "bracket",
+            Task::Flange => "flange",
+            Task::Gusset => "gusset",
+            Task::Frame => "frame",
         }
+    }
+
+    /// Whether it is a welding cell's part: its program starts and ends at [`HOME_MM`], and
+    /// its size varies per program ([`WELD_SIZE_RANGE`]).
+    pub fn is_welding_cell(self) -> bool {
+        matches!(
+            self,
+            Task::Bracket | Task::Flange | Task::Gusset | Task::Frame
+        )
     }
 
     /// Whether it is an arc-welding task (the seed's two seams, the stitches).
     pub fn is_weld(self) -> bool {
-        matches!(self, Task::PipeSeam | Task::BoxSeam | Task::Stitches)
+        matches!(self, Task::PipeSeam | Task::BoxSeam | Task::Stitches) || self.is_welding_cell()
     }
 
-    /// Its waypoints in the work piece's frame (z up, the table at z = 0), noiseless.
+    /// Its waypoints in the work piece's frame (z up, the table at z = 0), noiseless, at
+    /// nominal size.
     pub fn waypoints(self) -> Vec<Pose> {
+        self.waypoints_sized(1.0)
+    }
+
+    /// Its waypoints with the part `size` times nominal (the welding cell's parts; the other
+    /// tasks have one size and ignore it). Approach and retract distances do not scale.
+    pub fn waypoints_sized(self, size: f64) -> Vec<Pose> {
         match self {
+            Task::Bracket => bracket(size),
+            Task::Flange => flange(size),
+            Task::Gusset => gusset(size),
+            Task::Frame => frame(size),
             Task::Dodecagram => dodecagram(),
             Task::Pentagram => pentagram(),
             Task::PipeSeam => turned(pipe_seam(), SEAM_TURN_RAD),
@@ -231,6 +283,136 @@ fn grid() -> Vec<Pose> {
             out.push(pose(Vector3::new(x, y, 50.0), tool_down()));
             out.push(pose(Vector3::new(x, y, 0.0), tool_down()));
         }
+    }
+    out
+}
+
+/// How far a weld's approach and retract points stand back from the seam along the torch, mm.
+pub const WELD_STANDOFF_MM: f64 = 50.0;
+
+/// The welding cell's home: the arm's parking pose, fixed in the world (not moved with the
+/// part), tool down, mm.
+pub const HOME_MM: [f64; 3] = [300.0, 0.0, 600.0];
+
+/// The welding cell's parts are this many times their nominal size, uniform within.
+pub const WELD_SIZE_RANGE: (f64, f64) = (0.8, 1.25);
+
+/// A welding cell's program welds a part at each of this many stations (uniform within).
+pub const WELD_STATIONS: (usize, usize) = (3, 5);
+/// A station's part stands within ± this of nominal in x and y, mm …
+pub const WELD_STATION_OFFSET_MM: f64 = 100.0;
+/// … turned within ± this about the vertical, rad (30°).
+pub const WELD_STATION_YAW_RAD: f64 = 30.0 * PI / 180.0;
+
+/// A torch at `p` pointing along `into` (tool z), its x axis along `travel` (made
+/// perpendicular to `into`).
+fn torch_into(p: Vector3<f64>, into: Vector3<f64>, travel: Vector3<f64>) -> Pose {
+    let z = into.normalize();
+    let x = (travel - z * z.dot(&travel)).normalize();
+    let y = z.cross(&x);
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
+    pose(p, UnitQuaternion::from_rotation_matrix(&r))
+}
+
+/// A seam as a welding program teaches it: approach [`WELD_STANDOFF_MM`] back along the torch
+/// from the first point, the seam's points, retract as far back from the last.
+fn seam(points: Vec<Pose>) -> Vec<Pose> {
+    let back = |p: &Pose| {
+        let axis = p.rotation() * Vector3::z();
+        pose(p.position() - axis * WELD_STANDOFF_MM, p.rotation())
+    };
+    let mut out = vec![back(&points[0])];
+    let last = back(&points[points.len() - 1]);
+    out.extend(points);
+    out.push(last);
+    out
+}
+
+/// An upright plate 200 mm long (× size) along x standing on a base plate: a fillet seam along
+/// its −y side in +x, then one along its +y side back in −x.
+fn bracket(size: f64) -> Vec<Pose> {
+    let h = 100.0 * size;
+    let mut out = Vec::new();
+    for (n, t, x0) in [
+        (-Vector3::y(), Vector3::x(), -h),
+        (Vector3::y(), -Vector3::x(), h),
+    ] {
+        let a = torch(Vector3::new(x0, 10.0 * n.y, 0.0), n, t);
+        let b = torch(Vector3::new(-x0, 10.0 * n.y, 0.0), n, t);
+        out.extend(seam(vec![a, b]));
+    }
+    out
+}
+
+/// A pipe of radius 50 mm (× size) standing on a flange: a fillet seam from the side facing the
+/// arm, six points 60° apart.
+fn flange(size: f64) -> Vec<Pose> {
+    let r = 50.0 * size;
+    let points = (0..6)
+        .map(|k| {
+            let a = PI - f64::from(k) * PI / 3.0;
+            let n = Vector3::new(a.cos(), a.sin(), 0.0);
+            let t = Vector3::new(a.sin(), -a.cos(), 0.0);
+            torch(n * r, n, t)
+        })
+        .collect();
+    seam(points)
+}
+
+/// A gusset in the corner of a base plate and a wall (its face at y = 0, facing −y): a seam
+/// 120 mm (× size) along the foot of the wall, then one up the wall's corner with the gusset's
+/// side (at x = 0, facing −x), the torch into the corner.
+fn gusset(size: f64) -> Vec<Pose> {
+    let l = 120.0 * size;
+    let mut out = seam(vec![
+        torch(Vector3::new(-l, 0.0, 0.0), -Vector3::y(), Vector3::x()),
+        torch(Vector3::new(0.0, 0.0, 0.0), -Vector3::y(), Vector3::x()),
+    ]);
+    let into = Vector3::new(1.0, 1.0, 0.0);
+    out.extend(seam(vec![
+        torch_into(Vector3::new(0.0, 0.0, 10.0), into, Vector3::z()),
+        torch_into(Vector3::new(0.0, 0.0, 10.0 + l), into, Vector3::z()),
+    ]));
+    out
+}
+
+/// A rectangular frame 300 × 200 mm (× size) of upright bars: in each inside corner, counter-
+/// clockwise from the one nearest the arm, a 40 mm seam along the base plate out of the corner
+/// along the side that follows, the torch into the corner and tilted 45° down.
+fn frame(size: f64) -> Vec<Pose> {
+    let (hx, hy) = (150.0 * size, 100.0 * size);
+    // Each corner, the way into it from inside the frame, and the side that follows.
+    let corners = [
+        (
+            Vector3::new(-hx, -hy, 0.0),
+            Vector3::new(-1.0, -1.0, 0.0),
+            Vector3::x(),
+        ),
+        (
+            Vector3::new(hx, -hy, 0.0),
+            Vector3::new(1.0, -1.0, 0.0),
+            Vector3::y(),
+        ),
+        (
+            Vector3::new(hx, hy, 0.0),
+            Vector3::new(1.0, 1.0, 0.0),
+            -Vector3::x(),
+        ),
+        (
+            Vector3::new(-hx, hy, 0.0),
+            Vector3::new(-1.0, 1.0, 0.0),
+            -Vector3::y(),
+        ),
+    ];
+    let mut out = Vec::new();
+    for (corner, outward, along) in corners {
+        let outward = outward.normalize();
+        let into = (outward - Vector3::z()).normalize();
+        let a = corner - outward * 10.0;
+        out.extend(seam(vec![
+            torch_into(a, into, along),
+            torch_into(a + along * 40.0, into, along),
+        ]));
     }
     out
 }
@@ -402,17 +584,28 @@ impl LabConfig {
     }
 }
 
+/// One routine of a generated program and how it was made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LabRoutine {
+    pub task: Task,
+    /// Where the work piece stood (world from work piece).
+    pub placement: Isometry3<f64>,
+    /// The part's size, times nominal (1 but for the welding cell's parts).
+    pub size: f64,
+    /// The placed task's waypoints without the user's error.
+    pub nominal: Vec<Pose>,
+}
+
 /// One generated program and how it was made.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LabProgram {
     /// 0-based user.
     pub user: usize,
-    pub task: Task,
-    /// Where the work piece stood (world from work piece).
-    pub placement: Isometry3<f64>,
-    /// The placed task's waypoints without the user's error.
-    pub nominal: Vec<Pose>,
-    /// The program as taught (`nominal` plus the error), with [`LAB_REPO`] as its repository.
+    /// How each routine was made (one per routine of `program`; the seed's and the variant
+    /// labs have one).
+    pub routines: Vec<LabRoutine>,
+    /// The program as taught (each routine's `nominal` plus the error), with [`LAB_REPO`] as
+    /// its repository.
     pub program: Program,
 }
 
@@ -420,51 +613,108 @@ pub struct LabProgram {
 pub fn generate(config: &LabConfig, seed: u64) -> Vec<LabProgram> {
     let width = config.programs.saturating_sub(1).to_string().len().max(2);
     let users = config.users.max(1);
-    let origin = Vector3::from(NOMINAL_ORIGIN_MM);
     (0..config.programs)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(LAB_STREAM.wrapping_add(i as u64));
             let user = i % users;
             let tasks = config.repertoire.tasks();
-            let task = tasks[i % tasks.len()];
-            let mut uniform = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
-            let offset = Vector3::new(uniform(config.offset_mm), uniform(config.offset_mm), 0.0);
-            let yaw = uniform(config.yaw_rad);
-            let placement = Isometry3::from_parts(
-                Translation3::from(origin + offset),
-                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
-            );
-            let nominal: Vec<Pose> = task
-                .waypoints()
-                .iter()
-                .map(|p| Pose::from_isometry(placement * p.isometry()))
-                .collect();
-            let waypoints = nominal
-                .iter()
-                .map(|p| perturb(p, config, &mut rng))
-                .collect();
-            let name = format!("lab{i:0width$}_user{}_{}", user + 1, task.name());
+            let main = tasks[i % tasks.len()];
+            let routines = if config.repertoire == Repertoire::Welding {
+                welding_cell(config, main, &mut rng)
+            } else {
+                let placement = draw_placement(config.offset_mm, config.yaw_rad, &mut rng);
+                vec![place(config, main, placement, 1.0, &mut rng)]
+            };
+            let name = format!("lab{i:0width$}_user{}_{}", user + 1, main.name());
+            let program = Program {
+                source: PathBuf::from(format!("{name}.json")),
+                name,
+                language: LAB_LANGUAGE.into(),
+                repo: Some(LAB_REPO.into()),
+                arm: Some(NamedArm {
+                    designation: LAB_ARM.into(),
+                    found_in: "the seed's online lab (§4.5)".into(),
+                }),
+                routines: routines.iter().map(|(_, r)| r.clone()).collect(),
+            };
             LabProgram {
                 user,
-                task,
-                placement,
-                nominal,
-                program: Program {
-                    source: PathBuf::from(format!("{name}.json")),
-                    name,
-                    language: LAB_LANGUAGE.into(),
-                    repo: Some(LAB_REPO.into()),
-                    arm: Some(NamedArm {
-                        designation: LAB_ARM.into(),
-                        found_in: "the seed's online lab (§4.5)".into(),
-                    }),
-                    routines: vec![Routine {
-                        name: task.name().into(),
-                        waypoints,
-                    }],
-                },
+                routines: routines.into_iter().map(|(part, _)| part).collect(),
+                program,
             }
+        })
+        .collect()
+}
+
+/// A work piece placement as [`LabConfig`] draws it: an offset in x and y within ± `offset_mm`
+/// of [`NOMINAL_ORIGIN_MM`] and a turn about the vertical within ± `yaw_rad`.
+fn draw_placement<R: Rng>(offset_mm: f64, yaw_rad: f64, rng: &mut R) -> Isometry3<f64> {
+    let mut uniform = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
+    let offset = Vector3::new(uniform(offset_mm), uniform(offset_mm), 0.0);
+    let yaw = uniform(yaw_rad);
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(NOMINAL_ORIGIN_MM) + offset),
+        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw),
+    )
+}
+
+/// `task` at `size` placed by `placement` (the welding cell's parts between two visits to
+/// [`HOME_MM`]), and the routine that teaches it with the users' error.
+fn place<R: Rng>(
+    config: &LabConfig,
+    task: Task,
+    placement: Isometry3<f64>,
+    size: f64,
+    rng: &mut R,
+) -> (LabRoutine, Routine) {
+    let mut nominal: Vec<Pose> = task
+        .waypoints_sized(size)
+        .iter()
+        .map(|p| Pose::from_isometry(placement * p.isometry()))
+        .collect();
+    if task.is_welding_cell() {
+        let home = pose(Vector3::from(HOME_MM), tool_down());
+        nominal.insert(0, home);
+        nominal.push(home);
+    }
+    let waypoints = nominal.iter().map(|p| perturb(p, config, rng)).collect();
+    (
+        LabRoutine {
+            task,
+            placement,
+            size,
+            nominal,
+        },
+        Routine {
+            name: task.name().into(),
+            waypoints,
+        },
+    )
+}
+
+/// A welding cell's program ([`Repertoire::Welding`]): [`WELD_STATIONS`] routines, one per
+/// station, each welding a part placed there at its own size; two parts in three are the
+/// program's `main` family, the others one other family drawn for the program.
+fn welding_cell<R: Rng>(config: &LabConfig, main: Task, rng: &mut R) -> Vec<(LabRoutine, Routine)> {
+    let (lo, hi) = WELD_STATIONS;
+    let stations = rng.random_range(lo..=hi);
+    let at = Task::WELDING.iter().position(|t| *t == main).unwrap_or(0);
+    let other =
+        Task::WELDING[(at + rng.random_range(1..Task::WELDING.len())) % Task::WELDING.len()];
+    (0..stations)
+        .map(|k| {
+            let task = if rng.random::<f64>() < 2.0 / 3.0 {
+                main
+            } else {
+                other
+            };
+            let placement = draw_placement(WELD_STATION_OFFSET_MM, WELD_STATION_YAW_RAD, rng);
+            let (s_lo, s_hi) = WELD_SIZE_RANGE;
+            let size = s_lo + (s_hi - s_lo) * rng.random::<f64>();
+            let (part, mut routine) = place(config, task, placement, size, rng);
+            routine.name = format!("station{}_{}", k + 1, task.name());
+            (part, routine)
         })
         .collect()
 }
@@ -498,6 +748,8 @@ pub fn placement_origin(placement: &Isometry3<f64>) -> Point3<f64> {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::HashSet;
+
     use super::*;
 
     #[test]
@@ -570,7 +822,7 @@ mod tests {
             ..LabConfig::default()
         };
         let lab = generate(&config, 1);
-        assert_eq!(lab[2].task, Task::Stitches);
+        assert_eq!(lab[2].routines[0].task, Task::Stitches);
         let check = ReachCheck::new(ReachSetup::default()).unwrap();
         for p in &lab {
             let poses: Vec<Pose> = p.program.poses().copied().collect();
@@ -581,6 +833,62 @@ mod tests {
             assert_eq!(arm.arm.robot, "abb_irb140");
             assert_eq!(arm.arm.reached, poses.len(), "{}", p.program.name);
         }
+    }
+
+    /// The welding cell's programs: 3–5 routines, each from home to home around one part of
+    /// the program's two families, at its own station and size, every seam approached and left
+    /// along the torch; the IRB 140 reaches all of it as the simulation places it.
+    #[test]
+    fn a_welding_cell_welds_parts_of_two_families_at_stations_from_home() {
+        use crate::kinematics::placement::{ReachCheck, ReachSetup};
+        let config = LabConfig {
+            programs: 8,
+            repertoire: Repertoire::Welding,
+            ..LabConfig::default()
+        };
+        let lab = generate(&config, 1);
+        let home = pose(Vector3::from(HOME_MM), tool_down());
+        let check = ReachCheck::new(ReachSetup::default()).unwrap();
+        let mut sizes = Vec::new();
+        for (i, p) in lab.iter().enumerate() {
+            let (lo, hi) = WELD_STATIONS;
+            assert!((lo..=hi).contains(&p.routines.len()), "{}", p.program.name);
+            assert_eq!(p.program.routines.len(), p.routines.len());
+            let families: HashSet<Task> = p.routines.iter().map(|r| r.task).collect();
+            assert!(families.len() <= 2 && families.iter().all(|t| t.is_welding_cell()));
+            assert!(p.program.name.ends_with(Task::WELDING[i % 4].name()));
+            for (r, routine) in p.routines.iter().zip(&p.program.routines) {
+                let w = &routine.waypoints;
+                assert_eq!(w.len(), r.task.waypoints().len() + 2);
+                for end in [&w[0], &w[w.len() - 1]] {
+                    assert!(end.distance_to(&home) < 1e-9 && end.angle_to(&home) < 1e-9);
+                }
+                // Each seam: approach, points, retract; approach and retract stand back along
+                // the torch by the standoff, whatever the size.
+                let (a, s) = (&w[1], &w[2]);
+                let back = s.position() - s.rotation() * Vector3::z() * WELD_STANDOFF_MM;
+                assert!((a.position() - back).norm() < 1e-9);
+                assert!((WELD_SIZE_RANGE.0..=WELD_SIZE_RANGE.1).contains(&r.size));
+                sizes.push(r.size);
+            }
+            let poses: Vec<Pose> = p.program.poses().copied().collect();
+            let arm = check
+                .place(LAB_LANGUAGE, p.program.arm_designation(), &poses)
+                .unwrap()
+                .unwrap();
+            assert_eq!(arm.arm.robot, "abb_irb140");
+            assert_eq!(arm.arm.reached, poses.len(), "{}", p.program.name);
+        }
+        // Parts come in sizes: a seam of a bigger part is longer.
+        sizes.sort_by(f64::total_cmp);
+        assert!(sizes[sizes.len() - 1] - sizes[0] > 0.2, "{sizes:?}");
+        let bracket = |size: f64| Task::Bracket.waypoints_sized(size);
+        let (small, big) = (bracket(0.8), bracket(1.25));
+        assert!(
+            (big[1].distance_to(&big[2]) / small[1].distance_to(&small[2]) - 1.25 / 0.8).abs()
+                < 1e-9
+        );
+        assert!((big[0].distance_to(&big[1]) - WELD_STANDOFF_MM).abs() < 1e-9);
     }
 
     #[test]

@@ -183,6 +183,23 @@ impl OperatorModel {
         m
     }
 
+    /// A joystick operator as [`OperatorModel::online`] (the same person: the same Fitts `k`,
+    /// `a` and `b`) placing waypoints to `repeatability_mm` 3-D RMS instead of 20 mm, the
+    /// rotation error in proportion, and accepting within half their own effective width. For
+    /// checking settings against operators other than the seed's (`simulate --operator-mm`).
+    pub fn online_at(tcp_mm_s: f64, repeatability_mm: f64) -> OperatorModel {
+        let online = OperatorModel::online(tcp_mm_s);
+        let ratio = repeatability_mm / online.repeatability_mm;
+        let mut m = OperatorModel {
+            name: format!("online {repeatability_mm} mm"),
+            repeatability_mm,
+            repeatability_rad: online.repeatability_rad * ratio,
+            ..online
+        };
+        m.accept_mm = 0.5 * m.width_mm();
+        m
+    }
+
     /// An operator placing waypoints to 0.05 mm RMS (arc-welding grade), who accepts a
     /// suggestion within the seed's "useful" tolerance of 1 mm and 0.1 rad (§4.3.1). Same `k`,
     /// `a`, `b` as [`OperatorModel::online`]: only the target width differs.
@@ -403,6 +420,41 @@ mod tests {
                 &pose(450.0, 0.0, 400.0),
             ),
         )
+    }
+
+    /// An operator at another precision is the seed's online operator with the error and the
+    /// tolerance scaled: at 20 mm they are the same, at 5 mm the tolerance is a quarter, and
+    /// their placements scatter by what they were asked (within 10 % over 4,000 draws).
+    #[test]
+    fn an_online_operator_at_another_precision_scales_error_and_tolerance() {
+        let v = JogLimits::default().tcp_mm_s;
+        let online = OperatorModel::online(v);
+        let same = OperatorModel::online_at(v, 20.0);
+        assert_eq!(
+            OperatorModel {
+                name: online.name.clone(),
+                ..same
+            },
+            online
+        );
+        for mm in [5.0, 30.0] {
+            let m = OperatorModel::online_at(v, mm);
+            let ratio = mm / 20.0;
+            assert!((m.accept_mm - online.accept_mm * ratio).abs() < 1e-9);
+            assert!((m.repeatability_rad - online.repeatability_rad * ratio).abs() < 1e-12);
+            assert_eq!(
+                (m.fitts_scale, m.accept_rad),
+                (online.fitts_scale, online.accept_rad)
+            );
+            let target = pose(450.0, 0.0, 400.0);
+            let mut rng = ChaCha8Rng::seed_from_u64(7);
+            let n = 4000;
+            let sq: f64 = (0..n)
+                .map(|_| m.place(&target, &mut rng).distance_to(&target).powi(2))
+                .sum();
+            let rms = (sq / f64::from(n)).sqrt();
+            assert!((rms / mm - 1.0).abs() < 0.1, "{rms} mm for {mm} mm");
+        }
     }
 
     #[test]

@@ -48,11 +48,11 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     // Users and tasks rotate: every program's previous one of the same task is another user's.
     for (i, p) in lab.iter().enumerate() {
         assert_eq!(p.user, i % 3);
-        assert_eq!(p.task, Task::ALL[i % 4]);
+        assert_eq!(p.routines[0].task, Task::ALL[i % 4]);
         assert_eq!(p.program.routines.len(), 1);
         let expected = [13, 6, 10, 10][i % 4];
         assert_eq!(p.program.waypoint_count(), expected, "{}", p.program.name);
-        assert_eq!(p.nominal.len(), expected);
+        assert_eq!(p.routines[0].nominal.len(), expected);
         if i >= 4 {
             assert_ne!(lab[i - 4].user, p.user);
         }
@@ -64,7 +64,7 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     let (mut nominal_sum, mut taught_sum, mut n) = (0.0, 0.0, 0.0);
     for p in &lab {
         let taught = &p.program.routines[0].waypoints;
-        nominal_sum += mean_spacing_mm(&p.nominal) * steps(&p.nominal);
+        nominal_sum += mean_spacing_mm(&p.routines[0].nominal) * steps(&p.routines[0].nominal);
         taught_sum += mean_spacing_mm(taught) * steps(taught);
         n += steps(taught);
     }
@@ -80,21 +80,22 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     // different every time.
     let mut origins = Vec::new();
     for p in &lab {
-        let task = p.task.waypoints();
-        for (a, b) in task.iter().zip(&p.nominal) {
-            let moved = nextpose::engine::Pose::from_isometry(p.placement * a.isometry());
+        let task = p.routines[0].task.waypoints();
+        for (a, b) in task.iter().zip(&p.routines[0].nominal) {
+            let moved =
+                nextpose::engine::Pose::from_isometry(p.routines[0].placement * a.isometry());
             assert!(moved.distance_to(b) < 1e-9 && moved.angle_to(b) < 1e-9);
         }
         for w in 0..task.len() - 1 {
             let d0 = task[w].distance_to(&task[w + 1]);
-            let d1 = p.nominal[w].distance_to(&p.nominal[w + 1]);
+            let d1 = p.routines[0].nominal[w].distance_to(&p.routines[0].nominal[w + 1]);
             assert!((d0 - d1).abs() < 1e-9);
         }
-        let o = lab::placement_origin(&p.placement);
+        let o = lab::placement_origin(&p.routines[0].placement);
         let nominal = lab::NOMINAL_ORIGIN_MM;
         assert!((o.x - nominal[0]).abs() <= lab::PLACEMENT_OFFSET_MM);
         assert!((o.y - nominal[1]).abs() <= lab::PLACEMENT_OFFSET_MM);
-        assert!(p.placement.rotation.angle() <= lab::PLACEMENT_YAW_RAD + 1e-12);
+        assert!(p.routines[0].placement.rotation.angle() <= lab::PLACEMENT_YAW_RAD + 1e-12);
         origins.push(o);
     }
     for i in 0..origins.len() {
@@ -103,8 +104,8 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
             assert!(d > 1.0, "programs {j} and {i} placed {d} mm apart");
         }
     }
-    let same_task = (lab[0].nominal[0].distance_to(&lab[4].nominal[0]))
-        .max(lab[0].nominal[0].angle_to(&lab[4].nominal[0]));
+    let same_task = (lab[0].routines[0].nominal[0].distance_to(&lab[4].routines[0].nominal[0]))
+        .max(lab[0].routines[0].nominal[0].angle_to(&lab[4].routines[0].nominal[0]));
     assert!(same_task > 1.0, "{same_task}");
 
     // Noise: as taught online, the RMS distance of the taught waypoints to the placed task's is
@@ -117,7 +118,11 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     let taught = lab::generate(&config, SEED);
     let (mut d2, mut a2, mut m) = (0.0, 0.0, 0.0);
     for p in &taught {
-        for (t, q) in p.program.routines[0].waypoints.iter().zip(&p.nominal) {
+        for (t, q) in p.program.routines[0]
+            .waypoints
+            .iter()
+            .zip(&p.routines[0].nominal)
+        {
             d2 += t.distance_to(q).powi(2);
             a2 += t.angle_to(q).powi(2);
             m += 1.0;
@@ -136,8 +141,12 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
 
     // The lab as written (the default) is the placed tasks themselves.
     for (e, p) in lab.iter().zip(&taught) {
-        assert_eq!(e.placement, p.placement);
-        for (t, q) in e.program.routines[0].waypoints.iter().zip(&p.nominal) {
+        assert_eq!(e.routines[0].placement, p.routines[0].placement);
+        for (t, q) in e.program.routines[0]
+            .waypoints
+            .iter()
+            .zip(&p.routines[0].nominal)
+        {
             assert!(t.distance_to(q) < 1e-9);
         }
     }
@@ -295,4 +304,60 @@ async fn a_short_simulation_teaches_every_lab_program() {
     let summary = &experiment.summary;
     assert_eq!(summary.len(), plan.conditions.len());
     assert!(summary.iter().all(|s| s.n == programs.len()));
+}
+
+/// `nextpose lab --repertoire welding --users 2` writes the welding cell's programs (several
+/// routines each, the generator recorded with its options), and `nextpose simulate` refuses an
+/// `--operator-mm` it cannot honour before it starts anything.
+#[test]
+fn the_welding_lab_is_written_and_simulate_checks_the_operators_error() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let path = dir.path().to_str().unwrap();
+    let cli = Cli::try_parse_from([
+        "nextpose",
+        "lab",
+        path,
+        "--programs",
+        "3",
+        "--users",
+        "2",
+        "--repertoire",
+        "welding",
+    ])
+    .expect("arguments");
+    run_cli(cli).expect("nextpose lab");
+    let loaded = load_paths(&[dir.path()]).expect("the welding lab loads");
+    assert_eq!(loaded.len(), 3);
+    assert!(loaded.iter().all(|p| p.routines.len() >= 3), "stations");
+    assert!(loaded[2].name.starts_with("lab02_user1_gusset"));
+    let raw: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join(format!("{}.json", loaded[0].name))).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        raw["source"]["generator"],
+        "nextpose lab --seed 1 --programs 3 --users 2 --repertoire welding"
+    );
+    assert_eq!(
+        raw["lab"]["routines"].as_array().map(Vec::len),
+        Some(loaded[0].routines.len())
+    );
+
+    for (extra, says) in [
+        (
+            ["--operator", "precise", "--operator-mm", "5"],
+            "--operator online",
+        ),
+        (
+            ["--operator", "online", "--operator-mm", "0"],
+            "between 0.1 and 200",
+        ),
+    ] {
+        let mut args = vec!["nextpose", "simulate", path, "--seeds", "1"];
+        args.extend(extra);
+        let err = run_cli(Cli::try_parse_from(args).expect("arguments"))
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(says), "{err}");
+    }
 }
