@@ -5,13 +5,13 @@
 //! how the program was made (user, and per routine the task, size and placement; the error);
 //! readers ignore it. `source.generator` is the command that writes the same file again.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 
-use super::write_json;
+use super::{first_json, routines_json, write_json};
 use crate::sim::lab::{self, LAB_REPO, LabConfig, LabProgram};
 
 #[derive(Debug, Args)]
@@ -91,52 +91,13 @@ pub(super) fn run_lab(args: &LabArgs) -> Result<()> {
     Ok(())
 }
 
-fn first_json(dir: &Path) -> Result<Option<PathBuf>> {
-    for entry in
-        std::fs::read_dir(dir).with_context(|| format!("{}: cannot read", dir.display()))?
-    {
-        let path = entry
-            .with_context(|| format!("{}: cannot read", dir.display()))?
-            .path();
-        if path.is_file()
-            && path
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("json"))
-        {
-            return Ok(Some(path));
-        }
-    }
-    Ok(None)
-}
-
 /// One program in the corpus's JSON format.
 fn corpus_json(p: &LabProgram, config: &LabConfig, args: &LabArgs) -> Value {
     let repertoire = args
         .repertoire
         .to_possible_value()
         .map_or_else(String::new, |v| v.get_name().to_owned());
-    let routines: Vec<Value> = p
-        .program
-        .routines
-        .iter()
-        .map(|r| {
-            let waypoints: Vec<Value> = r
-                .waypoints
-                .iter()
-                .enumerate()
-                .map(|(i, w)| {
-                    let v = w.values();
-                    json!({
-                        "name": format!("p{}", 10 * (i + 1)),
-                        "x": v.x, "y": v.y, "z": v.z,
-                        "qw": v.qw, "qx": v.qx, "qy": v.qy, "qz": v.qz,
-                        "motion": if i == 0 { "MoveJ" } else { "MoveL" },
-                    })
-                })
-                .collect();
-            json!({ "name": r.name, "kind": "PROC", "waypoints": waypoints })
-        })
-        .collect();
+    let routines = routines_json(&p.program);
     let parts: Vec<Value> = p
         .routines
         .iter()

@@ -7,6 +7,8 @@
 //! - `import` ([`import`]): offline program files into a cell of a running server.
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
 //! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
+//! - `patterns` ([`patterns`]): pallets, trays and grids as corpus JSON, a tuning and a
+//!   held-out set.
 //! - `layout` ([`layout`]): robot base placements for program files.
 //! - `segment` ([`segment`]): recorded trajectories cut into LDSs and their attractors.
 //! - `openapi`: the REST API's description.
@@ -20,6 +22,7 @@ mod export;
 mod import;
 mod lab;
 mod layout;
+mod patterns;
 mod replay;
 mod segment;
 mod serve;
@@ -27,17 +30,19 @@ mod simulate;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use serde::Serialize;
+use serde_json::{Value, json};
 
 pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
 pub use export::ExportArgs;
 pub use import::ImportArgs;
 pub use lab::LabArgs;
 pub use layout::{LayoutArgs, MountingArg};
+pub use patterns::{PatternsArgs, SetArg};
 pub use replay::{ReplayArgs, SweepArgs};
 pub use segment::{CriterionArg, SegmentArgs};
 pub use serve::ServeArgs;
@@ -76,6 +81,9 @@ pub enum Command {
     /// Write the seed's online lab (4 tasks, 3 users, 44 programs, joystick error) as corpus
     /// JSON files, for `simulate --history repository`.
     Lab(LabArgs),
+    /// Write pallets, machine-tending trays and grids taught by hand (a tuning set, or the
+    /// held-out set) as corpus JSON files, for `replay` and `simulate`.
+    Patterns(PatternsArgs),
     /// Cut recorded TCP trajectories (CSV) into linear dynamical systems; their attractors are
     /// the waypoints hand-guided teaching would append (locally, no server).
     Segment(SegmentArgs),
@@ -96,6 +104,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Export(args) => export::run_export(args),
         Command::Simulate(args) => simulate::run_simulate(&args),
         Command::Lab(args) => lab::run_lab(&args),
+        Command::Patterns(args) => patterns::run_patterns(&args),
         Command::Layout(args) => layout::run_layout(&args),
         Command::Segment(args) => segment::run_segment(&args),
         Command::Openapi => {
@@ -117,4 +126,50 @@ pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
         .and_then(|()| w.flush())
         .with_context(|| format!("{}: cannot write", path.display()))?;
     Ok(())
+}
+
+/// The first `*.json` file in `dir`, if any (the commands that write corpus files refuse a
+/// directory that already holds some).
+pub(crate) fn first_json(dir: &Path) -> Result<Option<PathBuf>> {
+    for entry in
+        std::fs::read_dir(dir).with_context(|| format!("{}: cannot read", dir.display()))?
+    {
+        let path = entry
+            .with_context(|| format!("{}: cannot read", dir.display()))?
+            .path();
+        if path.is_file()
+            && path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
+            return Ok(Some(path));
+        }
+    }
+    Ok(None)
+}
+
+/// A program's routines in the corpus's JSON format (`name`, `kind`, `waypoints[]` with
+/// `x y z qw qx qy qz` and the motion: the first `MoveJ`, the others `MoveL`).
+pub(crate) fn routines_json(program: &crate::program::Program) -> Vec<Value> {
+    program
+        .routines
+        .iter()
+        .map(|r| {
+            let waypoints: Vec<Value> = r
+                .waypoints
+                .iter()
+                .enumerate()
+                .map(|(i, w)| {
+                    let v = w.values();
+                    json!({
+                        "name": format!("p{}", 10 * (i + 1)),
+                        "x": v.x, "y": v.y, "z": v.z,
+                        "qw": v.qw, "qx": v.qx, "qy": v.qy, "qz": v.qz,
+                        "motion": if i == 0 { "MoveJ" } else { "MoveL" },
+                    })
+                })
+                .collect();
+            json!({ "name": r.name, "kind": "PROC", "waypoints": waypoints })
+        })
+        .collect()
 }

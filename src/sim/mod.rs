@@ -12,7 +12,8 @@
 //!   error, and decisions on suggestions (accept, fine-tune, reject), each mapped to the
 //!   feedback the service expects.
 //! - [`lab`]: the seed's online lab (§4.5) as programs: four tasks, three users, work pieces
-//!   placed anew and waypoints taught with a joystick operator's error.
+//!   placed anew and waypoints taught with a joystick operator's error; and a welding cell.
+//! - [`pattern`]: pallets, machine-tending trays and grids, a tuning and a held-out set.
 //! - [`plan`]: the conditions (the seed's φ_min/h rows and our default profile), the arm's
 //!   placement per program, the random stream per waypoint, the per-routine result.
 //! - [`stats`]: mean, standard deviation, Wilcoxon rank-sum test.
@@ -21,6 +22,7 @@
 pub mod arm;
 pub mod lab;
 pub mod operator;
+pub mod pattern;
 pub mod plan;
 pub mod stats;
 pub mod table;

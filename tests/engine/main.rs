@@ -7,5 +7,6 @@
 mod corpus;
 mod lab;
 mod lead_through;
+mod patterns;
 mod simulate;
 mod teacher;
