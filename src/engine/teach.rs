@@ -28,7 +28,7 @@ use super::experts::acceptance::{Acceptance, Verdict};
 use super::experts::calibration::Calibration;
 use super::experts::frames::Tolerance;
 use super::experts::noise::Noise;
-use super::experts::noise::estimate::{NoiseEstimator, Pair};
+use super::experts::noise::estimate::{NoiseEstimator, OpenRoutine, Pair};
 use super::experts::template::TemplateExpert;
 use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
 use super::metric::Metric;
@@ -93,6 +93,8 @@ struct Counted {
     /// made, and whether it was an exact revisit ([`NoiseEstimator::estimate_with`]).
     pairs: Vec<Pair>,
     revisit: bool,
+    /// … and whether it was a return ([`NoiseEstimator::is_return`]).
+    returned: bool,
     /// The cell as it was before the waypoint changed its noise, for undo.
     before: Option<Box<Before>>,
 }
@@ -288,11 +290,13 @@ impl Teacher {
         };
         let n = self.routine.len();
         counted.pairs = e.open_pairs(&self.routine);
-        counted.revisit =
-            !counted.suggested && e.is_revisit(&self.routine[n - 1], &self.routine[..n - 1]);
-        // Only a pair that could be a repeat (or an exact revisit) can change the estimate
-        // much; the others wait for the routine's end (a fit costs more than a prediction).
-        if !counted.revisit && !counted.pairs.iter().any(Pair::could_repeat) {
+        let (pose, before) = (&self.routine[n - 1], &self.routine[..n - 1]);
+        counted.revisit = !counted.suggested && e.is_revisit(pose, before);
+        counted.returned = !counted.suggested && e.is_return(pose, before);
+        // Only a pair that could be a repeat, an exact revisit or a return can change the
+        // estimate much; the others wait for the routine's end (a fit costs more than a
+        // prediction).
+        if !counted.revisit && !counted.returned && !counted.pairs.iter().any(Pair::could_repeat) {
             return;
         }
         let pairs: Vec<Pair> = self
@@ -301,10 +305,17 @@ impl Teacher {
             .chain(std::iter::once(&*counted))
             .flat_map(|c| c.pairs.iter().copied())
             .collect();
-        let revisits =
-            self.outcomes.iter().filter(|c| c.revisit).count() + 1 - usize::from(!counted.revisit);
+        let count = |f: fn(&Counted) -> bool| {
+            self.outcomes.iter().filter(|c| f(c)).count() + usize::from(f(counted))
+        };
+        let open = OpenRoutine {
+            pairs: &pairs,
+            len: n,
+            revisits: count(|c| c.revisit),
+            returns: count(|c| c.returned),
+        };
         let noise = e
-            .estimate_with(&pairs, revisits)
+            .estimate_with(&open)
             .or_else(|| e.estimate())
             .unwrap_or(Noise::EXACT);
         let tolerance = Teacher::tolerance_for(&self.config, &noise, &self.acceptance);
