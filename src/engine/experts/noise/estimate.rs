@@ -764,7 +764,7 @@ pub(crate) mod tests {
     }
 
     /// A 3 × 4 pallet (pick station, then each slot approached, placed, left) as one routine.
-    fn pallet() -> Vec<Pose> {
+    pub(crate) fn pallet() -> Vec<Pose> {
         let down = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
         let at = |x: f64, y: f64, z: f64| {
             Pose::from_isometry(Isometry3::from_parts(Translation3::new(x, y, z), down))
