@@ -62,3 +62,54 @@ fn both_pattern_sets_round_trip_through_load_paths() {
         assert_eq!(before.len(), after.len());
     }
 }
+
+/// The lattice walk (`engine::experts::lattice`, not yet a cell's expert) follows every layer of
+/// the tuning set's pallets, grids and tray: from its slot points alone, once the second row
+/// has two points, each next slot is predicted to within 1e-6 mm (one point into the second
+/// row, the walk waits for the order).
+#[test]
+fn the_lattice_walk_follows_every_layer_of_the_tuning_set() {
+    use nalgebra::Vector3;
+    use nextpose::engine::experts::lattice::LatticeWalk;
+    use nextpose::sim::pattern::Job;
+    for p in pattern::generate(PatternSet::Tuning, 4) {
+        let per = p.spec.job.waypoints_per_item();
+        // The slot's pose within an item: the place, the touch, the raw tray's pick.
+        let slot = match p.spec.job {
+            Job::Palletise => 4,
+            Job::Grid | Job::Tending => 1,
+        };
+        let mut layers: Vec<Vec<Vector3<f64>>> = Vec::new();
+        for r in &p.program.routines {
+            let items = (r.waypoints.len() - 2) / per;
+            for m in 0..items {
+                let at = r.waypoints[1 + m * per + slot].position();
+                match layers.last_mut() {
+                    Some(l) if (l[0].z - at.z).abs() < 1e-6 => l.push(at),
+                    _ => layers.push(vec![at]),
+                }
+            }
+        }
+        assert_eq!(layers.len(), p.spec.counts[2], "{}", p.program.name);
+        let mut predicted = 0;
+        for layer in &layers {
+            let whole = LatticeWalk::fit(layer, 1.0).expect("a layer is a walk");
+            let row = whole.rows.map(|(n, _)| n);
+            for k in 3..layer.len() {
+                let fit = LatticeWalk::fit(&layer[..k], 1.0);
+                if row == Some(k - 1) {
+                    // One point into the second row: the order is not confirmed yet.
+                    assert!(fit.is_none(), "{} after {k}", p.program.name);
+                    continue;
+                }
+                let w = fit.unwrap_or_else(|| panic!("{}: no walk through {k}", p.program.name));
+                if w.rows.is_some() {
+                    let err = (w.next() - layer[k]).norm();
+                    assert!(err < 1e-6, "{} after {k}: {err} mm", p.program.name);
+                    predicted += 1;
+                }
+            }
+        }
+        assert!(predicted > 0, "{}", p.program.name);
+    }
+}

@@ -11,7 +11,8 @@
 //! [`Evidence`]; [`calibration`] turns that evidence into `p_useful`, and learns from every
 //! waypoint taught whether each candidate would have been right; [`acceptance`] reads the
 //! operator's verdicts on what was offered (a rejection counts as wrong, adjustments tighten
-//! the tolerance).
+//! the tolerance). [`lattice`] finds a row or a grid walked point by point (not yet an
+//! expert of the cell: issue 30).
 //!
 //! This file holds what they share and the sequence experts themselves: a [`SequenceExpert`] keeps
 //! the elements of every finished routine (tool-frame moves, work-frame moves or absolute
@@ -26,6 +27,7 @@ pub mod acceptance;
 pub mod alignment;
 pub mod calibration;
 pub mod frames;
+pub mod lattice;
 pub mod noise;
 pub mod template;
 
