@@ -62,8 +62,9 @@ pub struct Prediction {
     /// threshold (null for the seed profile, which uses the model's own gates).
     pub p_useful: Option<f64>,
     /// Who proposed it: `model` (the CDHMM), `tool`, `work` or `absolute` (the sequence
-    /// experts over tool-frame moves, work-frame moves and absolute poses); null for the seed
-    /// profile.
+    /// experts over tool-frame moves, work-frame moves and absolute poses), `template` (an
+    /// earlier stretch placed anew, in a noisy cell) or `lattice` (the next point of a row or
+    /// grid the routine walks); null for the seed profile.
     pub expert: Option<String>,
 }
 

@@ -26,7 +26,8 @@ use super::config::{EngineConfig, OfferRule, PredictOptions};
 use super::error::ConfigError;
 use super::experts::acceptance::{Acceptance, Verdict};
 use super::experts::calibration::Calibration;
-use super::experts::frames::Tolerance;
+use super::experts::frames::{Frame, Tolerance};
+use super::experts::lattice;
 use super::experts::noise::Noise;
 use super::experts::noise::estimate::{NoiseEstimator, OpenRoutine, Pair};
 use super::experts::template::TemplateExpert;
@@ -523,6 +524,10 @@ impl Teacher {
                 .as_ref()
                 .and_then(|t| t.propose(routine, noise, &self.tolerance)),
         );
+        out.extend(lattice::propose(
+            routine,
+            &noise.widen(self.tolerance, Frame::Absolute),
+        ));
         out
     }
 

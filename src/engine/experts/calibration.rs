@@ -88,6 +88,8 @@ pub struct Coarse {
     /// Proposed by the template expert (its guesses average aligned repetitions, so they are
     /// right in other ways than one sequence expert's).
     pub template: bool,
+    /// Proposed by the lattice expert (a walk's next point: right in its own way too).
+    pub lattice: bool,
     /// The model: its gates passed; a sequence expert: every earlier place agrees.
     pub agree: bool,
     pub in_routine: bool,
@@ -101,6 +103,7 @@ impl Coarse {
             Expert::Model => Coarse {
                 model: true,
                 template: false,
+                lattice: false,
                 agree: e.gated_in,
                 in_routine: false,
                 long_context: false,
@@ -109,6 +112,7 @@ impl Coarse {
             _ => Coarse {
                 model: false,
                 template: expert == Expert::Template,
+                lattice: expert == Expert::Lattice,
                 agree: e.agreeing == e.places,
                 in_routine: e.in_routine,
                 long_context: e.context >= 2,
@@ -175,20 +179,20 @@ impl Count {
 /// 89.2 %). Its worth is in noisy cells, where no exact-program prior would fit anyway.
 #[rustfmt::skip]
 pub const PRIOR: &[(Coarse, u32, u32)] = &[
-    (Coarse { model: false, template: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
-    (Coarse { model: false, template: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
-    (Coarse { model: false, template: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
-    (Coarse { model: false, template: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
-    (Coarse { model: false, template: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
-    (Coarse { model: false, template: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
-    (Coarse { model: false, template: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
-    (Coarse { model: false, template: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
-    (Coarse { model: false, template: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
-    (Coarse { model: false, template: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
-    (Coarse { model: false, template: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
-    (Coarse { model: false, template: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
-    (Coarse { model: true, template: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
-    (Coarse { model: true, template: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
+    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
+    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
+    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
+    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
+    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
+    (Coarse { model: true, template: false, lattice: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
+    (Coarse { model: true, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
 ];
 
 /// The chosen candidates' outcomes per band of their first-stage estimate on the same half and

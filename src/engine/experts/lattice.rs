@@ -27,10 +27,61 @@
 //! not, starts a new walk). [`LatticeWalk::next`] is the next point; before the first row ends
 //! it continues the row, and the row's end cannot be known yet.
 //!
-//! Pure: no I/O, no state beyond the fit. Not yet one of the cell's experts: the teacher does not
-//! propose its points (issue 30, the next step).
+//! **The expert** ([`propose`]). A palletising routine repeats its moves item by item, and only
+//! some of them move with the item: the waypoints of one *role* (the slot's approach, the place,
+//! the retract) walk the lattice, the others (the pick station) stay. So for each period `P`
+//! from [`MIN_PERIOD`] to [`MAX_PERIOD`] the waypoints `P`, `2P`, … before the next one are
+//! read as a walk (the newest [`MAX_WALK_POINTS`]); the shortest period whose walk fits
+//! proposes its next point, turned as the waypoint one period back. Its evidence: the walk's
+//! length (as a context) and whether it is a grid yet (two places) or one row (one place, whose
+//! end cannot be seen coming). The cell's calibration learns how often each is right, starting
+//! at one half, as for the template expert.
+//!
+//! Pure: no I/O, no state beyond the fit.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
+
+use super::frames::Tolerance;
+use super::{Candidate, Evidence, Expert};
+use crate::engine::pose::Pose;
+
+/// The shortest period of a routine's items the expert reads (every other waypoint).
+pub const MIN_PERIOD: usize = 2;
+/// The longest (a machine-tending part is 11 waypoints).
+pub const MAX_PERIOD: usize = 12;
+/// The newest points of a role read as a walk (a layer of up to 32 slots; bounds the cost).
+pub const MAX_WALK_POINTS: usize = 32;
+
+/// The lattice expert's candidate for the waypoint after `routine` (module doc, "The expert"),
+/// with steps matched within `tolerance`.
+pub fn propose(routine: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
+    let n = routine.len();
+    (MIN_PERIOD..=MAX_PERIOD).find_map(|period| {
+        let mut role: Vec<Vector3<f64>> = (1..=MAX_WALK_POINTS)
+            .map_while(|k| n.checked_sub(k * period))
+            .map(|i| routine[i].position())
+            .collect();
+        role.reverse();
+        let (start, walk) = LatticeWalk::fit_tail(&role, tolerance.mm)?;
+        let points = role.len() - start;
+        let last = &routine[n - period];
+        let pose = Pose::from_isometry(Isometry3::from_parts(
+            Translation3::from(walk.next()),
+            last.rotation(),
+        ));
+        Some(Candidate {
+            expert: Expert::Lattice,
+            pose,
+            evidence: Evidence {
+                context: points.min(8),
+                places: if walk.rows.is_some() { 2 } else { 1 },
+                agreeing: if walk.rows.is_some() { 2 } else { 1 },
+                in_routine: true,
+                gated_in: false,
+            },
+        })
+    })
+}
 
 /// How a walk goes from row to row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -314,6 +365,67 @@ mod tests {
         predicts_the_rest(&taught, &meant, 3.0, 2.5, 7);
         let w = LatticeWalk::fit(&taught, 3.0).unwrap();
         assert!(w.rms_mm < 1.0 && w.rms_mm > 0.1, "{}", w.rms_mm);
+    }
+
+    /// A 3 × 4 pallet as one routine: per item the pick station's approach, pick and retract,
+    /// then the slot's approach, place and retract.
+    fn pallet() -> Vec<Pose> {
+        let down = nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
+        let at = |x: f64, y: f64, z: f64| {
+            Pose::from_isometry(Isometry3::from_parts(Translation3::new(x, y, z), down))
+        };
+        let mut out = Vec::new();
+        for row in 0..4 {
+            for col in 0..3 {
+                let (x, y) = (
+                    900.0 + 200.0 * f64::from(col),
+                    -300.0 + 250.0 * f64::from(row),
+                );
+                out.extend([
+                    at(600.0, -700.0, 550.0),
+                    at(600.0, -700.0, 400.0),
+                    at(600.0, -700.0, 550.0),
+                    at(x, y, 350.0),
+                    at(x, y, 200.0),
+                    at(x, y, 350.0),
+                ]);
+            }
+        }
+        out
+    }
+
+    /// The expert reads the slot's waypoints as walks with the item's period: once the second
+    /// row has two items, it proposes every later slot approach, place and retract exactly, as
+    /// a grid (two places); the pick station, which does not move, it leaves to the others.
+    #[test]
+    fn the_expert_proposes_each_slot_waypoint_of_a_pallet() {
+        let routine = pallet();
+        let tol = Tolerance { mm: 1.0, rad: 0.1 };
+        let mut proposed = 0;
+        for n in 30..routine.len() {
+            let slot_role = n % 6 >= 3;
+            let c = propose(&routine[..n], &tol);
+            if slot_role {
+                let c = c.unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
+                assert_eq!(c.expert, Expert::Lattice);
+                assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
+                assert!(c.pose.angle_to(&routine[n]) < 1e-9);
+                assert_eq!(c.evidence.places, 2);
+                proposed += 1;
+            } else if let Some(c) = c {
+                assert!(
+                    c.pose.distance_to(&routine[n]) > 1.0,
+                    "a pick at {n} read as a walk"
+                );
+            }
+        }
+        assert_eq!(proposed, 21);
+        // After the first row of three, one place: the row goes on (its end could not be seen
+        // coming), 200 mm on from its last slot.
+        let c = propose(&routine[..21], &tol).expect("a row of three");
+        assert_eq!(c.evidence.places, 1);
+        let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
+        assert!((c.pose.position() - on).norm() < 1e-6);
     }
 
     /// A pattern that stops early and goes elsewhere is a walk up to where it stops, not after;

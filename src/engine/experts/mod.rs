@@ -11,8 +11,7 @@
 //! [`Evidence`]; [`calibration`] turns that evidence into `p_useful`, and learns from every
 //! waypoint taught whether each candidate would have been right; [`acceptance`] reads the
 //! operator's verdicts on what was offered (a rejection counts as wrong, adjustments tighten
-//! the tolerance). [`lattice`] finds a row or a grid walked point by point (not yet an
-//! expert of the cell: issue 30).
+//! the tolerance). [`lattice`] proposes the next point of a row or a grid the routine walks.
 //!
 //! This file holds what they share and the sequence experts themselves: a [`SequenceExpert`] keeps
 //! the elements of every finished routine (tool-frame moves, work-frame moves or absolute
@@ -56,15 +55,18 @@ pub enum Expert {
     /// An earlier stretch of waypoints placed anew by one rigid transform
     /// ([`template`]).
     Template,
+    /// The next point of a row or grid the routine walks ([`lattice`]).
+    Lattice,
 }
 
 impl Expert {
-    pub const ALL: [Expert; 5] = [
+    pub const ALL: [Expert; 6] = [
         Expert::Model,
         Expert::Tool,
         Expert::Work,
         Expert::Absolute,
         Expert::Template,
+        Expert::Lattice,
     ];
 
     pub fn name(self) -> &'static str {
@@ -74,6 +76,7 @@ impl Expert {
             Expert::Work => "work",
             Expert::Absolute => "absolute",
             Expert::Template => "template",
+            Expert::Lattice => "lattice",
         }
     }
 
