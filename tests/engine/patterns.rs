@@ -63,7 +63,7 @@ fn both_pattern_sets_round_trip_through_load_paths() {
     }
 }
 
-/// The lattice walk (`engine::experts::lattice`, not yet a cell's expert) follows every layer of
+/// The lattice walk (`engine::experts::lattice`, read by the lattice expert) follows every layer of
 /// the tuning set's pallets, grids and tray: from its slot points alone, once the second row
 /// has two points, each next slot is predicted to within 1e-6 mm (one point into the second
 /// row, the walk waits for the order).
