@@ -418,7 +418,7 @@ fn frame(size: f64) -> Vec<Pose> {
 }
 
 /// The tool pointing straight down (its z axis along −z of the work piece).
-fn tool_down() -> UnitQuaternion<f64> {
+pub(super) fn tool_down() -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI)
 }
 
@@ -436,7 +436,8 @@ fn turned(poses: Vec<Pose>, angle: f64) -> Vec<Pose> {
         .collect()
 }
 
-fn pose(p: Vector3<f64>, q: UnitQuaternion<f64>) -> Pose {
+/// A pose from a position and a rotation.
+pub(super) fn pose(p: Vector3<f64>, q: UnitQuaternion<f64>) -> Pose {
     Pose::from_isometry(Isometry3::from_parts(Translation3::from(p), q))
 }
 

@@ -36,6 +36,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use super::lab::{pose, tool_down};
 use crate::engine::Pose;
 use crate::program::{NamedArm, Program, Routine};
 
@@ -462,14 +463,6 @@ pub fn generate(set: PatternSet, seed: u64) -> Vec<PatternProgram> {
             }
         })
         .collect()
-}
-
-fn tool_down() -> UnitQuaternion<f64> {
-    UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI)
-}
-
-fn pose(p: Vector3<f64>, q: UnitQuaternion<f64>) -> Pose {
-    Pose::from_isometry(Isometry3::from_parts(Translation3::from(p), q))
 }
 
 #[cfg(test)]

@@ -367,39 +367,14 @@ mod tests {
         assert!(w.rms_mm < 1.0 && w.rms_mm > 0.1, "{}", w.rms_mm);
     }
 
-    /// A 3 × 4 pallet as one routine: per item the pick station's approach, pick and retract,
-    /// then the slot's approach, place and retract.
-    fn pallet() -> Vec<Pose> {
-        let down = nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
-        let at = |x: f64, y: f64, z: f64| {
-            Pose::from_isometry(Isometry3::from_parts(Translation3::new(x, y, z), down))
-        };
-        let mut out = Vec::new();
-        for row in 0..4 {
-            for col in 0..3 {
-                let (x, y) = (
-                    900.0 + 200.0 * f64::from(col),
-                    -300.0 + 250.0 * f64::from(row),
-                );
-                out.extend([
-                    at(600.0, -700.0, 550.0),
-                    at(600.0, -700.0, 400.0),
-                    at(600.0, -700.0, 550.0),
-                    at(x, y, 350.0),
-                    at(x, y, 200.0),
-                    at(x, y, 350.0),
-                ]);
-            }
-        }
-        out
-    }
-
     /// The expert reads the slot's waypoints as walks with the item's period: once the second
     /// row has two items, it proposes every later slot approach, place and retract exactly, as
     /// a grid (two places); the pick station, which does not move, it leaves to the others.
     #[test]
     fn the_expert_proposes_each_slot_waypoint_of_a_pallet() {
-        let routine = pallet();
+        // A 3 × 4 pallet as one routine: per item the pick station's approach, pick and
+        // retract, then the slot's approach, place and retract.
+        let routine = crate::engine::experts::noise::estimate::tests::pallet();
         let tol = Tolerance { mm: 1.0, rad: 0.1 };
         let mut proposed = 0;
         for n in 30..routine.len() {
