@@ -958,10 +958,9 @@ mod tests {
     /// routine (three routines would otherwise be waited for), and the tolerance follows it.
     /// Taught the same pallet exactly, the cell stays exact throughout.
     ///
-    /// Measured 2026-12-05 (not asserted): the noise shows at waypoint 48–63 of 72, reads
-    /// 14–17 mm for 11.5 (the stretches hold the slots' shifts too), and 6 of the 17 offers made
-    /// over the three seeds are within what the operator takes as is: a pallet is finished by
-    /// suggestions only with issue 30's lattice expert.
+    /// Measured 2026-12-05 (not asserted): the noise shows at waypoint 48–63 of 72 and reads
+    /// 14–17 mm for 11.5 (the stretches hold the slots' shifts too); before the lattice expert,
+    /// 6 of the 17 offers made over the three seeds were within what the operator takes as is.
     #[test]
     fn a_pallet_taught_by_hand_in_the_first_routine_shows_its_noise_within_it() {
         use crate::engine::experts::noise::estimate::tests::pallet;
