@@ -32,11 +32,11 @@
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::PathBuf;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use rand::{Rng, SeedableRng};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::lab::{pose, tool_down};
+use super::lab::{draw_placement, pose, tool_down};
 use crate::engine::Pose;
 use crate::program::{NamedArm, Program, Routine};
 
@@ -423,15 +423,11 @@ pub fn generate(set: PatternSet, seed: u64) -> Vec<PatternProgram> {
         .map(|(i, spec)| {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             rng.set_stream(PATTERN_STREAM.wrapping_add(i as u64));
-            let mut uniform = |half: f64| half * (2.0 * rng.random::<f64>() - 1.0);
-            let offset = Vector3::new(
-                uniform(PLACEMENT_OFFSET_MM),
-                uniform(PLACEMENT_OFFSET_MM),
-                0.0,
-            );
-            let placement = Isometry3::from_parts(
-                Translation3::from(offset),
-                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), uniform(PLACEMENT_YAW_RAD)),
+            let placement = draw_placement(
+                Vector3::zeros(),
+                PLACEMENT_OFFSET_MM,
+                PLACEMENT_YAW_RAD,
+                &mut rng,
             );
             let name = format!("{i:02}_{}", spec.name());
             let routines = spec
