@@ -8,7 +8,8 @@
 //!
 //! `cargo run --release --example calibration_prior -- FILES…` (docs/results/scoreboard.md,
 //! "The offer threshold by halves", says which half of the shared corpus the engine's table was
-//! measured on).
+//! measured on). The lattice expert's rows (`lattice: true`) of `LATTICE_PRIOR` are counted the
+//! same way on the pattern tuning set (`nextpose patterns DIR --set tuning`).
 
 use std::collections::BTreeMap;
 
@@ -43,9 +44,11 @@ fn main() -> anyhow::Result<()> {
     println!("pub const PRIOR: &[(Coarse, u32, u32)] = &[");
     for (k, c) in total {
         println!(
-            "    (Coarse {{ model: {}, template: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
+            "    (Coarse {{ model: {}, template: {}, lattice: {}, station: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
             k.model,
             k.template,
+            k.lattice,
+            k.station,
             k.agree,
             k.in_routine,
             k.long_context,

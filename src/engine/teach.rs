@@ -41,6 +41,9 @@ pub struct Teacher {
     config: EngineConfig,
     graph: ObservationGraph,
     routine: Vec<Pose>,
+    /// The last finished routine of two waypoints or more (the lattice expert reads the layers
+    /// it laid).
+    previous: Vec<Pose>,
     moves: Vec<Observation>,
     /// Moves of the current routine already assimilated (within-routine learning only).
     assimilated: usize,
@@ -133,6 +136,7 @@ impl Teacher {
             config,
             graph,
             routine: Vec::new(),
+            previous: Vec::new(),
             moves: Vec::new(),
             assimilated: 0,
             experts: SequenceExpert::all(),
@@ -526,6 +530,7 @@ impl Teacher {
         );
         out.extend(lattice::propose(
             routine,
+            &self.previous,
             &noise.widen(self.tolerance, Frame::Absolute),
         ));
         out
@@ -707,6 +712,9 @@ impl Teacher {
             }
         }
         self.graph.end_routine();
+        if self.routine.len() >= 2 {
+            self.previous = std::mem::take(&mut self.routine);
+        }
         self.routine.clear();
         self.moves.clear();
         self.assimilated = 0;

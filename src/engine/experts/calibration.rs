@@ -90,6 +90,8 @@ pub struct Coarse {
     pub template: bool,
     /// Proposed by the lattice expert (a walk's next point: right in its own way too).
     pub lattice: bool,
+    /// … as the station its items keep returning to ([`super::lattice::STATION`]).
+    pub station: bool,
     /// The model: its gates passed; a sequence expert: every earlier place agrees.
     pub agree: bool,
     pub in_routine: bool,
@@ -104,6 +106,7 @@ impl Coarse {
                 model: true,
                 template: false,
                 lattice: false,
+                station: false,
                 agree: e.gated_in,
                 in_routine: false,
                 long_context: false,
@@ -113,6 +116,7 @@ impl Coarse {
                 model: false,
                 template: expert == Expert::Template,
                 lattice: expert == Expert::Lattice,
+                station: expert == Expert::Lattice && e.places == super::lattice::STATION,
                 agree: e.agreeing == e.places,
                 in_routine: e.in_routine,
                 long_context: e.context >= 2,
@@ -179,20 +183,20 @@ impl Count {
 /// 89.2 %). Its worth is in noisy cells, where no exact-program prior would fit anyway.
 #[rustfmt::skip]
 pub const PRIOR: &[(Coarse, u32, u32)] = &[
-    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
-    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
-    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
-    (Coarse { model: false, template: false, lattice: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
-    (Coarse { model: false, template: false, lattice: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
-    (Coarse { model: true, template: false, lattice: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
-    (Coarse { model: true, template: false, lattice: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
+    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
+    (Coarse { model: true, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
+    (Coarse { model: true, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
 ];
 
 /// The chosen candidates' outcomes per band of their first-stage estimate on the same half and
@@ -203,9 +207,23 @@ pub const CHOSEN_PRIOR: [(u32, u32); 12] = [
     (20, 10), (21, 13), (31, 20), (51, 38), (91, 81), (274, 264),
 ];
 
+/// The lattice expert's coarse classes' counts on the pattern tuning set (`nextpose patterns
+/// DIR --set tuning`, the six programs of seed 1), taught through the default profile as for
+/// [`PRIOR`]: a new row only the layer's own rows foretell (not agreeing), one row going on
+/// (one place), a walk's next point on a grid or a layer laid like one before (several places),
+/// a station. The held-out set is never counted.
+#[rustfmt::skip]
+pub const LATTICE_PRIOR: &[(Coarse, u32, u32)] = &[
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 56, 44),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 28, 9),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 200, 200),
+    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: true, several_places: true }, 247, 225),
+];
+
 fn prior(c: &Coarse) -> f64 {
     PRIOR
         .iter()
+        .chain(LATTICE_PRIOR)
         .find(|(k, _, _)| k == c)
         .map_or(0.5, |(_, n, u)| {
             (f64::from(*u) + 1.0) / (f64::from(*n) + 2.0)

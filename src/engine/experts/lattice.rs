@@ -23,21 +23,40 @@
 //!    evidence.
 //!
 //! A sequence that breaks the walk anywhere is not a lattice walk ([`LatticeWalk::fit`] gives
-//! `None`); [`LatticeWalk::fit_tail`] finds the longest tail that is one (a new layer, turned or
+//! `None`); [`LatticeWalk::fit_prefix`] gives the longest prefix that is one, and
+//! [`LatticeWalk::layers`] cuts a sequence into walks where each breaks (a new layer, turned or
 //! not, starts a new walk). [`LatticeWalk::next`] is the next point; before the first row ends
 //! it continues the row, and the row's end cannot be known yet.
+//!
+//! **Layers laid like the one before.** A walk that follows a layer of at least
+//! [`MIN_LAYER_POINTS`] is read as laid like it: once its first row is as long as that layer's
+//! rows at the same pitch, or (the boxes turned a quarter, the pitches swapped) as long as that
+//! layer had rows at its row pitch, it goes on to the next row as that layer did, before its
+//! own second row shows the way; two points at one of that layer's pitches already start it;
+//! and it is complete when it has as many points. Only the second row's first point, without a
+//! layer before, guesses the order (how far back along the row it lies).
 //!
 //! **The expert** ([`propose`]). A palletising routine repeats its moves item by item, and only
 //! some of them move with the item: the waypoints of one *role* (the slot's approach, the place,
 //! the retract) walk the lattice, the others (the pick station) stay. So for each period `P`
 //! from [`MIN_PERIOD`] to [`MAX_PERIOD`] the waypoints `P`, `2P`, … before the next one are
-//! read as a walk (the newest [`MAX_WALK_POINTS`]); the shortest period whose walk fits
-//! proposes its next point, turned as the waypoint one period back. Its evidence: the walk's
-//! length (as a context) and whether it is a grid yet (two places) or one row (one place, whose
-//! end cannot be seen coming). The cell's calibration learns how often each is right, starting
-//! at one half, as for the template expert.
+//! read (the newest [`MAX_WALK_POINTS`]): a role whose newest [`MIN_POINTS`] or more are one
+//! place is a *station*, proposed again; else the role's last layer, when it ends at the newest
+//! point, proposes its next point, turned as the waypoint one period back. The shortest period
+//! that gives either wins. The layer before is the role's own, or (a routine per layer) a layer
+//! of the previous routine's roles of the same period. Where the pattern ends: once a layer is
+//! complete, nothing of that period or a longer one is proposed, and a station is not proposed
+//! once another role of its items has completed its layer (the routine goes on elsewhere). The
+//! first layer's end cannot be known: the cell's outcomes (below) learn how often its new rows
+//! hold.
 //!
-//! Pure: no I/O, no state beyond the fit.
+//! Its evidence: the walk's length (as a context); a station ([`STATION`] places), a grid or a
+//! layer laid like one before (two places), one row (one place); a new row only the layer's own
+//! rows foretell, or the guessed order, does not agree. The calibration starts each class from
+//! its counts on the pattern tuning set (`calibration::LATTICE_PRIOR`) and learns the cell's
+//! own outcomes.
+//!
+//! Pure: no I/O; the expert reads the routine being taught and the previous one.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 
@@ -50,37 +69,160 @@ pub const MIN_PERIOD: usize = 2;
 /// The longest (a machine-tending part is 11 waypoints).
 pub const MAX_PERIOD: usize = 12;
 /// The newest points of a role read as a walk (a layer of up to 32 slots; bounds the cost).
-pub const MAX_WALK_POINTS: usize = 32;
+pub const MAX_WALK_POINTS: usize = 48;
 
 /// The lattice expert's candidate for the waypoint after `routine` (module doc, "The expert"),
 /// with steps matched within `tolerance`.
-pub fn propose(routine: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
+pub fn propose(routine: &[Pose], previous: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
     let n = routine.len();
-    (MIN_PERIOD..=MAX_PERIOD).find_map(|period| {
-        let mut role: Vec<Vector3<f64>> = (1..=MAX_WALK_POINTS)
-            .map_while(|k| n.checked_sub(k * period))
-            .map(|i| routine[i].position())
-            .collect();
-        role.reverse();
-        let (start, walk) = LatticeWalk::fit_tail(&role, tolerance.mm)?;
-        let points = role.len() - start;
+    let tol = tolerance.mm;
+    for period in MIN_PERIOD..=MAX_PERIOD.min(n) {
+        let role = role_points(routine, period, period);
         let last = &routine[n - period];
-        let pose = Pose::from_isometry(Isometry3::from_parts(
-            Translation3::from(walk.next()),
-            last.rotation(),
-        ));
-        Some(Candidate {
+        let candidate = |position: Vector3<f64>, evidence: Evidence| Candidate {
             expert: Expert::Lattice,
-            pose,
-            evidence: Evidence {
-                context: points.min(8),
-                places: if walk.rows.is_some() { 2 } else { 1 },
-                agreeing: if walk.rows.is_some() { 2 } else { 1 },
+            pose: Pose::from_isometry(Isometry3::from_parts(
+                Translation3::from(position),
+                last.rotation(),
+            )),
+            evidence,
+        };
+        if let Some(visits) = station(&role, tol) {
+            // The role stays: the station it keeps returning to — unless a role of the same
+            // items has just completed its layer (the pattern is done; the routine goes on
+            // elsewhere).
+            if (1..period).any(|back| {
+                Layer::of(&role_points(routine, period, back), tol, previous, period)
+                    .is_some_and(|l| l.complete())
+            }) {
+                return None;
+            }
+            return Some(candidate(
+                last.position(),
+                Evidence {
+                    context: visits.min(8),
+                    places: STATION,
+                    agreeing: STATION,
+                    in_routine: true,
+                    gated_in: false,
+                },
+            ));
+        }
+        let Some(layer) = Layer::of(&role, tol, previous, period) else {
+            continue;
+        };
+        if layer.complete() {
+            // Nothing of this period is proposed, and no longer period either (its walk would
+            // skip items).
+            return None;
+        }
+        let walk = &layer.walk;
+        let places = if walk.rows.is_some() { 2 } else { 1 };
+        // A new row that only this layer's own rows foretell, and the second row's way guessed
+        // from its first point, are guesses of their own class: the pattern may have ended
+        // there, or gone the other way.
+        let agreeing = if (walk.starts_row() || walk.guessed) && layer.before.is_none() {
+            places - 1
+        } else {
+            places
+        };
+        return Some(candidate(
+            walk.next(),
+            Evidence {
+                context: walk.indices.len().min(8),
+                places,
+                agreeing,
                 in_routine: true,
                 gated_in: false,
             },
-        })
-    })
+        ));
+    }
+    None
+}
+
+/// The positions of one role of a routine's items of `period` waypoints, oldest first: the
+/// waypoints `back`, `back + period`, … before the next one (the newest [`MAX_WALK_POINTS`]).
+fn role_points(routine: &[Pose], period: usize, back: usize) -> Vec<Vector3<f64>> {
+    let n = routine.len();
+    let mut role: Vec<Vector3<f64>> = (0..MAX_WALK_POINTS)
+        .map_while(|k| n.checked_sub(back + k * period))
+        .map(|i| routine[i].position())
+        .collect();
+    role.reverse();
+    role
+}
+
+/// The layer a role's newest point is on, and the number of points of the layer before it.
+struct Layer {
+    walk: LatticeWalk,
+    /// Points of the layer before (walked in rows), if there is one.
+    before: Option<usize>,
+}
+
+impl Layer {
+    /// The role's last layer ([`LatticeWalk::layers`]) when it ends at the newest point. The
+    /// layer before it is the role's layer before, else the newest layer of the `previous`
+    /// routine's roles of the same `period` this one is laid like (a routine per layer).
+    fn of(points: &[Vector3<f64>], tol: f64, previous: &[Pose], period: usize) -> Option<Layer> {
+        let own = Layer::last(points, tol, None);
+        if own.as_ref().is_none_or(|l| l.before.is_none()) {
+            // A layer of the previous routine this one is laid like (a routine per layer).
+            for back in 1..=period.min(previous.len()) {
+                let earlier = LatticeWalk::layers(&role_points(previous, period, back), tol, None);
+                for (_, e) in earlier.iter().rev().filter(|(_, e)| e.is_a_layer()) {
+                    if let Some(laid) = Layer::last(points, tol, Some(e))
+                        && laid.before.is_some()
+                    {
+                        return Some(laid);
+                    }
+                }
+            }
+        }
+        own
+    }
+
+    /// The last of `points`' layers when it ends at the newest point, with the layer before it:
+    /// the one before it in `points`, else `earlier` when the first layer was laid like it.
+    fn last(points: &[Vector3<f64>], tol: f64, earlier: Option<&LatticeWalk>) -> Option<Layer> {
+        let mut layers = LatticeWalk::layers(points, tol, earlier);
+        let (start, walk) = layers.pop()?;
+        if start + walk.indices.len() != points.len() {
+            return None;
+        }
+        let before = match layers.last() {
+            Some((s, w)) if w.is_a_layer() && s + w.indices.len() == start => Some(w.indices.len()),
+            Some(_) => None,
+            None => earlier
+                .filter(|e| {
+                    [e.a.norm(), e.b.norm()]
+                        .iter()
+                        .any(|p| (p - walk.a.norm()).abs() <= tol)
+                })
+                .map(|e| e.indices.len()),
+        };
+        Some(Layer { walk, before })
+    }
+
+    /// As many points as the layer before: the layer is done.
+    fn complete(&self) -> bool {
+        self.before.is_some_and(|b| self.walk.indices.len() >= b)
+    }
+}
+
+/// The evidence's `places` of a station (a role that does not move), beside a row's 1 and a
+/// grid's 2.
+pub const STATION: usize = 3;
+
+/// How many of the newest `points` are one place (within `tol` of the newest), when at least
+/// [`MIN_POINTS`] are: the pick station of a pallet, returned to item after item.
+fn station(points: &[Vector3<f64>], tol: f64) -> Option<usize> {
+    let newest = points.last()?;
+    let visits = points
+        .iter()
+        .rev()
+        .take_while(|p| (*p - newest).norm() <= tol)
+        .count();
+    (visits >= MIN_POINTS).then_some(visits)
 }
 
 /// How a walk goes from row to row.
@@ -103,6 +245,8 @@ pub struct LatticeWalk {
     /// Points per row and the order, once the first row has ended and the second row has two
     /// points (`None`: one row so far).
     pub rows: Option<(usize, Order)>,
+    /// The order is a guess: the second row has one point so far ([`LatticeWalk::fit_prefix`]).
+    pub guessed: bool,
     /// Each point's `(i, j)`.
     pub indices: Vec<(i64, i64)>,
     /// RMS distance of the points from their fitted lattice positions, mm.
@@ -112,10 +256,27 @@ pub struct LatticeWalk {
 /// The fewest points a walk is fitted to: two steps that agree.
 pub const MIN_POINTS: usize = 3;
 
+/// The fewest points of a layer a later walk is laid like (two rows of three).
+pub const MIN_LAYER_POINTS: usize = 6;
+
 impl LatticeWalk {
     /// The walk through all of `points` (module doc), or `None` if they are not one.
     pub fn fit(points: &[Vector3<f64>], tol: f64) -> Option<LatticeWalk> {
-        if points.len() < MIN_POINTS {
+        LatticeWalk::fit_prefix(points, tol, None)
+            .filter(|(k, w)| *k == points.len() && !w.guessed)
+            .map(|(_, w)| w)
+    }
+
+    /// The walk through the longest prefix of `points` that is one (at least [`MIN_POINTS`];
+    /// two at a pitch of `earlier`), with its length. With `earlier` (the layer before, in rows), a first row as long as its
+    /// rows, at its pitch, goes on to the next row as it did (its order, its row pitch turned
+    /// as this row is turned from its rows): a new layer laid like the one before.
+    pub fn fit_prefix(
+        points: &[Vector3<f64>],
+        tol: f64,
+        earlier: Option<&LatticeWalk>,
+    ) -> Option<(usize, LatticeWalk)> {
+        if points.len() < 2 {
             return None;
         }
         let a = points[1] - points[0];
@@ -123,70 +284,153 @@ impl LatticeWalk {
             return None;
         }
         let near = |d: &Vector3<f64>, want: &Vector3<f64>| (d - want).norm() <= tol;
+        // Two points are a walk only as the start of a layer at a pitch of the one before.
+        let fewest = match earlier {
+            Some(e)
+                if [e.a.norm(), e.b.norm()]
+                    .iter()
+                    .any(|p| (p - a.norm()).abs() <= tol) =>
+            {
+                2
+            }
+            _ => MIN_POINTS,
+        };
         // The first row: the steps that repeat `a`.
         let mut n = 1;
         while n < points.len() && near(&(points[n] - points[n - 1]), &a) {
             n += 1;
         }
         let mut indices: Vec<(i64, i64)> = (0..n as i64).map(|i| (i, 0)).collect();
-        if n == 2 && points.len() == 3 {
-            // Two steps that differ: nothing repeats yet.
-            return None;
-        }
+        let laid = earlier.and_then(|e| e.laid_on(n, &a, tol));
+        // The row change and the step after it, which must repeat `a` one way or the other (a
+        // row change alone is any turn of a path): the order they show, else the one laid
+        // before, else (the second row's first point alone) a guess from how far back along
+        // the row it is (a serpentine walk turns at the row's end, a raster walk goes back to
+        // its start).
+        let mut guessed = false;
+        let change = points.get(n).map(|p| p - points[n - 1]);
+        let shown = match (change, points.get(n + 1).map(|p| p - points[n])) {
+            (Some(c), _) if c.norm() <= 2.0 * tol => None,
+            (Some(c), Some(d)) if near(&d, &a) => Some((Order::Raster, c + a * (n as f64 - 1.0))),
+            (Some(c), Some(d)) if near(&d, &(-a)) => Some((Order::Serpentine, c)),
+            _ => None,
+        };
+        let setup = match (shown, laid, change) {
+            (Some(s), _, _) => Some(s),
+            (None, Some(l), _) => Some(l),
+            (None, None, Some(c)) if n >= MIN_POINTS && n + 1 == points.len() => {
+                guessed = true;
+                let back = -c.dot(&a) / a.norm_squared();
+                Some(if back > (n as f64 - 1.0) / 2.0 {
+                    (Order::Raster, c + a * (n as f64 - 1.0))
+                } else {
+                    (Order::Serpentine, c)
+                })
+            }
+            _ => None,
+        };
         let (mut rows, mut b) = (None, Vector3::zeros());
-        if n < points.len() {
-            // The row change, then the order from the step after it, which must repeat `a` one
-            // way or the other (a row change alone is any turn of a path).
-            let change = points[n] - points[n - 1];
-            if change.norm() <= 2.0 * tol {
-                return None;
-            }
-            let last = n as i64 - 1;
-            let (o, j0) = match points.get(n + 1).map(|p| p - points[n]) {
-                Some(d) if near(&d, &a) => (Order::Raster, (0, 1)),
-                Some(d) if near(&d, &(-a)) => (Order::Serpentine, (last, 1)),
-                _ => return None,
-            };
-            rows = Some((n, o));
-            b = match o {
-                Order::Raster => change + a * (n as f64 - 1.0),
-                Order::Serpentine => change,
-            };
-            if b.norm() <= 2.0 * tol || b.cross(&a).norm() <= tol * a.norm() {
-                return None;
-            }
+        if let Some((order, pitch)) = setup
+            && pitch.norm() > 2.0 * tol
+            && pitch.cross(&a).norm() > tol * a.norm()
+        {
+            rows = Some((n, order));
+            b = pitch;
             // The rest must be where the walk puts it.
-            let mut at = j0;
-            indices.push(at);
-            for k in n + 1..points.len() {
-                at = step(at, n, o);
+            let mut at = (n as i64 - 1, 0);
+            for k in n..points.len() {
+                at = step(at, n, order);
                 let want = points[0] + a * at.0 as f64 + b * at.1 as f64;
                 // Each point against the one before plus the pitch, so noise does not add up.
                 let prev = indices[k - 1];
                 let from = points[k - 1] + a * (at.0 - prev.0) as f64 + b * (at.1 - prev.1) as f64;
                 if (points[k] - from).norm() > tol && (points[k] - want).norm() > 2.0 * tol {
-                    return None;
+                    break;
                 }
                 indices.push(at);
             }
+        }
+        let k = indices.len();
+        if k < fewest {
+            return None;
         }
         let mut walk = LatticeWalk {
             origin: points[0],
             a,
             b,
             rows,
+            guessed: guessed && rows.is_some(),
             indices,
             rms_mm: 0.0,
         };
-        walk.refine(points);
-        Some(walk)
+        walk.refine(&points[..k]);
+        Some((k, walk))
     }
 
-    /// The walk through the longest tail of `points` that is one (at least [`MIN_POINTS`]),
-    /// with the index in `points` where it starts.
-    pub fn fit_tail(points: &[Vector3<f64>], tol: f64) -> Option<(usize, LatticeWalk)> {
-        (0..=points.len().saturating_sub(MIN_POINTS))
-            .find_map(|s| LatticeWalk::fit(&points[s..], tol).map(|w| (s, w)))
+    /// Whether a new walk may be laid like this one: it has rows, and at least
+    /// [`MIN_LAYER_POINTS`] points (four corners of a frame are no layer).
+    fn is_a_layer(&self) -> bool {
+        self.rows.is_some() && self.indices.len() >= MIN_LAYER_POINTS
+    }
+
+    /// A new layer's order and row pitch when its first row of `n` points at pitch `a` is laid
+    /// like this walk's rows: as long and at the same pitch, or (a layer turned a quarter) as
+    /// long as this walk has rows and at its row pitch. The row pitch is this walk's, turned
+    /// as `a` is turned from this walk's rows; or, turned, across `a` as long as this walk's
+    /// rows' pitch.
+    fn laid_on(&self, n: usize, a: &Vector3<f64>, tol: f64) -> Option<(Order, Vector3<f64>)> {
+        let (rows_n, order) = self.rows?;
+        let turned = |from: &Vector3<f64>, other: &Vector3<f64>| {
+            nalgebra::Rotation3::rotation_between(from, a)
+                .unwrap_or_else(nalgebra::Rotation3::identity)
+                * other
+        };
+        let points = self.indices.len();
+        if rows_n == n && (self.a.norm() - a.norm()).abs() <= tol {
+            Some((order, turned(&self.a, &self.b)))
+        } else if points.is_multiple_of(rows_n)
+            && points / rows_n == n
+            && (self.b.norm() - a.norm()).abs() <= tol
+        {
+            // The pitches swapped: the rows step across, in the layer's plane, as far as this
+            // walk's rows were long, to the side this walk's rows went (else its rows' way).
+            let across = self.a.cross(&self.b).cross(a).try_normalize(1e-9)?;
+            let side = if across.dot(&self.b).abs() > 0.1 * self.b.norm() {
+                across.dot(&self.b).signum()
+            } else {
+                across.dot(&self.a).signum()
+            };
+            Some((order, across * side * self.a.norm()))
+        } else {
+            None
+        }
+    }
+
+    /// `points` cut into layers, oldest first: from the first point, the longest walk
+    /// ([`LatticeWalk::fit_prefix`], laid like the layer before it; the first like `first`),
+    /// then the next from the point where it broke; a point no walk starts at is skipped. With
+    /// the index each starts at.
+    pub fn layers(
+        points: &[Vector3<f64>],
+        tol: f64,
+        first: Option<&LatticeWalk>,
+    ) -> Vec<(usize, LatticeWalk)> {
+        let mut out: Vec<(usize, LatticeWalk)> = Vec::new();
+        let mut i = 0;
+        while i + 2 <= points.len() {
+            let earlier = match out.last() {
+                Some((_, w)) => Some(w).filter(|w| w.is_a_layer()),
+                None => first,
+            };
+            match LatticeWalk::fit_prefix(&points[i..], tol, earlier) {
+                Some((k, w)) => {
+                    out.push((i, w));
+                    i += k;
+                }
+                None => i += 1,
+            }
+        }
+        out
     }
 
     /// The lattice position of `(i, j)`.
@@ -201,6 +445,15 @@ impl LatticeWalk {
         match self.rows {
             Some((n, o)) => self.point(step(last, n, o)),
             None => self.point((last.0 + 1, last.1)),
+        }
+    }
+
+    /// Whether the next point starts a new row (the row's length known).
+    pub fn starts_row(&self) -> bool {
+        let last = self.indices.last().copied().unwrap_or((0, 0));
+        match self.rows {
+            Some((n, o)) => step(last, n, o).1 != last.1,
+            None => false,
         }
     }
 
@@ -335,7 +588,7 @@ mod tests {
             "two layers are not one walk"
         );
         for k in layer1.len() + 5..both.len() {
-            let (start, w) = LatticeWalk::fit_tail(&both[..k], 1.0).unwrap();
+            let (start, w) = LatticeWalk::layers(&both[..k], 1.0, None).pop().unwrap();
             assert!(start >= layer1.len() - 1, "the tail from {start}");
             assert!((w.next() - both[k]).norm() < 1e-9, "after {k}");
         }
@@ -369,38 +622,102 @@ mod tests {
 
     /// The expert reads the slot's waypoints as walks with the item's period: once the second
     /// row has two items, it proposes every later slot approach, place and retract exactly, as
-    /// a grid (two places); the pick station, which does not move, it leaves to the others.
+    /// a grid (two places), and the pick station's approach, pick and retract as a station.
     #[test]
-    fn the_expert_proposes_each_slot_waypoint_of_a_pallet() {
+    fn the_expert_proposes_each_waypoint_of_a_pallet() {
         // A 3 × 4 pallet as one routine: per item the pick station's approach, pick and
         // retract, then the slot's approach, place and retract.
         let routine = crate::engine::experts::noise::estimate::tests::pallet();
         let tol = Tolerance { mm: 1.0, rad: 0.1 };
-        let mut proposed = 0;
         for n in 30..routine.len() {
+            let c = propose(&routine[..n], &[], &tol)
+                .unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
+            assert_eq!(c.expert, Expert::Lattice);
+            assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
+            assert!(c.pose.angle_to(&routine[n]) < 1e-9);
             let slot_role = n % 6 >= 3;
-            let c = propose(&routine[..n], &tol);
-            if slot_role {
-                let c = c.unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
-                assert_eq!(c.expert, Expert::Lattice);
-                assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
-                assert!(c.pose.angle_to(&routine[n]) < 1e-9);
-                assert_eq!(c.evidence.places, 2);
-                proposed += 1;
-            } else if let Some(c) = c {
-                assert!(
-                    c.pose.distance_to(&routine[n]) > 1.0,
-                    "a pick at {n} read as a walk"
-                );
-            }
+            let want = if slot_role { 2 } else { STATION };
+            assert_eq!(c.evidence.places, want, "waypoint {n}");
         }
-        assert_eq!(proposed, 21);
         // After the first row of three, one place: the row goes on (its end could not be seen
         // coming), 200 mm on from its last slot.
-        let c = propose(&routine[..21], &tol).expect("a row of three");
+        let c = propose(&routine[..21], &[], &tol).expect("a row of three");
         assert_eq!(c.evidence.places, 1);
         let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
         assert!((c.pose.position() - on).norm() < 1e-6);
+        // A new row foretold by the layer's own rows alone is a class of its own.
+        let c = propose(&routine[..39], &[], &tol).expect("the third row's first slot");
+        assert!(c.pose.distance_to(&routine[39]) < 1e-6);
+        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 1));
+        // A pick station visited twice is no station yet.
+        assert!(propose(&routine[..12], &[], &tol).is_none_or(|c| c.evidence.places != STATION));
+    }
+
+    /// Per item: the pick station's approach, pick and retract, then the slot's.
+    fn items(slots: &[Vector3<f64>]) -> Vec<Pose> {
+        let at = |p: Vector3<f64>| {
+            Pose::from_isometry(Isometry3::from_parts(
+                Translation3::from(p),
+                nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0),
+            ))
+        };
+        let (pick, up) = (
+            Vector3::new(600.0, -700.0, 400.0),
+            Vector3::new(0.0, 0.0, 150.0),
+        );
+        slots
+            .iter()
+            .flat_map(|s| [pick + up, pick, pick + up, s + up, *s, s + up].map(at))
+            .collect()
+    }
+
+    /// A second layer laid like the first (120 mm up, its rows as long), or turned a quarter
+    /// (the boxes turned: rows of the first layer's row count at its row pitch): every slot of
+    /// it after its first two is proposed exactly, the first row change included, and once it
+    /// has as many slots as the first, nothing more (the routine goes home) — neither the next
+    /// slot nor the pick station. The same when each layer is a routine of its own.
+    #[test]
+    fn a_second_layer_is_laid_like_the_first_and_ends_where_it_does() {
+        let (x, y) = (Vector3::new(200.0, 0.0, 0.0), Vector3::new(0.0, 250.0, 0.0));
+        let up = Vector3::new(0.0, 0.0, 120.0);
+        let first = walk(3, 4, x, y, Order::Serpentine);
+        let same: Vec<_> = first.iter().map(|p| p + up).collect();
+        let turned: Vec<_> = walk(4, 3, x * 1.25, y * 0.8, Order::Serpentine)
+            .iter()
+            .map(|p| p + up)
+            .collect();
+        let tol = Tolerance { mm: 1.0, rad: 0.1 };
+        for second in [&same, &turned] {
+            let one = items(
+                &first
+                    .iter()
+                    .chain(second.iter())
+                    .copied()
+                    .collect::<Vec<_>>(),
+            );
+            let (l1, l2) = (items(&first), items(second));
+            let home = |r: &[Pose]| [r.to_vec(), vec![r[0]]].concat();
+            // One routine; a routine per layer (the first finished, with a home at its end).
+            let cases = [
+                (one.clone(), Vec::new(), first.len() * 6),
+                (l2, home(&l1), 0),
+            ];
+            for (routine, previous, start) in cases {
+                for k in 2..second.len() {
+                    for role in 3..6 {
+                        let n = start + 6 * k + role;
+                        let c = propose(&routine[..n], &previous, &tol)
+                            .unwrap_or_else(|| panic!("slot {k}, waypoint {n}: nothing"));
+                        let err = c.pose.distance_to(&routine[n]);
+                        assert!(err < 1e-6, "slot {k}, waypoint {n}: {err} mm off");
+                    }
+                }
+                assert!(
+                    propose(&routine, &previous, &tol).is_none(),
+                    "the pattern is done"
+                );
+            }
+        }
     }
 
     /// A pattern that stops early and goes elsewhere is a walk up to where it stops, not after;
@@ -425,7 +742,7 @@ mod tests {
                 })
                 .collect();
             assert!(LatticeWalk::fit(&scattered, 1.0).is_none());
-            assert!(LatticeWalk::fit_tail(&scattered, 1.0).is_none());
+            assert!(LatticeWalk::layers(&scattered, 1.0, None).is_empty());
         }
         let path = [
             Vector3::new(0.0, 0.0, 0.0),
