@@ -16,8 +16,10 @@
 //! 2. the first other step ends the first row, which gives the row length `n`; the step after
 //!    it must repeat `a` one way or the other, and says the order (`+a`: raster, `−a`:
 //!    serpentine), and with it `b` (raster: the change plus `(n − 1)·a`; serpentine: the change
-//!    itself). Until then the walk is one row: a turn of a path is no evidence of a grid, and
-//!    three points with two different steps are not a walk;
+//!    itself). Without that step, the change alone settles the order only after a row of three
+//!    or more and when square to it (below, "Layers"); otherwise the walk is one row: a turn of
+//!    a path is no evidence of a grid, and three points with two different steps are not a
+//!    walk;
 //! 3. every later point must be where the walk puts it; the origin, `a` and `b` are then fitted
 //!    by least squares over all points (the noise averages out), and the residual's RMS is the
 //!    evidence.
@@ -33,8 +35,10 @@
 //! rows at the same pitch, or (the boxes turned a quarter, the pitches swapped) as long as that
 //! layer had rows at its row pitch, it goes on to the next row as that layer did, before its
 //! own second row shows the way; two points at one of that layer's pitches already start it;
-//! and it is complete when it has as many points. Only the second row's first point, without a
-//! layer before, guesses the order (how far back along the row it lies).
+//! and it is complete when it has as many points. Without a layer before, the second row's
+//! first point alone gives the order by how far back along the row it lies: settled when the
+//! row pitch that gives is square to the rows and the other order's is not ([`SQUARE_COS`],
+//! [`SKEWED_COS`]: the three corners a pallet wizard asks for), else a guess.
 //!
 //! **The expert** ([`propose`]). A palletising routine repeats its moves item by item, and only
 //! some of them move with the item: the waypoints of one *role* (the slot's approach, the place,
@@ -256,6 +260,12 @@ pub struct LatticeWalk {
 /// The fewest points a walk is fitted to: two steps that agree.
 pub const MIN_POINTS: usize = 3;
 
+/// A second row's first point settles the order when the row pitch it gives is within this
+/// cosine of square to the rows...
+pub const SQUARE_COS: f64 = 0.2;
+/// ...and the other order's is beyond this one.
+pub const SKEWED_COS: f64 = 0.5;
+
 /// The fewest points of a layer a later walk is laid like (two rows of three).
 pub const MIN_LAYER_POINTS: usize = 6;
 
@@ -319,13 +329,18 @@ impl LatticeWalk {
             (Some(s), _, _) => Some(s),
             (None, Some(l), _) => Some(l),
             (None, None, Some(c)) if n >= MIN_POINTS && n + 1 == points.len() => {
-                guessed = true;
                 let back = -c.dot(&a) / a.norm_squared();
-                Some(if back > (n as f64 - 1.0) / 2.0 {
-                    (Order::Raster, c + a * (n as f64 - 1.0))
+                let (raster, serpentine) = (c + a * (n as f64 - 1.0), c);
+                let (chosen, other) = if back > (n as f64 - 1.0) / 2.0 {
+                    ((Order::Raster, raster), serpentine)
                 } else {
-                    (Order::Serpentine, c)
-                })
+                    ((Order::Serpentine, serpentine), raster)
+                };
+                // No guess when the row pitch it gives is square to the rows and the other's
+                // is far from it (the three corners a pallet wizard asks for).
+                let skew = |b: &Vector3<f64>| b.dot(&a).abs() / (b.norm() * a.norm()).max(1e-9);
+                guessed = !(skew(&chosen.1) <= SQUARE_COS && skew(&other) > SKEWED_COS);
+                Some(chosen)
             }
             _ => None,
         };
@@ -645,12 +660,50 @@ mod tests {
         assert_eq!(c.evidence.places, 1);
         let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
         assert!((c.pose.position() - on).norm() < 1e-6);
+        // The second row's first slot settles the order: its second is a grid's next point.
+        let c = propose(&routine[..27], &[], &tol).expect("the second row's second slot");
+        assert!(c.pose.distance_to(&routine[27]) < 1e-6);
+        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 2));
         // A new row foretold by the layer's own rows alone is a class of its own.
         let c = propose(&routine[..39], &[], &tol).expect("the third row's first slot");
         assert!(c.pose.distance_to(&routine[39]) < 1e-6);
         assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 1));
         // A pick station visited twice is no station yet.
         assert!(propose(&routine[..12], &[], &tol).is_none_or(|c| c.evidence.places != STATION));
+    }
+
+    /// A first row and the second row's first point (the three corners a wizard asks for)
+    /// settle the order when one order's row pitch is square to the rows and the other's is
+    /// not; a second row starting half way back is only a guess.
+    #[test]
+    fn three_corners_settle_the_order() {
+        let x = Vector3::new(200.0, 0.0, 0.0);
+        let row = |start: Vector3<f64>| (0..3).map(move |i| start + x * f64::from(i));
+        let o = Vector3::new(900.0, -300.0, 200.0);
+        for (next, order) in [
+            (o + Vector3::new(0.0, 250.0, 0.0), Order::Raster),
+            (o + Vector3::new(400.0, 250.0, 0.0), Order::Serpentine),
+        ] {
+            let points: Vec<_> = row(o).chain([next]).collect();
+            let (k, w) = LatticeWalk::fit_prefix(&points, 1.0, None).expect("a walk");
+            assert_eq!((k, w.rows, w.guessed), (4, Some((3, order)), false));
+            let want = if order == Order::Raster {
+                next + x
+            } else {
+                next - x
+            };
+            assert!((w.next() - want).norm() < 1e-9);
+            assert!(LatticeWalk::fit(&points, 1.0).is_some());
+        }
+        let halfway: Vec<_> = row(o)
+            .chain([o + Vector3::new(100.0, 250.0, 0.0)])
+            .collect();
+        let (_, w) = LatticeWalk::fit_prefix(&halfway, 1.0, None).expect("a walk");
+        assert!(w.guessed);
+        assert!(
+            LatticeWalk::fit(&halfway, 1.0).is_none(),
+            "a guess is no walk"
+        );
     }
 
     /// Per item: the pick station's approach, pick and retract, then the slot's.
