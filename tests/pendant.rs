@@ -617,3 +617,168 @@ async fn routines_of(api: &Api, program_id: i64) -> Vec<i64> {
         .map(|r| r["id"].as_i64().expect("id"))
         .collect()
 }
+
+/// Issue 30's pendant: a grid of slots taught by hand (per slot an approach and a place 40 mm
+/// below it) on an IRB 140 cell created with its arm only. The first row of seven slots (60 mm
+/// apart along y) and the first slot of the second row (80 mm out in x) are jogged and
+/// recorded; from then on the cell suggests the rest of the row. With the look-ahead on, the
+/// page shows the next suggestions as ghosts and flags the first slot the arm cannot reach (the
+/// second row's last, at the edge of the arm's reach) before the operator gets there; one
+/// action accepts the next five slots (ten suggestions), each recorded as an accepted
+/// suggestion, and the stored waypoints are the lattice's points.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_grid_is_finished_by_suggestions_on_the_pendant() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let server = start_server(&dir).await;
+    let base = server.base_url();
+    let api = Api {
+        base: base.clone(),
+        http: reqwest::Client::new(),
+    };
+    let driver = start_driver().await;
+    let profile = tempfile::tempdir().expect("profile dir");
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pendant");
+    std::fs::create_dir_all(&shots).expect("screenshot dir");
+    let mut page = Page {
+        c: browser(&driver, &profile).await,
+        console: Vec::new(),
+        shots,
+    };
+    page.c
+        .goto(&format!("{base}/"))
+        .await
+        .expect("open the page");
+    page.fill("#token-input", TOKEN).await;
+    page.click("#token-submit").await;
+    page.fill("#new-cell-name", "grid cell").await;
+    page.select("#new-cell-robot", "abb_irb140").await;
+    page.click("#create-cell").await;
+    page.wait_for("#cell-select option:checked").await;
+    page.fill("#new-program-name", "Tray").await;
+    page.click("#create-program").await;
+    page.wait_for("#program-select option:checked").await;
+    page.click("#create-routine").await;
+    page.wait_for("#routine-select option:checked").await;
+    let cells = api.get("/v1/cells").await;
+    let cell_id = cells[0]["id"].as_i64().expect("cell id");
+    let home = position(&api.get(&format!("/v1/cells/{cell_id}/frames")).await["tcp"]);
+
+    // The grid: slot (row, col) at 80 mm × row out in x and 60 mm × col along y from the
+    // first, which is 240 mm out from home; the approach at home's height, the place 40 mm
+    // below. The second row's last slot is beyond the arm's reach, every other one within it.
+    let (cols, depth) = (7, 40.0);
+    let slot = |row: usize, col: usize, placed: bool| {
+        [
+            home[0] + 240.0 + 80.0 * row as f64,
+            home[1] + 60.0 * col as f64,
+            home[2] - if placed { depth } else { 0.0 },
+        ]
+    };
+    let reach = |p: [f64; 3]| {
+        let api = &api;
+        async move {
+            let pose = json!({"x": p[0], "y": p[1], "z": p[2], "qw": 0.0, "qx": 0.0, "qy": -1.0, "qz": 0.0});
+            let r = api
+                .http
+                .post(format!("{}/v1/cells/{cell_id}/reach", api.base))
+                .bearer_auth(TOKEN)
+                .json(&json!({ "pose": pose }))
+                .send()
+                .await
+                .expect("reach");
+            r.json::<Value>().await.expect("json")["reachable"] == true
+        }
+    };
+    for row in 0..2 {
+        for col in 0..cols {
+            for placed in [false, true] {
+                let p = slot(row, col, placed);
+                let last = row == 1 && col == cols - 1;
+                assert_eq!(reach(p).await, !last, "reach of {p:?}");
+            }
+        }
+    }
+
+    // Jog: out to the first slot, then each slot's approach and place; after the first row,
+    // back along it and out to the second row's first slot.
+    let jog_by = |axis: &'static str, mm: f64| {
+        let page = &page;
+        async move {
+            page.fill("#jog-step", &format!("{mm}")).await;
+            page.jog(axis, 1).await;
+        }
+    };
+    page.select("#jog-frame", "work").await;
+    jog_by("x+", 240.0).await;
+    for col in 0..cols {
+        if col > 0 {
+            jog_by("z+", depth).await;
+            jog_by("y+", 60.0).await;
+        }
+        page.record().await;
+        jog_by("z-", depth).await;
+        page.record().await;
+    }
+    jog_by("z+", depth).await;
+    jog_by("y-", 60.0 * (cols - 1) as f64).await;
+    jog_by("x+", 80.0).await;
+    page.record().await;
+    jog_by("z-", depth).await;
+    page.record().await;
+    let taught = 2 * cols + 2;
+    assert_eq!(page.waypoints().await, taught);
+
+    // The second row's second slot is suggested by the lattice expert.
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let text = page.text("#suggestion-text").await;
+    assert!(text.contains("lattice"), "suggested by {text:?}");
+
+    // The look-ahead shows the rest of the row as ghosts, and flags its last slot, out of
+    // reach, before the operator gets there: ten suggestions within reach, the eleventh flagged.
+    page.fill("#lookahead-k", "20").await;
+    page.click("#show-path").await;
+    page.wait_for("#ahead[data-count='11'][data-unreachable='11']")
+        .await;
+    page.screenshot("pendant-grid-ahead.png").await;
+
+    // One action accepts the next five slots: ten suggestions, each with its feedback.
+    page.fill("#accept-n-count", "10").await;
+    page.click("#accept-n").await;
+    page.wait_for(&format!("#waypoints li:nth-child({})", taught + 10))
+        .await;
+    page.wait_for_stat("accepted", 10).await;
+    // What is left of the row: the flagged slot, now next.
+    page.wait_for("#ahead[data-count='1'][data-unreachable='1']")
+        .await;
+    let programs = api.get(&format!("/v1/cells/{cell_id}/programs")).await;
+    let program_id = programs[0]["id"].as_i64().expect("program id");
+    let routine = routines_of(&api, program_id).await[0];
+    let stored = api.get(&format!("/v1/routines/{routine}")).await;
+    let stored: Vec<[f64; 3]> = stored["waypoints"]
+        .as_array()
+        .expect("waypoints")
+        .iter()
+        .map(|w| position(&w["pose"]))
+        .collect();
+    assert_eq!(stored.len(), taught + 10);
+    for (i, s) in stored[taught..].iter().enumerate() {
+        let want = slot(1, 1 + i / 2, i % 2 == 1);
+        assert!(
+            close(*s, want),
+            "accepted waypoint {i}: {s:?}, the slot is {want:?}"
+        );
+    }
+    let stats = api.get(&format!("/v1/cells/{cell_id}/stats")).await;
+    assert_eq!(stats["feedback"]["accepted"], 10, "{stats}");
+    assert_eq!(stats["feedback"]["rejected"], 0, "{stats}");
+    // The next slot is not offered: the arm cannot reach it.
+    page.wait_for("#accept-n[disabled]").await;
+    page.screenshot("pendant-grid-accepted.png").await;
+
+    page.read_console().await;
+    let errors = page.errors();
+    assert!(errors.is_empty(), "console errors: {errors:#?}");
+    page.c.close().await.expect("close the browser");
+    drop(driver);
+    drop(server);
+}

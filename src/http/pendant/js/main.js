@@ -128,6 +128,7 @@ function renderButtons() {
   $('undo').disabled = !open || n === 0;
   $('finish').disabled = !open || n === 0;
   $('accept').disabled = !session.reachableSuggestion;
+  $('accept-n').disabled = !session.reachableSuggestion;
   $('adjust').disabled = !session.reachableSuggestion;
   $('reject').disabled = !session.offered || session.verdict !== undefined;
   $('create-routine').disabled = !$('program-select').value;
@@ -234,7 +235,19 @@ function motion() {
 
 async function afterTeaching() {
   if ($('show-path').checked) await session.lookAhead(Number($('lookahead-k').value) || 5);
+  renderAhead();
   await refreshStats();
+}
+
+/** How many suggestions the look-ahead shows, and the first the arm cannot reach. */
+function renderAhead() {
+  const el = $('ahead');
+  const { count, unreachable } = $('show-path').checked ? session.ahead : { count: 0, unreachable: 0 };
+  el.dataset.count = String(count);
+  el.dataset.unreachable = unreachable ? String(unreachable) : '';
+  el.textContent = !$('show-path').checked
+    ? 'ahead: –'
+    : `ahead: ${count}${unreachable ? ` · #${unreachable} out of reach` : ''}`;
 }
 
 const actions = {
@@ -249,6 +262,12 @@ const actions = {
   async accept() {
     await session.accept(motion());
     status('accepted: the waypoint is recorded');
+    await afterTeaching();
+  },
+  async 'accept-n'() {
+    const n = Math.max(1, Math.min(20, Number($('accept-n-count').value) || 1));
+    const done = await session.acceptNext(n, motion());
+    status(done < n ? `accepted ${done} of ${n}: the next is not on offer` : `accepted ${done}`);
     await afterTeaching();
   },
   async adjust() {
@@ -382,12 +401,18 @@ $('view-top').addEventListener('click', () => view.setView('top'));
 $('view-front').addEventListener('click', () => view.setView('front'));
 $('view-side').addEventListener('click', () => view.setView('side'));
 $('view-fit').addEventListener('click', () => view.fit());
-$('show-path').addEventListener('change', () => run(() => ($('show-path').checked ? session.lookAhead(Number($('lookahead-k').value) || 5) : view.drawAhead(null, []))));
+$('show-path').addEventListener('change', () =>
+  run(async () => {
+    if ($('show-path').checked) await session.lookAhead(Number($('lookahead-k').value) || 5);
+    else view.drawAhead(null, []);
+    renderAhead();
+  }),
+);
 
 // ---- keyboard ----
 
 const KEYS = {
-  r: 'record', Enter: 'record', a: 'accept', d: 'adjust', x: 'reject', u: 'undo', Backspace: 'undo', f: 'finish',
+  r: 'record', Enter: 'record', a: 'accept', n: 'accept-n', d: 'adjust', x: 'reject', u: 'undo', Backspace: 'undo', f: 'finish',
 };
 const JOG_KEYS = {
   ArrowRight: 'x+', ArrowLeft: 'x-', ArrowUp: 'y+', ArrowDown: 'y-', PageUp: 'z+', PageDown: 'z-',

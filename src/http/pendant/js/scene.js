@@ -192,19 +192,32 @@ export class View {
     return waypoints.length;
   }
 
-  /** The next k suggestions, dotted, from `from` (the last waypoint's pose). */
-  drawAhead(from, poses) {
+  /**
+   * The next suggestions, dotted from `from` (the last waypoint's pose), each a ghost marker:
+   * `ahead` is `[{ pose, reachable }]`; a slot the arm cannot reach is red.
+   */
+  drawAhead(from, ahead) {
     if (this.ahead) this.scene.remove(this.ahead);
     this.ahead = null;
-    if (from && poses.length) {
-      const points = [from, ...poses].map(positionOf);
+    if (from && ahead.length) {
+      const group = new Group();
+      const points = [from, ...ahead.map((a) => a.pose)].map(positionOf);
       const line = new Line(
         new BufferGeometry().setFromPoints(points),
         new LineDashedMaterial({ color: 0xf0e68c, dashSize: 12, gapSize: 8 }),
       );
       line.computeLineDistances();
-      this.ahead = line;
-      this.scene.add(line);
+      group.add(line);
+      const ghost = new MeshStandardMaterial({ color: 0xf0e68c, transparent: true, opacity: 0.55 });
+      const bad = new MeshStandardMaterial({ color: 0xff4d4d });
+      for (const a of ahead) {
+        const s = new Mesh(SPHERE, a.reachable ? ghost : bad);
+        s.scale.setScalar(a.reachable ? 7 : 11);
+        s.position.copy(positionOf(a.pose));
+        group.add(s);
+      }
+      this.ahead = group;
+      this.scene.add(group);
     }
     this.render();
   }

@@ -1,6 +1,7 @@
 // The teaching session against the simulated arm: where the arm is (joints and TCP, from the
 // server), the routine being taught, the suggestion on offer, and the operator's actions —
-// jog, Record, Accept, Adjust, Reject, Undo, Finish — each one call sequence on the REST API.
+// jog, Record, Accept, Accept next n, Adjust, Reject, Undo, Finish — each one call sequence on
+// the REST API.
 // The page (main.js) renders what this holds; nothing here touches the DOM.
 
 import * as api from './api.js';
@@ -26,6 +27,8 @@ export class Session {
     this.verdicts = new Map();
     this.adjusting = null;
     this.latencies = [];
+    // What the look-ahead showed: suggestions ahead, and the first unreachable one (1-based).
+    this.ahead = { count: 0, unreachable: 0 };
   }
 
   get joints() {
@@ -111,13 +114,35 @@ export class Session {
     this.view.showGhost(frames, p.pose, p.p_useful ?? p.phi, reachable);
   }
 
-  /** The next k suggestions (open-loop completion), for the dotted path. */
+  /**
+   * The next k suggestions (open-loop completion, following a row or a pallet's layers), drawn
+   * as ghosts on a dotted path. The completion stops at the first suggestion not offered; when
+   * that is because the arm cannot reach it (or it is offered flagged), it is drawn flagged.
+   * Returns `{ count, unreachable }`: the suggestions ahead, and the 1-based place of the first
+   * unreachable one (0: none).
+   */
   async lookAhead(k) {
-    if (!this.open || !this.routine.waypoints.length) return this.view.drawAhead(null, []);
+    this.ahead = { count: 0, unreachable: 0 };
+    if (!this.open || !this.routine.waypoints.length) {
+      this.view.drawAhead(null, []);
+      return this.ahead;
+    }
     const set = await api.get(`/v1/routines/${this.routine.id}/prediction?k=${k}`);
-    const poses = set.predictions.filter((p) => p.offered && p.pose).map((p) => p.pose);
+    const ahead = [];
+    for (const p of set.predictions) {
+      if (!p.pose) break;
+      const unreachable =
+        (p.reachability && p.reachability.reachable === false) ||
+        (p.withheld && p.withheld.reason === 'unreachable');
+      if (!p.offered && !unreachable) break;
+      ahead.push({ pose: p.pose, reachable: !unreachable });
+      if (unreachable) break;
+    }
     const last = this.routine.waypoints[this.routine.waypoints.length - 1];
-    this.view.drawAhead(last.pose, poses);
+    this.view.drawAhead(last.pose, ahead);
+    const flagged = ahead.findIndex((a) => !a.reachable);
+    this.ahead = { count: ahead.length, unreachable: flagged + 1 };
+    return this.ahead;
   }
 
   /** One jog step; the arm moves only where the server says it reaches. */
@@ -172,6 +197,27 @@ export class Session {
     await this.goToSuggestion();
     if (!this.verdicts.has(p.id)) await this.feedback(p, 'accepted');
     await this.append(motion, p.pose, this.joints);
+  }
+
+  /**
+   * Accept next n: the suggestion on offer and the ones after it, one by one, each recorded as
+   * an accepted suggestion (its feedback, then the waypoint at its pose and joints), while the
+   * next one is offered and the arm reaches it. The arm ends at the last; returns how many
+   * were accepted.
+   */
+  async acceptNext(n, motion) {
+    let accepted = 0;
+    while (accepted < n && this.reachableSuggestion) {
+      const p = this.prediction;
+      const joints = this.reachableSuggestion;
+      if (!this.verdicts.has(p.id)) await this.feedback(p, 'accepted');
+      await this.append(motion, p.pose, joints);
+      accepted += 1;
+    }
+    const w = this.routine.waypoints;
+    const last = w.length ? w[w.length - 1] : null;
+    if (accepted && last && last.joints && last.joints.length === 6) await this.moveTo(last.joints);
+    return accepted;
   }
 
   /** Adjust: the arm goes there; the next Record gives the feedback with the pose taught. */
