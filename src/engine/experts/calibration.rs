@@ -119,7 +119,9 @@ impl Coarse {
                 station: expert == Expert::Lattice && e.places == super::lattice::STATION,
                 agree: e.agreeing == e.places,
                 in_routine: e.in_routine,
-                long_context: e.context >= 2,
+                // A lattice walk has three points at least: long from four on (a station from
+                // four visits, which a back-and-forth inside one item does not reach).
+                long_context: e.context >= if expert == Expert::Lattice { 4 } else { 2 },
                 several_places: e.places >= 2,
             },
         }
@@ -208,16 +210,21 @@ pub const CHOSEN_PRIOR: [(u32, u32); 12] = [
 ];
 
 /// The lattice expert's coarse classes' counts on the pattern tuning set (`nextpose patterns
-/// DIR --set tuning`, the six programs of seed 1), taught through the default profile as for
-/// [`PRIOR`]: a new row only the layer's own rows foretell (not agreeing), one row going on
-/// (one place), a walk's next point on a grid or a layer laid like one before (several places),
-/// a station. The held-out set is never counted.
+/// DIR --set tuning`, seeds 1, 2 and 3: 18 programs), taught through the default profile as for
+/// [`PRIOR`]: a new row only the layer's own rows foretell (not agreeing); one row going on
+/// (one place), short or long (from four points: rows of the tuning set are three or four
+/// long, so a long row going on was always wrong); a grid's next point or a layer laid like one
+/// before (several places); a station, from three visits or from four (three is what a
+/// back-and-forth inside one item gives). The held-out set is never counted.
 #[rustfmt::skip]
 pub const LATTICE_PRIOR: &[(Coarse, u32, u32)] = &[
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 56, 44),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 28, 9),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 200, 200),
-    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: true, several_places: true }, 247, 225),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 159, 132),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: false, several_places: false }, 93, 54),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: false, several_places: true }, 18, 18),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 18, 0),
+    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 648, 648),
+    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: false, several_places: true }, 114, 51),
+    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: true, several_places: true }, 627, 624),
 ];
 
 fn prior(c: &Coarse) -> f64 {

@@ -50,15 +50,16 @@
 //! that gives either wins. The layer before is the role's own, or (a routine per layer) a layer
 //! of the previous routine's roles of the same period. Where the pattern ends: once a layer is
 //! complete, nothing of that period or a longer one is proposed, and a station is not proposed
-//! once another role of its items has completed its layer (the routine goes on elsewhere). The
-//! first layer's end cannot be known: the cell's outcomes (below) learn how often its new rows
-//! hold.
+//! once another role of its items has completed its layer (the routine goes on elsewhere);
+//! nothing either after a new layer's first point (where its rows go is not known yet). The
+//! first layer's end cannot be known: its new rows are proposed from six points on (two rows of
+//! two zigzag in any star), and the cell's outcomes (below) learn how often they hold.
 //!
-//! Its evidence: the walk's length (as a context); a station ([`STATION`] places), a grid or a
-//! layer laid like one before (two places), one row (one place); a new row only the layer's own
-//! rows foretell, or the guessed order, does not agree. The calibration starts each class from
-//! its counts on the pattern tuning set (`calibration::LATTICE_PRIOR`) and learns the cell's
-//! own outcomes.
+//! Its evidence: the walk's length or the station's visits (as a context: long from four); a
+//! station ([`STATION`] places), a grid or a layer laid like one before (two places), one row
+//! (one place); a new row only the layer's own rows foretell, or the guessed order, does not
+//! agree. The calibration starts each class from its counts on the pattern tuning set
+//! (`calibration::LATTICE_PRIOR`) and learns the cell's own outcomes.
 //!
 //! Pure: no I/O; the expert reads the routine being taught and the previous one.
 
@@ -113,6 +114,11 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tolerance: &Tolerance) -> Op
             ));
         }
         let Some(layer) = Layer::of(&role, tol, previous, period) else {
+            if Layer::starting(&role, tol) {
+                // A layer has just ended and the next has one point: where its rows go is not
+                // known yet, and no longer period knows better (its walk would skip items).
+                return None;
+            }
             continue;
         };
         if layer.complete() {
@@ -121,6 +127,11 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tolerance: &Tolerance) -> Op
             return None;
         }
         let walk = &layer.walk;
+        if walk.starts_row() && layer.before.is_none() && walk.indices.len() < MIN_LAYER_POINTS {
+            // A new row after two rows of two: four points zigzag in any star or weave, not
+            // only on a grid.
+            return None;
+        }
         let places = if walk.rows.is_some() { 2 } else { 1 };
         // A new row that only this layer's own rows foretell, and the second row's way guessed
         // from its first point, are guesses of their own class: the pattern may have ended
@@ -205,6 +216,17 @@ impl Layer {
                 .map(|e| e.indices.len()),
         };
         Some(Layer { walk, before })
+    }
+
+    /// Whether the role's newest point follows a layer (of [`MIN_LAYER_POINTS`] or more, in
+    /// rows) that ended at the point before it: a new layer's first point.
+    fn starting(points: &[Vector3<f64>], tol: f64) -> bool {
+        let Some(before) = points.len().checked_sub(1) else {
+            return false;
+        };
+        LatticeWalk::layers(&points[..before], tol, None)
+            .last()
+            .is_some_and(|(s, w)| w.is_a_layer() && s + w.indices.len() == before)
     }
 
     /// As many points as the layer before: the layer is done.
@@ -797,6 +819,19 @@ mod tests {
             assert!(LatticeWalk::fit(&scattered, 1.0).is_none());
             assert!(LatticeWalk::layers(&scattered, 1.0, None).is_empty());
         }
+        // Two rows of two zigzag in any star or weave: no new row is foretold from them.
+        let at = |x: f64, y: f64| Pose::from_isometry(Isometry3::translation(x, y, 300.0));
+        let star = [
+            at(0.0, 0.0),
+            at(500.0, 900.0),
+            at(180.0, 0.0),
+            at(-400.0, 700.0),
+            at(180.0, 150.0),
+            at(800.0, -300.0),
+            at(0.0, 150.0),
+            at(-600.0, -500.0),
+        ];
+        assert!(propose(&star, &[], &Tolerance { mm: 1.0, rad: 0.1 }).is_none());
         let path = [
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(100.0, 0.0, 0.0),
