@@ -34,7 +34,12 @@
 //! 14 mm after its second routine of 271 waypoints) has 12 returns after 147 waypoints (8 %),
 //! a pallet taught with a 20 mm joystick 12 after 26 (46 %). So the noise is believed before
 //! [`MIN_ROUTINES`] once [`MIN_RETURNS`] returns are at least [`MIN_RETURN_SHARE`] of the
-//! waypoints taught.
+//! waypoints taught by hand (a suggestion taken as offered cannot be a return, so it does not
+//! count against the share). Until the stretches' repeats give a fit, the returns' own gaps
+//! give the estimate: two placements of one meant pose by a hand of σ per axis are `σ·√6` apart
+//! (RMS). On a pallet taught with a 20 mm joystick that is believed at about its 25th waypoint
+//! and reads 11–12 mm for 11.5 (the stretches' fit, which waited for its 48th–63rd, read
+//! 14–17).
 //!
 //! A routine shorter than a stretch (a pick, a place, a tack weld of three to five waypoints)
 //! is aligned whole with the earlier routines of its length ([`SHORT_ROUTINE`]); each pair's
@@ -137,13 +142,16 @@ impl Pair {
 }
 
 /// What the routine being taught showed of the noise so far ([`NoiseEstimator::estimate_with`]):
-/// the pairs its stretches made, its waypoints, and the exact revisits and returns among them.
+/// the pairs its stretches made, its waypoints taught by hand, and the exact revisits and
+/// returns among them.
 #[derive(Debug, Clone, Copy)]
 pub struct OpenRoutine<'a> {
     pub pairs: &'a [Pair],
     pub len: usize,
     pub revisits: usize,
     pub returns: usize,
+    /// The returns' squared gaps to the poses they returned to, summed (mm², rad²).
+    pub return_gaps: (f64, f64),
 }
 
 /// The cell's finished routines and the misfits of the repeats found in them (module doc).
@@ -165,6 +173,8 @@ pub struct NoiseEstimator {
     /// counted while they are fewer than [`MIN_ROUTINES`]).
     taught: usize,
     returns: usize,
+    /// Their squared gaps to the poses they returned to, summed (mm², rad²).
+    return_gaps: (f64, f64),
     /// The routines shorter than [`STRETCH`] (at least [`SHORT_ROUTINE`] waypoints) by length:
     /// their indexes in `routines`, oldest first.
     short: std::collections::BTreeMap<usize, Vec<u32>>,
@@ -181,7 +191,11 @@ impl NoiseEstimator {
         if self.is_exact() {
             return Some(Noise::EXACT);
         }
-        self.estimate.filter(|_| self.believed(0, 0))
+        if !self.believed(0, 0) {
+            return None;
+        }
+        self.estimate
+            .or_else(|| from_returns(self.returns, self.return_gaps))
     }
 
     /// Whether the noise is believed yet, with `open` waypoints and `open_returns` returns of
@@ -201,23 +215,34 @@ impl NoiseEstimator {
     /// that the arm went [`RETURN_AWAY_MM`] from since, and exactly on none. Only looked for
     /// while the finished routines are fewer than [`MIN_ROUTINES`] (false after).
     pub fn is_return(&self, pose: &Pose, before: &[Pose]) -> bool {
+        self.return_gap(pose, before).is_some()
+    }
+
+    /// When `pose` is a return ([`NoiseEstimator::is_return`]): its distance and angle to the
+    /// pose it returned to (the most recent one of `before`, else the nearest of a finished
+    /// routine). Two placements of one meant pose by a hand of σ per axis are `σ·√6` apart
+    /// (RMS), which [`from_returns`] reads.
+    pub fn return_gap(&self, pose: &Pose, before: &[Pose]) -> Option<(f64, f64)> {
         if self.routines.len() >= MIN_ROUTINES || self.is_revisit(pose, before) {
-            return false;
+            return None;
         }
         let near = |w: &Pose| w.distance_to(pose) <= RETURN_MM && w.angle_to(pose) <= RETURN_RAD;
-        if self.routines.iter().flatten().any(near) {
-            return true;
-        }
+        let gap = |w: &Pose| (w.distance_to(pose), w.angle_to(pose));
         // Walking back: the farthest the arm went from here since each earlier waypoint (from a
         // near one, that is within RETURN_MM of how far it went from it).
         let mut farthest: f64 = 0.0;
         for w in before.iter().rev() {
             if near(w) && farthest >= RETURN_AWAY_MM {
-                return true;
+                return Some(gap(w));
             }
             farthest = farthest.max(w.distance_to(pose));
         }
-        false
+        self.routines
+            .iter()
+            .flatten()
+            .filter(|w| near(w))
+            .map(gap)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
     /// Whether the cell was taught [`EXACT_REVISITS`] waypoints exactly where earlier ones were.
@@ -288,14 +313,22 @@ impl NoiseEstimator {
         if !self.believed(open.len, open.returns) {
             return None;
         }
-        if open.pairs.is_empty() {
-            return self.estimate;
-        }
-        let mut all = Vec::with_capacity(self.pairs.len() + open.pairs.len());
-        all.extend_from_slice(&self.pairs);
-        all.extend_from_slice(open.pairs);
-        let over = all.len().saturating_sub(MAX_SAMPLES);
-        fit(&all[over..], self.mixture).0
+        let fitted = if open.pairs.is_empty() {
+            self.estimate
+        } else {
+            let mut all = Vec::with_capacity(self.pairs.len() + open.pairs.len());
+            all.extend_from_slice(&self.pairs);
+            all.extend_from_slice(open.pairs);
+            let over = all.len().saturating_sub(MAX_SAMPLES);
+            fit(&all[over..], self.mixture).0
+        };
+        fitted.or_else(|| {
+            let gaps = (
+                self.return_gaps.0 + open.return_gaps.0,
+                self.return_gaps.1 + open.return_gaps.1,
+            );
+            from_returns(self.returns + open.returns, gaps)
+        })
     }
 
     /// Learns a finished routine taught by hand, no suggestion taken.
@@ -311,8 +344,10 @@ impl NoiseEstimator {
         if !self.is_exact() {
             for (i, w) in routine.iter().enumerate() {
                 let by_hand = !suggested.get(i).copied().unwrap_or(false);
-                if by_hand && self.is_return(w, &routine[..i]) {
+                if let Some((mm, rad)) = self.return_gap(w, &routine[..i]).filter(|_| by_hand) {
                     self.returns += 1;
+                    self.return_gaps.0 += mm * mm;
+                    self.return_gaps.1 += rad * rad;
                 }
             }
         }
@@ -322,7 +357,10 @@ impl NoiseEstimator {
                 self.exact_revisits += 1;
             }
         }
-        self.taught += routine.len();
+        // Waypoints taught as suggested cannot be returns: the share is of those by hand.
+        self.taught += (0..routine.len())
+            .filter(|&i| !suggested.get(i).copied().unwrap_or(false))
+            .count();
         if self.is_exact() {
             // Nothing more to learn of the noise.
             self.routines.push(routine.to_vec());
@@ -502,6 +540,19 @@ fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
 
 /// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
 /// mixture fitted (σ², share of repeats), starting from `start` when given.
+/// The noise `returns` returns show by their summed squared gaps `(mm², rad²)`: two placements
+/// of one meant pose differ by `σ·√2` per axis, so the mean squared gap is `6σ²`. Used while no
+/// repeats were fitted (module doc, "Returns"); `None` before [`MIN_RETURNS`].
+fn from_returns(returns: usize, (mm2, rad2): (f64, f64)) -> Option<Noise> {
+    (returns >= MIN_RETURNS).then(|| {
+        let n = 6.0 * returns as f64;
+        Noise {
+            mm: (mm2 / n).sqrt().clamp(SIGMA_FLOOR_MM, SIGMA_CAP_MM),
+            rad: (rad2 / n).sqrt(),
+        }
+    })
+}
+
 fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64, f64)>) {
     if (pairs.len() as f64) < MIN_REPEATS {
         return (None, None);
@@ -854,6 +905,7 @@ pub(crate) mod tests {
             len: 40,
             revisits: 0,
             returns: 0,
+            return_gaps: (0.0, 0.0),
         };
         assert_eq!(e.estimate_with(&open), None);
     }
