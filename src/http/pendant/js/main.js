@@ -143,6 +143,7 @@ function renderButtons() {
 function render() {
   renderWaypoints();
   renderSuggestion();
+  renderAhead();
   renderButtons();
 }
 

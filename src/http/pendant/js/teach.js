@@ -95,6 +95,7 @@ export class Session {
   clearSuggestion() {
     this.prediction = null;
     this.dismissed = false;
+    this.ahead = { count: 0, unreachable: 0 };
     this.view.hideGhost();
     this.view.drawAhead(null, []);
   }
