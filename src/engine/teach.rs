@@ -976,9 +976,8 @@ mod tests {
     /// joystick operator: its returns to the pick station make the noise believed within that
     /// routine (three routines would otherwise be waited for), by the sixth item, at what the
     /// returns' gaps show before any stretches repeat, and the tolerance follows it. Taught the
-    /// same pallet exactly, the cell stays exact throughout. An operator who takes the
-    /// suggestions within their tolerance as they are keeps it believed: the suggestions taken
-    /// are not counted against the returns' share.
+    /// same pallet exactly, the cell stays exact throughout. Two layers of it, whose operator
+    /// takes the suggestions within their tolerance as they are, keep it believed to the end.
     ///
     /// Measured 2026-12-05 (not asserted), before the returns' gaps were read: the noise showed
     /// at waypoint 48–63 of 72 and read 14–17 mm for 11.5.
