@@ -283,6 +283,14 @@ impl Page {
             .collect()
     }
 
+    /// Fails on any console error the page logged, then closes the browser.
+    async fn close(mut self) {
+        self.read_console().await;
+        let errors = self.errors();
+        assert!(errors.is_empty(), "console errors: {errors:#?}");
+        self.c.close().await.expect("close the browser");
+    }
+
     async fn screenshot(&self, name: &str) {
         let png = self.c.screenshot().await.expect("screenshot");
         std::fs::write(self.shots.join(name), png).expect("write screenshot");
@@ -318,24 +326,57 @@ fn close(a: [f64; 3], b: [f64; 3]) -> bool {
     a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-3)
 }
 
+/// What a browser test runs against: the server on a loopback port with a token (its database
+/// in a temporary directory), chromedriver, and a browser with its own profile, each kept
+/// until the test drops it.
+struct Session {
+    _dir: tempfile::TempDir,
+    server: Running,
+    api: Api,
+    driver: Driver,
+    _profile: tempfile::TempDir,
+    page: Page,
+}
+
+impl Session {
+    async fn open() -> Session {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let server = start_server(&dir).await;
+        let api = Api {
+            base: server.base_url(),
+            http: reqwest::Client::new(),
+        };
+        let driver = start_driver().await;
+        let profile = tempfile::tempdir().expect("profile dir");
+        let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pendant");
+        std::fs::create_dir_all(&shots).expect("screenshot dir");
+        let page = Page {
+            c: browser(&driver, &profile).await,
+            console: Vec::new(),
+            shots,
+        };
+        Session {
+            _dir: dir,
+            server,
+            api,
+            driver,
+            _profile: profile,
+            page,
+        }
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_person_teaches_through_the_pendant_page() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let server = start_server(&dir).await;
-    let base = server.base_url();
-    let api = Api {
-        base: base.clone(),
-        http: reqwest::Client::new(),
-    };
-    let driver = start_driver().await;
-    let profile = tempfile::tempdir().expect("profile dir");
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pendant");
-    std::fs::create_dir_all(&shots).expect("screenshot dir");
-    let mut page = Page {
-        c: browser(&driver, &profile).await,
-        console: Vec::new(),
-        shots,
-    };
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        mut page,
+    } = Session::open().await;
+    let base = api.base.clone();
 
     // The page asks for the token.
     page.c
@@ -600,10 +641,7 @@ async fn a_person_teaches_through_the_pendant_page() {
     )
     .expect("write latencies");
     eprintln!("Record → suggestion (ms): {summary}");
-    page.read_console().await;
-    let errors = page.errors();
-    assert!(errors.is_empty(), "console errors: {errors:#?}");
-    page.c.close().await.expect("close the browser");
+    page.close().await;
     drop(driver);
     drop(server);
 }
@@ -628,22 +666,15 @@ async fn routines_of(api: &Api, program_id: i64) -> Vec<i64> {
 /// suggestion, and the stored waypoints are the lattice's points.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_grid_is_finished_by_suggestions_on_the_pendant() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let server = start_server(&dir).await;
-    let base = server.base_url();
-    let api = Api {
-        base: base.clone(),
-        http: reqwest::Client::new(),
-    };
-    let driver = start_driver().await;
-    let profile = tempfile::tempdir().expect("profile dir");
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pendant");
-    std::fs::create_dir_all(&shots).expect("screenshot dir");
-    let mut page = Page {
-        c: browser(&driver, &profile).await,
-        console: Vec::new(),
-        shots,
-    };
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
     page.c
         .goto(&format!("{base}/"))
         .await
@@ -775,10 +806,7 @@ async fn a_grid_is_finished_by_suggestions_on_the_pendant() {
     page.wait_for("#accept-n[disabled]").await;
     page.screenshot("pendant-grid-accepted.png").await;
 
-    page.read_console().await;
-    let errors = page.errors();
-    assert!(errors.is_empty(), "console errors: {errors:#?}");
-    page.c.close().await.expect("close the browser");
+    page.close().await;
     drop(driver);
     drop(server);
 }
