@@ -542,7 +542,10 @@ impl Teacher {
         out.extend(lattice::propose(
             routine,
             &self.previous,
-            &noise.widen(self.tolerance, Frame::Absolute),
+            lattice::WalkTolerance {
+                point: noise.widen(self.tolerance, Frame::Absolute).mm,
+                step: noise.widen(self.tolerance, Frame::Work).mm,
+            },
         ));
         out
     }

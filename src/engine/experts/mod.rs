@@ -32,6 +32,7 @@ pub mod template;
 
 use std::collections::HashMap;
 
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::engine::pose::{Observation, Pose};
@@ -247,7 +248,18 @@ impl SequenceExpert {
                 .iter()
                 .filter(|(_, _, f)| tolerance.holds(f, &latest))
                 .count();
-            if let Some(pose) = self.frame.apply(last, &latest) {
+            // The newest follower, its translation the mean of every follower (of any
+            // context) that agrees with it: a hand-taught move's error averages out, and
+            // exact moves that agree are one.
+            let agree: Vec<Vector3<f64>> = places
+                .iter()
+                .filter(|(_, _, f)| tolerance.holds(f, &latest))
+                .map(|(_, _, f)| f.fixed_rows::<3>(0).into_owned())
+                .collect();
+            let mut guess = latest;
+            let mean = agree.iter().sum::<Vector3<f64>>() / agree.len().max(1) as f64;
+            guess.fixed_rows_mut::<3>(0).copy_from(&mean);
+            if let Some(pose) = self.frame.apply(last, &guess) {
                 out.push(Candidate {
                     expert: self.expert(),
                     pose,
@@ -356,5 +368,38 @@ mod tests {
         assert_eq!(c.evidence.places, c.evidence.agreeing);
         // Nothing taught before and one move: no context occurred before.
         assert!(e.propose(&row[..2], &Tolerance::SEED).is_none());
+    }
+
+    /// A row taught by hand, its steps 40 mm with a few millimetres' error each: the work-frame
+    /// expert proposes the last point plus the mean of the steps that agree (the errors
+    /// average out), not the newest step again.
+    #[test]
+    fn agreeing_noisy_moves_are_averaged() {
+        let steps = [
+            [41.5, -2.0, 1.0],
+            [38.0, 1.5, -0.5],
+            [40.5, 0.5, 2.0],
+            [39.0, -1.0, -1.5],
+        ];
+        let mut at = Vector3::zeros();
+        let mut row = vec![pose([0.0; 3], 0.0)];
+        for s in steps {
+            at += Vector3::from(s);
+            row.push(pose([at.x, at.y, at.z], 0.0));
+        }
+        let tol = Tolerance { mm: 6.0, rad: 0.1 };
+        let c = SequenceExpert::new(Frame::Work)
+            .propose(&row, &tol)
+            .expect("a candidate");
+        assert_eq!(c.evidence.context, 3, "the longest context with a follower");
+        // The followers of the matched contexts (of any length) are steps 2, 3 and 4; their
+        // mean, after the last point.
+        let mean = steps[1..]
+            .iter()
+            .map(|s| Vector3::from(*s))
+            .sum::<Vector3<f64>>()
+            / 3.0;
+        let want = at + mean;
+        assert!((c.pose.position() - want).norm() < 1e-9, "{:?}", c.pose);
     }
 }
