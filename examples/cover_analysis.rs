@@ -23,7 +23,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use nextpose::engine::experts::SequenceExpert;
+use nextpose::engine::experts::{Followers, SequenceExpert};
 use nextpose::engine::experts::frames::{Frame, Tolerance, angle, distance};
 use nextpose::engine::{EngineConfig, Observation, Pose, Teacher};
 use nextpose::replay::load_paths;
@@ -187,7 +187,7 @@ fn main() -> anyhow::Result<()> {
                     // The experts' candidates.
                     let proposals: Vec<_> = experts
                         .iter()
-                        .flat_map(|e| e.proposals(taught, &tol))
+                        .flat_map(|e| e.proposals(taught, &tol, Followers::Newest))
                         .collect();
                     let any_expert = proposals.iter().any(|c| right(&c.pose, truth));
                     let engine_useful = p.offered() && p.pose.is_some_and(|q| right(&q, truth));
@@ -546,7 +546,7 @@ fn dump_csv(programs: &[nextpose::replay::Program]) -> anyhow::Result<String> {
                         cands.push(("model".into(), p.window, 0, 0, false, p.offered(), pose));
                     }
                     for e in &experts {
-                        for c in e.proposals(taught, &tol) {
+                        for c in e.proposals(taught, &tol, Followers::Newest) {
                             let ev = c.evidence;
                             cands.push((
                                 c.expert.name().into(),

@@ -31,7 +31,7 @@ use super::experts::lattice;
 use super::experts::noise::Noise;
 use super::experts::noise::estimate::{NoiseEstimator, OpenRoutine, Pair};
 use super::experts::template::TemplateExpert;
-use super::experts::{Candidate, Evidence, Expert, SequenceExpert};
+use super::experts::{Candidate, Evidence, Expert, Followers, SequenceExpert};
 use super::metric::Metric;
 use super::pose::{Move, Observation, Pose, scale_translation};
 
@@ -529,11 +529,14 @@ impl Teacher {
             });
         }
         let noise = &self.noise;
-        out.extend(
-            self.experts
-                .iter()
-                .flat_map(|e| e.proposals(routine, &noise.widen(self.tolerance, e.frame()))),
-        );
+        let followers = if self.noisy() {
+            Followers::Mean
+        } else {
+            Followers::Newest
+        };
+        out.extend(self.experts.iter().flat_map(|e| {
+            e.proposals(routine, &noise.widen(self.tolerance, e.frame()), followers)
+        }));
         out.extend(
             self.template
                 .as_ref()

@@ -8,11 +8,13 @@
 //! first axis is the column: the model names its axes by the walk, not by the work frame, so
 //! pitches in any direction (a pallet turned on the table) are one case.
 //!
-//! **The fit** ([`LatticeWalk::fit`]), over the points in the order taught, within a step
-//! tolerance ([`WalkTolerance`]: the cell's, widened by its noise):
+//! **The fit** ([`LatticeWalk::fit`]), over the points in the order taught, within the
+//! [`WalkTolerance`]s (the cell's, widened by its noise: a step against a step carries four
+//! placements' error when taught by hand, a point against where the walk puts it two):
 //!
-//! 1. the first step is `a`; every step that repeats it (or its reverse, after a row change in
-//!    a serpentine walk) continues a row;
+//! 1. the first step is `a`; every step that repeats the row's mean step so far (or its
+//!    reverse, after a row change in a serpentine walk) continues a row; a pitch must exceed
+//!    the point tolerance (what the noise makes of one place);
 //! 2. the first other step ends the first row, which gives the row length `n`; the step after
 //!    it must repeat `a` one way or the other, and says the order (`+a`: raster, `−a`:
 //!    serpentine), and with it `b` (raster: the change plus `(n − 1)·a`; serpentine: the change
@@ -20,9 +22,10 @@
 //!    or more and when square to it (below, "Layers"); otherwise the walk is one row: a turn of
 //!    a path is no evidence of a grid, and three points with two different steps are not a
 //!    walk;
-//! 3. every later point must be where the walk puts it; the origin, `a` and `b` are then fitted
-//!    by least squares over all points (the noise averages out), and the residual's RMS is the
-//!    evidence.
+//! 3. every later point must be where the walk puts it: one pitch from the point before, or
+//!    where the lattice least-squares-fitted to the points before it puts it (by hand, the
+//!    errors average out there); the origin, `a` and `b` are then fitted by least squares
+//!    over all points, and the residual's RMS is the evidence.
 //!
 //! A sequence that breaks the walk anywhere is not a lattice walk ([`LatticeWalk::fit`] gives
 //! `None`); [`LatticeWalk::fit_prefix`] gives the longest prefix that is one, and
@@ -35,7 +38,10 @@
 //! rows at the same pitch, or (the boxes turned a quarter, the pitches swapped) as long as that
 //! layer had rows at its row pitch, it goes on to the next row as that layer did, before its
 //! own second row shows the way; two points at one of that layer's pitches already start it;
-//! and it is complete when it has as many points. Without a layer before, the second row's
+//! and it is complete when it has as many points. Its row at a pitch of that layer (along
+//! either of its pitches, either way, as long as either) walks at that layer's fitted pitch,
+//! and laid like it, it keeps both pitches and fits only its origin: two hand-placed points
+//! do not set a layer's direction. Without a layer before, the second row's
 //! first point alone gives the order by how far back along the row it lies: settled when the
 //! row pitch that gives is square to the rows and the other order's is not ([`SQUARE_COS`],
 //! [`SKEWED_COS`]: the three corners a pallet wizard asks for), else a guess.
@@ -45,8 +51,9 @@
 //! the retract) walk the lattice, the others (the pick station) stay. So for each period `P`
 //! from [`MIN_PERIOD`] to [`MAX_PERIOD`] the waypoints `P`, `2P`, … before the next one are
 //! read (the newest [`MAX_WALK_POINTS`]): a role whose newest [`MIN_POINTS`] or more are one
-//! place is a *station*, proposed again; else the role's last layer, when it ends at the newest
-//! point, proposes its next point, turned as the waypoint one period back. The shortest period
+//! place is a *station*, proposed again (at its visits' mean); else the role's last layer,
+//! when it ends at the newest point, proposes its next point, turned as the waypoint one
+//! period back. The shortest period
 //! that gives either wins. The layer before is the role's own, or (a routine per layer) a layer
 //! of the previous routine's roles of the same period. Where the pattern ends: once a layer is
 //! complete, nothing of that period or a longer one is proposed, and a station is not proposed

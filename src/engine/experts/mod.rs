@@ -105,6 +105,17 @@ pub struct Evidence {
     pub gated_in: bool,
 }
 
+/// Which translation a sequence expert's candidate takes from the followers of its context.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Followers {
+    /// The newest follower's (an exact program's moves that agree within the tolerance may
+    /// still differ on purpose, and the newest is the one meant now).
+    Newest,
+    /// The mean of every follower, of any context length, that agrees with the newest: in a
+    /// cell whose noise matters, a move taught by hand again and again averages out.
+    Mean,
+}
+
 /// A proposal for the next waypoint.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
@@ -176,12 +187,20 @@ impl SequenceExpert {
     /// The candidate for the waypoint after `routine` on its longest context (see the module
     /// doc), or `None` when no context of it occurred before.
     pub fn propose(&self, routine: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
-        self.proposals(routine, tolerance).into_iter().next()
+        self.proposals(routine, tolerance, Followers::Newest)
+            .into_iter()
+            .next()
     }
 
     /// One candidate per context length that occurred before, longest first: for each length,
-    /// what followed the most recent place it occurred at, with that length's evidence.
-    pub fn proposals(&self, routine: &[Pose], tolerance: &Tolerance) -> Vec<Candidate> {
+    /// what followed the most recent place it occurred at, with that length's evidence; its
+    /// translation as `followers` says.
+    pub fn proposals(
+        &self,
+        routine: &[Pose],
+        tolerance: &Tolerance,
+        followers: Followers,
+    ) -> Vec<Candidate> {
         let Some(last) = routine.last() else {
             return Vec::new();
         };
@@ -248,17 +267,16 @@ impl SequenceExpert {
                 .iter()
                 .filter(|(_, _, f)| tolerance.holds(f, &latest))
                 .count();
-            // The newest follower, its translation the mean of every follower (of any
-            // context) that agrees with it: a hand-taught move's error averages out, and
-            // exact moves that agree are one.
-            let agree: Vec<Vector3<f64>> = places
-                .iter()
-                .filter(|(_, _, f)| tolerance.holds(f, &latest))
-                .map(|(_, _, f)| f.fixed_rows::<3>(0).into_owned())
-                .collect();
             let mut guess = latest;
-            let mean = agree.iter().sum::<Vector3<f64>>() / agree.len().max(1) as f64;
-            guess.fixed_rows_mut::<3>(0).copy_from(&mean);
+            if followers == Followers::Mean {
+                let agree: Vec<Vector3<f64>> = places
+                    .iter()
+                    .filter(|(_, _, f)| tolerance.holds(f, &latest))
+                    .map(|(_, _, f)| f.fixed_rows::<3>(0).into_owned())
+                    .collect();
+                let mean = agree.iter().sum::<Vector3<f64>>() / agree.len().max(1) as f64;
+                guess.fixed_rows_mut::<3>(0).copy_from(&mean);
+            }
             if let Some(pose) = self.frame.apply(last, &guess) {
                 out.push(Candidate {
                     expert: self.expert(),
@@ -371,8 +389,8 @@ mod tests {
     }
 
     /// A row taught by hand, its steps 40 mm with a few millimetres' error each: the work-frame
-    /// expert proposes the last point plus the mean of the steps that agree (the errors
-    /// average out), not the newest step again.
+    /// expert proposes the last point plus the newest step again, or, asked for the mean
+    /// (a cell whose noise matters), plus the mean of the steps that agree.
     #[test]
     fn agreeing_noisy_moves_are_averaged() {
         let steps = [
@@ -388,8 +406,13 @@ mod tests {
             row.push(pose([at.x, at.y, at.z], 0.0));
         }
         let tol = Tolerance { mm: 6.0, rad: 0.1 };
-        let c = SequenceExpert::new(Frame::Work)
-            .propose(&row, &tol)
+        let expert = SequenceExpert::new(Frame::Work);
+        let newest = expert.propose(&row, &tol).expect("a candidate");
+        assert!((newest.pose.position() - (at + Vector3::from(steps[3]))).norm() < 1e-9);
+        let c = expert
+            .proposals(&row, &tol, Followers::Mean)
+            .into_iter()
+            .next()
             .expect("a candidate");
         assert_eq!(c.evidence.context, 3, "the longest context with a follower");
         // The followers of the matched contexts (of any length) are steps 2, 3 and 4; their
