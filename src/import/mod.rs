@@ -135,7 +135,7 @@ pub struct ImportedWaypoint {
     pub frame: Option<String>,
 }
 
-/// One routine (RAPID `PROC`/`TRAP`, KRL `DEF`, one FANUC TP file).
+/// One routine (RAPID `PROC`/`TRAP`/`FUNC`, KRL `DEF`, one FANUC TP file).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ImportedRoutine {
     pub name: String,
