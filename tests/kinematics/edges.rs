@@ -1,0 +1,94 @@
+//! The edge cases an outside check of the kinematics against Pinocchio found (issue 31): a
+//! spherical wrist a hair from singular that lost its solution.
+
+use nextpose::engine::Pose;
+use nextpose::kinematics::{
+    Joints, Mounting, ReachConfig, Robot, SolverKind, Unreachable, bundled_robots_dir, check_reach,
+    load_robots,
+};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+
+use crate::helpers::{random_joints, robot};
+
+fn close(a: &Joints, b: &Joints, tol: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < tol)
+}
+
+#[test]
+fn an_irb140_wrist_a_hair_from_singular_keeps_its_solution() {
+    // The case of the issue: J5 = 1e-7 rad, answered `joint_limit` with no solution.
+    let r = robot("abb_irb140");
+    let near = [
+        -2.6775575925003015,
+        0.16416852764406853,
+        -3.7724917735131176,
+        0.34134322828349495,
+        1e-07,
+        -1.8439007192210193,
+    ];
+    let pose = Pose::new(
+        [240.168964651026, 120.200819894966, 506.923464701681],
+        [0.260237232119, 0.47194904077, 0.70869495961, 0.455293465975],
+    )
+    .unwrap();
+    let at = r.fk(&near);
+    assert!(at.distance_to(&pose) < 1e-9 && at.angle_to(&pose) < 1e-9);
+    let reach = check_reach(
+        &r,
+        &Mounting::default(),
+        &pose,
+        Some(&near),
+        &ReachConfig::default(),
+    );
+    // A wrist 1e-7 rad from singular is singular; it is not beyond a limit.
+    assert!(
+        matches!(reach.unreachable, Some(Unreachable::Singular { .. })),
+        "{reach:?}"
+    );
+    let chosen = reach.chosen.expect("the arm's own solution");
+    assert!(close(&chosen, &near, 1e-5), "{chosen:?}");
+    let got = r.fk(&chosen);
+    assert!(
+        got.distance_to(&pose) < 1e-6 && got.angle_to(&pose) < 1e-9,
+        "{} mm, {} rad",
+        got.distance_to(&pose),
+        got.angle_to(&pose)
+    );
+}
+
+#[test]
+fn spherical_wrists_near_singular_keep_their_solutions() {
+    // Between |J5| ≈ 1e-9 and 1e-6 rad the solver's J4 and J6 were too far off for the FK
+    // check, and the exact-pole candidate (J5 = 0) too: half the poses lost their branch.
+    let mut rng = StdRng::seed_from_u64(31);
+    let robots = load_robots(&bundled_robots_dir()).unwrap();
+    let opw: Vec<&Robot> = robots
+        .iter()
+        .filter(|r| r.solver_kind() == SolverKind::Opw)
+        .collect();
+    assert_eq!(opw.len(), 14);
+    for r in opw {
+        for _ in 0..40 {
+            let q0 = random_joints(r, &mut rng);
+            for j5 in [1e-10, -1e-9, 3e-9, 1e-8, -1e-7, 1e-6, -1e-5] {
+                let mut q = q0;
+                q[4] = j5;
+                let target = r.chain().fk(&q);
+                for hint in [None, Some(&q)] {
+                    // Every solution is FK-checked; one must be the arm's own branch (joints 1,
+                    // 2, 3 and 5: J4 and J6 alone are barely determined next to the pole).
+                    let solutions = r.ik_metres(&target, hint);
+                    assert!(
+                        solutions
+                            .iter()
+                            .any(|s| [0, 1, 2, 4].iter().all(|&i| (s[i] - q[i]).abs() < 1e-6)),
+                        "{}: J5 {j5:e}, hint {}: {q:?} not among {solutions:?}",
+                        r.name(),
+                        hint.is_some()
+                    );
+                }
+            }
+        }
+    }
+}
