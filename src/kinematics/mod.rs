@@ -75,6 +75,14 @@ pub const SOLUTION_TOL_M: f64 = 1e-9;
 /// … and this close in orientation (radians).
 pub const SOLUTION_TOL_RAD: f64 = 1e-9;
 
+/// How far (radians) a joint value may lie beyond a limit and still count as on it. The solvers
+/// recover a joint to about 1e-12 rad, so a pose taught exactly at a limit comes back on either
+/// side of it by round-off, and an exact comparison kept or dropped it (and its multi-turn
+/// variants) by chance. 1e-9 rad is the FK check's own tolerance ([`SOLUTION_TOL_RAD`]) and a
+/// nanometre a metre out; a value within it is clamped onto the limit, so every solution
+/// [`Robot::ik`] returns is within the limits exactly.
+pub const LIMIT_TOL_RAD: f64 = 1e-9;
+
 /// Angle wrapped into `(-π, π]`.
 pub fn wrap_angle(a: f64) -> f64 {
     let r = a.rem_euclid(TAU);
@@ -229,11 +237,11 @@ impl Robot {
         }
     }
 
-    /// Whether every joint is within its limits.
+    /// Whether every joint is within its limits (up to [`LIMIT_TOL_RAD`]).
     pub fn within_limits(&self, q: &Joints) -> bool {
         q.iter()
             .zip(self.joints())
-            .all(|(v, j)| *v >= j.lower && *v <= j.upper)
+            .all(|(v, j)| *v >= j.lower - LIMIT_TOL_RAD && *v <= j.upper + LIMIT_TOL_RAD)
     }
 
     /// Tip pose in the robot base frame, mm.
@@ -295,17 +303,18 @@ impl Robot {
         out
     }
 
-    /// Appends every `q + 2πk` (per joint) that lies within the limits.
+    /// Appends every `q + 2πk` (per joint) that lies within the limits, up to [`LIMIT_TOL_RAD`],
+    /// clamped onto them.
     pub(crate) fn push_variants(&self, q: &Joints, out: &mut Vec<Joints>) {
         // Per joint at most ceil(range / 2π) + 1 values; 4 covers ranges up to 1080°.
         let mut values = [[0.0f64; 4]; DOF];
         let mut counts = [0usize; DOF];
         for (i, j) in self.joints().iter().enumerate() {
-            let kmin = ((j.lower - q[i]) / TAU).ceil() as i64;
-            let kmax = ((j.upper - q[i]) / TAU).floor() as i64;
+            let kmin = ((j.lower - LIMIT_TOL_RAD - q[i]) / TAU).ceil() as i64;
+            let kmax = ((j.upper + LIMIT_TOL_RAD - q[i]) / TAU).floor() as i64;
             for k in kmin..=kmax {
                 if counts[i] < 4 {
-                    values[i][counts[i]] = q[i] + TAU * k as f64;
+                    values[i][counts[i]] = (q[i] + TAU * k as f64).clamp(j.lower, j.upper);
                     counts[i] += 1;
                 }
             }
@@ -340,19 +349,20 @@ impl Robot {
     pub fn max_variants(&self) -> usize {
         self.joints()
             .iter()
-            .map(|j| ((j.upper - j.lower) / TAU).floor() as usize + 1)
+            .map(|j| ((j.upper - j.lower + 2.0 * LIMIT_TOL_RAD) / TAU).floor() as usize + 1)
             .product()
     }
 
     /// For a principal solution, the smallest distance (rad) by which each joint misses its
-    /// range over all multi-turn variants; zero where a variant fits.
+    /// range over all multi-turn variants; zero where a variant fits (up to [`LIMIT_TOL_RAD`]).
     pub fn limit_excess(&self, q: &Joints) -> [f64; DOF] {
         let mut excess = [0.0; DOF];
         for (i, j) in self.joints().iter().enumerate() {
             let centre = 0.5 * (j.lower + j.upper);
             // The variant nearest the range centre misses the range by the least.
             let v = q[i] + TAU * ((centre - q[i]) / TAU).round();
-            excess[i] = (j.lower - v).max(v - j.upper).max(0.0);
+            let miss = (j.lower - v).max(v - j.upper);
+            excess[i] = if miss > LIMIT_TOL_RAD { miss } else { 0.0 };
         }
         excess
     }

@@ -1,5 +1,6 @@
 //! The edge cases an outside check of the kinematics against Pinocchio found (issue 31): a
-//! spherical wrist a hair from singular that lost its solution.
+//! spherical wrist a hair from singular that lost its solution, and joint limits compared
+//! exactly.
 
 use nextpose::engine::Pose;
 use nextpose::kinematics::{
@@ -87,6 +88,55 @@ fn spherical_wrists_near_singular_keep_their_solutions() {
                         r.name(),
                         hint.is_some()
                     );
+                }
+            }
+        }
+    }
+}
+#[test]
+fn a_pose_on_a_joint_limit_keeps_its_solution_on_the_limit() {
+    // The case of the issue: an IRB 6700 with joint_1 at its upper limit, 2.9670597284 rad.
+    // Round-off put about one pose in five a hair beyond it, and its solution was dropped.
+    let mut rng = StdRng::seed_from_u64(6700);
+    let r = robot("abb_irb6700");
+    for _ in 0..100 {
+        let mut q = random_joints(&r, &mut rng);
+        q[0] = 2.9670597284;
+        q[4] = q[4].signum() * q[4].abs().max(0.3);
+        let solutions = r.ik(&r.fk(&q));
+        assert!(
+            solutions
+                .iter()
+                .any(|s| s[0] <= r.joints()[0].upper && close(s, &q, 1e-9)),
+            "{q:?} not among {solutions:?}"
+        );
+    }
+    // Every arm, every joint at either limit: the generating joints are among the solutions,
+    // and every solution is within the limits exactly (clamped onto a limit it reached).
+    for r in load_robots(&bundled_robots_dir()).unwrap() {
+        for _ in 0..10 {
+            for (i, j) in r.joints().iter().enumerate() {
+                for limit in [j.lower, j.upper] {
+                    let mut q = random_joints(&r, &mut rng);
+                    // Clear of the wrist singularity, where J4 and J6 are not determined (a UR
+                    // J5 limit of ±360° is one).
+                    q[4] = q[4].signum() * q[4].abs().max(0.3);
+                    q[i] = limit;
+                    if q[4].sin().abs() < 0.3 {
+                        continue;
+                    }
+                    let solutions = r.ik(&r.fk(&q));
+                    assert!(
+                        solutions.iter().any(|s| close(s, &q, 1e-6)),
+                        "{}: {q:?} not among {} solutions",
+                        r.name(),
+                        solutions.len()
+                    );
+                    for s in &solutions {
+                        for (v, j) in s.iter().zip(r.joints()) {
+                            assert!(j.lower <= *v && *v <= j.upper, "{}: {s:?}", r.name());
+                        }
+                    }
                 }
             }
         }
