@@ -244,6 +244,31 @@ impl Robot {
             .all(|(v, j)| *v >= j.lower - LIMIT_TOL_RAD && *v <= j.upper + LIMIT_TOL_RAD)
     }
 
+    /// Checks that the arm can be at `q`: every value finite and within its joint's range (up
+    /// to [`LIMIT_TOL_RAD`]). For joints a client says the arm is at, such as the `near` of a
+    /// reach question: the solution nearest a vector it cannot take means nothing, and values
+    /// like 1e308 overflow the distance and made the choice arbitrary.
+    pub fn check_joints(&self, q: &Joints) -> Result<(), KinematicsError> {
+        if !q.iter().all(|v| v.is_finite()) {
+            return Err(KinematicsError::NonFiniteJoints);
+        }
+        let outside = q
+            .iter()
+            .zip(self.joints())
+            .enumerate()
+            .find(|(_, (v, j))| **v < j.lower - LIMIT_TOL_RAD || **v > j.upper + LIMIT_TOL_RAD);
+        match outside {
+            None => Ok(()),
+            Some((joint, (value, j))) => Err(KinematicsError::JointOutOfRange {
+                joint: joint + 1,
+                name: j.name.clone(),
+                value: *value,
+                lower: j.lower,
+                upper: j.upper,
+            }),
+        }
+    }
+
     /// Tip pose in the robot base frame, mm.
     pub fn fk(&self, q: &Joints) -> Pose {
         metres_to_pose(&self.chain.fk(q))

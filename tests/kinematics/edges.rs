@@ -1,11 +1,11 @@
 //! The edge cases an outside check of the kinematics against Pinocchio found (issue 31): a
-//! spherical wrist a hair from singular that lost its solution, and joint limits compared
-//! exactly.
+//! spherical wrist a hair from singular that lost its solution, joint limits compared exactly,
+//! and `near` joints the arm cannot take.
 
 use nextpose::engine::Pose;
 use nextpose::kinematics::{
-    Joints, Mounting, ReachConfig, Robot, SolverKind, Unreachable, bundled_robots_dir, check_reach,
-    load_robots,
+    DOF, Joints, KinematicsError, Mounting, ReachConfig, Robot, SolverKind, Unreachable,
+    bundled_robots_dir, check_reach, load_robots,
 };
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -141,4 +141,30 @@ fn a_pose_on_a_joint_limit_keeps_its_solution_on_the_limit() {
             }
         }
     }
+}
+#[test]
+fn joints_the_arm_cannot_take_are_named() {
+    let r = robot("kuka_kr210_r2700");
+    let (lower, upper) = (r.joints()[1].lower, r.joints()[1].upper);
+    // On a limit, or past it by round-off, is a place the arm can be.
+    assert_eq!(r.check_joints(&[0.0, lower, 0.0, 0.0, 0.5, 0.0]), Ok(()));
+    assert_eq!(
+        r.check_joints(&[0.0, upper + 1e-12, 0.0, 0.0, 0.5, 0.0]),
+        Ok(())
+    );
+    // J2 = 0 is outside the KR 210's −140°…−5°.
+    let err = r.check_joints(&[0.0, 0.0, 0.0, 0.0, 0.5, 0.0]).unwrap_err();
+    assert!(
+        matches!(err, KinematicsError::JointOutOfRange { joint: 2, .. }),
+        "{err}"
+    );
+    let err = r.check_joints(&[1e308; DOF]).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "joint 1 (joint_a1) is 1.000e308 rad, outside its range -3.2289 to 3.2289 rad"
+    );
+    assert_eq!(
+        r.check_joints(&[f64::NAN; DOF]),
+        Err(KinematicsError::NonFiniteJoints)
+    );
 }
