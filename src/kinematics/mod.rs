@@ -155,6 +155,8 @@ pub struct Robot {
     name: String,
     chain: Chain,
     solver: Solver,
+    /// See [`Robot::characteristic_length_m`].
+    length_m: f64,
 }
 
 impl Robot {
@@ -185,10 +187,21 @@ impl Robot {
                 }
             },
         };
+        let opw = match &solver {
+            Solver::Opw(s) => Some(s.as_ref()),
+            Solver::Ur(_) => None,
+        };
+        let length_m = catalog::reach_mm(&chain, opw) / MM_PER_M;
+        if !(length_m.is_finite() && length_m > 0.0) {
+            return Err(KinematicsError::UnsupportedGeometry(format!(
+                "the arm's reach is {length_m} m"
+            )));
+        }
         Ok(Robot {
             name: name.to_string(),
             chain,
             solver,
+            length_m,
         })
     }
 
@@ -267,6 +280,30 @@ impl Robot {
                 upper: j.upper,
             }),
         }
+    }
+
+    /// The length (m) that makes the Jacobian's linear rows commensurate with its angular ones:
+    /// the arm's reach ([`computed_reach_mm`]). See [`Robot::sigma_min`].
+    pub fn characteristic_length_m(&self) -> f64 {
+        self.length_m
+    }
+
+    /// How far `q` is from a singularity: the smallest singular value of the flange Jacobian
+    /// with its linear rows divided by [`Robot::characteristic_length_m`].
+    ///
+    /// The plain Jacobian mixes metres (linear rows) and radians (angular rows), so its singular
+    /// values depend on the unit of length and the arm's size: on a small arm every position
+    /// direction looks weak, and the UR3e (0.5 m) was called singular twice as often as the
+    /// UR10e at random poses. In reach units the measure is dimensionless and the same for an
+    /// arm and a scaled copy of it; on every bundled arm it is about 0.25 × the angle (rad) of
+    /// J5 from zero near the wrist singularity and 0.18 × the angle from the stretched elbow
+    /// (medians over random poses), so one threshold means the same for all of them
+    /// ([`ReachConfig::min_singular_value`]).
+    pub fn sigma_min(&self, q: &Joints) -> f64 {
+        let mut jac = self.jacobian(q);
+        jac.fixed_view_mut::<3, DOF>(0, 0)
+            .scale_mut(1.0 / self.length_m);
+        jac.singular_values().min()
     }
 
     /// Tip pose in the robot base frame, mm.
