@@ -101,8 +101,8 @@ pub struct ArmFrames {
 pub struct ReachQuery {
     /// TCP pose in the work frame.
     pub pose: PoseValues,
-    /// Where the arm is (six joint values, rad); left out: the solution nearest the middle of
-    /// the joint ranges.
+    /// Where the arm is (six joint values, rad, each within its joint's range); left out: the
+    /// solution nearest the middle of the joint ranges.
     #[schema(min_items = 6, max_items = 6)]
     pub near: Option<Vec<f64>>,
 }

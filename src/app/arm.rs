@@ -101,7 +101,8 @@ impl App {
         })
     }
 
-    /// Whether the cell's arm reaches `query.pose`, and the solution nearest `query.near`.
+    /// Whether the cell's arm reaches `query.pose`, and the solution nearest `query.near`, which
+    /// must be joints the arm can be at (within its ranges).
     pub async fn reach(&self, cell_id: i64, query: ReachQuery) -> Result<Reachability> {
         let pose = query.pose.to_pose()?;
         let near = query
@@ -110,6 +111,11 @@ impl App {
             .map(|n| joints_of("near", n))
             .transpose()?;
         let arm = self.installed_arm(cell_id).await?;
+        if let Some(q) = &near {
+            arm.robot()
+                .check_joints(q)
+                .map_err(|e| AppError::Invalid(format!("near: {e}")))?;
+        }
         Ok(arm.dto(&arm.check(&pose, near.as_ref())))
     }
 }

@@ -3,8 +3,13 @@
 //! KRL is line-oriented: each line (minus its `;` comment) is tokenised with a `logos` lexer
 //! and matched on its leading tokens. Declarations (`DECL [GLOBAL] E6POS|POS|FRAME name={…}`,
 //! in the `.dat` or at the top of a `DEF`) bind names; `E6AXIS`/`AXIS` ones are remembered as
-//! joint-space so moves to them are counted as such. Motions are `PTP`, `LIN`, `CIRC aux, end`
-//! and their `_REL` forms, with a named target or an inline aggregate `{X …, Y …, …}`.
+//! joint-space so moves to them are counted as such. Arrays of positions (`DECL FRAME f[12]`)
+//! bind each element the data list initialises (`f[1]={X 10,…}`). Motions are `PTP`, `LIN`,
+//! `CIRC aux, end` and their `_REL` forms, with a named target, an array element with constant
+//! indices (`f[2]`), an inline aggregate `{X …, Y …, …}`, or such operands joined by the
+//! geometric operator (`f[2]:{X 0,Y 4,…}`: the right frame given in the left one, the product of
+//! their transforms, with the right operand's Status and Turn). An element indexed by a variable,
+//! or never initialised in the data list, is only known at run time and is skipped as such.
 //!
 //! `A B C` are ZYX Euler angles in degrees (`R = Rz(A)·Ry(B)·Rx(C)`); `S` (Status) and `T`
 //! (Turn) are kept. Names are case-insensitive. An inline aggregate missing any of `X Y Z A B C`
@@ -53,6 +58,9 @@ enum K {
     Minus,
     #[token("+")]
     Plus,
+    /// The geometric operator (`base:pos`).
+    #[token(":")]
+    Colon,
     Other,
 }
 
@@ -90,6 +98,11 @@ enum Value {
     /// An aggregate missing some of `X Y Z A B C`: completed at run time.
     Partial(HashMap<String, f64>),
     Joint,
+    /// A declared array of positions (`DECL FRAME f[12]`); its elements are bound on their own
+    /// (`F[1]`, see [`element_key`]) as the data list initialises them.
+    Array {
+        joint: bool,
+    },
 }
 
 struct Line<'s> {
@@ -138,7 +151,9 @@ pub(crate) fn parse(
         if let Some(dat) = dat {
             let idx = LineIndex::new(dat.text);
             for line in lines_of(dat) {
-                declaration(dat, &idx, &line.toks, &mut names)?;
+                if !declaration(dat, &idx, &line.toks, &mut names)? {
+                    element(dat, &idx, &line.toks, &mut names)?;
+                }
             }
         }
         let routines = routines(src, &names, &mut report.skipped)?;
@@ -187,6 +202,26 @@ fn declaration(
         return Ok(false);
     };
     let key = name.s.to_ascii_uppercase();
+    if c.is(2, K::LBrack) {
+        // Arrays (`DECL FRAME f[12], g[2,3]`): their elements are initialised on lines of their
+        // own in the data list.
+        c.skip(1);
+        while let Some(name) = c.expect(0, K::Ident) {
+            names.insert(name.s.to_ascii_uppercase(), Value::Array { joint });
+            c.skip(1);
+            if c.is(0, K::LBrack) {
+                match c.find(K::RBrack) {
+                    Some(close) => c.seek(close + 1),
+                    None => break,
+                }
+            }
+            if !c.is(0, K::Comma) {
+                break;
+            }
+            c.skip(1);
+        }
+        return Ok(true);
+    }
     match c.peek(2).map(|t| t.k) {
         Some(K::Eq) => {
             let agg = c.rest(3);
@@ -210,6 +245,66 @@ fn declaration(
         _ => {}
     }
     Ok(true)
+}
+
+/// The key an array element is bound under: `F[1]`, `G[2,3]` (the name in upper case, the
+/// indices as integers); `None` unless every index is an integer constant (`F[i]` is only known
+/// at run time).
+fn element_key(name: &str, index: &[Tok<'_>]) -> Option<String> {
+    let mut indices = Vec::new();
+    for part in index.split(|t| t.k == K::Comma) {
+        match part {
+            [n] if n.k == K::Num => indices.push(n.s.parse::<u64>().ok()?.to_string()),
+            _ => return None,
+        }
+    }
+    Some(format!(
+        "{}[{}]",
+        name.to_ascii_uppercase(),
+        indices.join(",")
+    ))
+}
+
+/// An element of a declared position array initialised in the data list
+/// (`lfWorkPos[1]={X 10,Y -5.0,…}`); other lines are ignored. A malformed aggregate is an error,
+/// as in a declaration.
+fn element(
+    f: &SourceFile<'_>,
+    idx: &LineIndex,
+    toks: &[Tok<'_>],
+    names: &mut HashMap<String, Value>,
+) -> Result<(), ImportError> {
+    let c = Cursor::new(toks);
+    let (Some(name), true) = (c.expect(0, K::Ident), c.is(1, K::LBrack)) else {
+        return Ok(());
+    };
+    let Some(&Value::Array { joint }) = names.get(&name.s.to_ascii_uppercase()) else {
+        return Ok(());
+    };
+    let Some(close) = c.find(K::RBrack) else {
+        return Ok(());
+    };
+    let (Some(key), true) = (
+        element_key(name.s, toks.get(2..close).unwrap_or(&[])),
+        c.is(close + 1, K::Eq),
+    ) else {
+        return Ok(());
+    };
+    let agg = c.rest(close + 2);
+    let value = if joint {
+        Value::Joint
+    } else {
+        aggregate(agg).ok_or_else(|| {
+            let at = agg.first().map(|t| t.at).unwrap_or(name.at);
+            ImportError::syntax(
+                f.name,
+                idx.locate(f.text, at),
+                format!("{key}: expected {{X …, Y …, …}}"),
+            )
+        })?
+    };
+    names.insert(key, value);
+    Ok(())
 }
 
 /// An aggregate `{X 1, Y 2, …}` (the whole token slice): its components by upper-case name.
@@ -337,20 +432,20 @@ fn motion(
         _ => return,
     };
     let rest = toks.get(1..).unwrap_or(&[]);
-    // Targets: a name or an aggregate, separated by a comma for CIRC.
+    // Targets: names, array elements or aggregates, maybe joined by the geometric operator;
+    // separated by a comma for CIRC.
     let mut targets: Vec<&[Tok<'_>]> = Vec::new();
-    let mut c = Cursor::new(rest);
+    let mut at = 0;
     while targets.len() < if motion.starts_with("CIRC") { 2 } else { 1 } {
-        let Some(t) = c.peek(0) else { break };
-        match t.k {
-            K::LBrace => {
-                let end = c.find(K::RBrace).map_or(rest.len(), |e| e + 1);
-                targets.push(c.take_to(end));
-            }
-            K::Ident => targets.push(c.take_to(c.pos() + 1)),
-            K::Comma => c.skip(1),
-            _ => break,
+        if rest.get(at).is_some_and(|t| t.k == K::Comma) {
+            at += 1;
+            continue;
         }
+        let Some(end) = target_end(rest, at) else {
+            break;
+        };
+        targets.push(rest.get(at..end).unwrap_or(&[]));
+        at = end;
     }
     let tool_frame = rest.iter().any(|t| t.s.eq_ignore_ascii_case("#TOOL"));
     let text_of = |t: &[Tok<'_>]| -> String {
@@ -384,17 +479,7 @@ fn motion(
             CircleRole::To
         });
         let text = text_of(t);
-        let value = if t.first().is_some_and(|x| x.k == K::LBrace) {
-            aggregate(t).ok_or(SkipReason::ComputedAtRunTime)
-        } else {
-            let key = text.to_ascii_uppercase();
-            match locals.get(&key).or_else(|| dat.get(&key)) {
-                Some(v) => Ok(v.clone()),
-                // XHOME is the E6AXIS home position of $config.dat.
-                None if key.starts_with("XHOME") || key.starts_with("HOME") => Ok(Value::Joint),
-                None => Err(SkipReason::UnresolvedName),
-            }
-        };
+        let value = target_value(t, locals, dat);
         let frame = match value {
             Ok(Value::Joint) => Err(SkipReason::JointMove),
             Ok(Value::Cartesian {
@@ -413,7 +498,7 @@ fn motion(
                 };
                 relative_to(routine.waypoints.last(), &d, tool_frame)
             }
-            Ok(Value::Partial(_)) => Err(SkipReason::ComputedAtRunTime),
+            Ok(Value::Partial(_) | Value::Array { .. }) => Err(SkipReason::ComputedAtRunTime),
             Err(e) => Err(e),
         };
         match frame.and_then(|(f, s, tu)| {
@@ -432,6 +517,110 @@ fn motion(
             }),
             Err(reason) => skip(skipped, reason, text),
         }
+    }
+}
+
+/// Where the operand starting at `toks[i]` ends (exclusive): an aggregate `{…}`, or a name with
+/// an optional index `[…]`; `None` when no operand starts there.
+fn operand_end(toks: &[Tok<'_>], i: usize) -> Option<usize> {
+    let past = |open: usize, k: K| {
+        toks.iter()
+            .skip(open)
+            .position(|t| t.k == k)
+            .map_or(toks.len(), |j| open + j + 1)
+    };
+    match toks.get(i)?.k {
+        K::LBrace => Some(past(i, K::RBrace)),
+        K::Ident if toks.get(i + 1).is_some_and(|t| t.k == K::LBrack) => {
+            Some(past(i + 1, K::RBrack))
+        }
+        K::Ident => Some(i + 1),
+        _ => None,
+    }
+}
+
+/// Where the target starting at `toks[i]` ends: operands joined by the geometric operator `:`.
+fn target_end(toks: &[Tok<'_>], i: usize) -> Option<usize> {
+    let mut end = operand_end(toks, i)?;
+    while toks.get(end).is_some_and(|t| t.k == K::Colon) {
+        match operand_end(toks, end + 1) {
+            Some(next) => end = next,
+            None => break,
+        }
+    }
+    Some(end)
+}
+
+/// The value of a target: its operands, joined left to right by the geometric operator.
+fn target_value(
+    target: &[Tok<'_>],
+    locals: &HashMap<String, Value>,
+    dat: &HashMap<String, Value>,
+) -> Result<Value, SkipReason> {
+    let mut value: Option<Value> = None;
+    for operand in target.split(|t| t.k == K::Colon) {
+        let right = operand_value(operand, locals, dat)?;
+        value = Some(match value {
+            None => right,
+            Some(left) => geometric(left, right)?,
+        });
+    }
+    value.ok_or(SkipReason::ComputedAtRunTime)
+}
+
+/// One operand: an aggregate, a name, or an element of a declared array (`f[2]`).
+fn operand_value(
+    operand: &[Tok<'_>],
+    locals: &HashMap<String, Value>,
+    dat: &HashMap<String, Value>,
+) -> Result<Value, SkipReason> {
+    let lookup = |key: &str| locals.get(key).or_else(|| dat.get(key)).cloned();
+    match operand {
+        [first, ..] if first.k == K::LBrace => {
+            aggregate(operand).ok_or(SkipReason::ComputedAtRunTime)
+        }
+        [name] if name.k == K::Ident => {
+            let key = name.s.to_ascii_uppercase();
+            match lookup(&key) {
+                Some(v) => Ok(v),
+                // XHOME is the E6AXIS home position of $config.dat.
+                None if key.starts_with("XHOME") || key.starts_with("HOME") => Ok(Value::Joint),
+                None => Err(SkipReason::UnresolvedName),
+            }
+        }
+        [name, open, index @ .., close]
+            if name.k == K::Ident && open.k == K::LBrack && close.k == K::RBrack =>
+        {
+            let element = element_key(name.s, index).and_then(|key| lookup(&key));
+            match (element, lookup(&name.s.to_ascii_uppercase())) {
+                (Some(v), _) => Ok(v),
+                // Declared, but the element is only set at run time, or the index is a variable.
+                (None, Some(Value::Array { .. })) => Err(SkipReason::ComputedAtRunTime),
+                (None, _) => Err(SkipReason::UnresolvedName),
+            }
+        }
+        _ => Err(SkipReason::ComputedAtRunTime),
+    }
+}
+
+/// KRL's geometric operator `left:right`: `right` taken relative to `left`
+/// (`T = T_left · T_right`); the result has the right operand's type, so its Status and Turn.
+/// Both operands must be complete positions: KRL refuses an aggregate missing components here.
+fn geometric(left: Value, right: Value) -> Result<Value, SkipReason> {
+    match (left, right) {
+        (
+            Value::Cartesian { frame: outer, .. },
+            Value::Cartesian {
+                frame: inner,
+                status,
+                turn,
+            },
+        ) => Ok(Value::Cartesian {
+            frame: outer.compose(&inner),
+            status,
+            turn,
+        }),
+        _ => Err(SkipReason::ComputedAtRunTime),
     }
 }
 
@@ -465,6 +654,7 @@ fn relative_to(
 mod tests {
     use super::super::parse_files;
     use super::*;
+    use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion};
 
     const SRC: &str = "&ACCESS RVP\nDEF demo( )\n;FOLD PTP HOME\nPTP XHOME C_PTP\n;ENDFOLD\nPTP XP1 C_PTP\nLIN xp2 ; comment\nCIRC XP1, {X 10, Y 0, Z 0, A 0, B 0, C 0} C_DIS\nLIN_REL {Z 5}\nLIN {X 1}\nPTP XJ\nEND\n";
     const DAT: &str = "DEFDAT demo\nDECL E6POS XP1={x 100.0,y 0.0,z 50.0,a 90.0,b 0.0,c 180.0,s 2,t 35,e1 0.0}\nDECL E6POS XP2={x 1,y 2,z 3,a 0,b 0,c 0,s 6,t 50}\nDECL E6AXIS XJ={a1 0,a2 -90,a3 90,a4 0,a5 0,a6 0}\nENDDAT\n";
@@ -538,6 +728,168 @@ mod tests {
                 .iter()
                 .any(|s| s.reason == SkipReason::UnresolvedName)
         );
+    }
+
+    /// A KRL position `[X, Y, Z, A, B, C]` as an isometry, built here from KUKA's definition
+    /// (`Rz(A)·Ry(B)·Rx(C)`, degrees) rather than by the importer's code.
+    fn krl_frame(v: [f64; 6]) -> Isometry3<f64> {
+        let [x, y, z, a, b, c] = v;
+        let turn = |axis: Unit<Vector3<f64>>, deg: f64| {
+            UnitQuaternion::from_axis_angle(&axis, deg.to_radians())
+        };
+        Isometry3::from_parts(
+            Translation3::new(x, y, z),
+            turn(Vector3::z_axis(), a) * turn(Vector3::y_axis(), b) * turn(Vector3::x_axis(), c),
+        )
+    }
+
+    const MILL_SRC: &str = include_str!("../../tests/fixtures/import/krl/mill_pocket.src");
+    const MILL_DAT: &str = include_str!("../../tests/fixtures/import/krl/mill_pocket.dat");
+
+    #[test]
+    fn a_milling_cell_moves_to_frame_array_elements_and_their_geometric_products() {
+        // The numbers of mill_pocket.dat, composed with nalgebra: `a:b` is `T_a · T_b`.
+        let work = [
+            [10.0, -5.0, 5.0, 0.0, 0.0, 0.0],
+            [130.0, -5.0, 5.0, 0.0, 0.0, 0.0],
+            [250.0, -5.0, 5.0, 0.0, 0.0, 0.0],
+            [370.0, -5.0, 5.0, 0.0, 0.0, 0.0],
+            [10.0, 245.0, 5.0, 180.0, 0.0, 0.0],
+            [130.0, 245.0, 5.0, 180.0, 0.0, 0.0],
+            [250.0, 245.0, 5.2, 179.5, 0.3, -0.4],
+            [370.0, 245.0, 4.8, -178.0, -0.2, 0.6],
+            [190.0, 120.0, 80.0, 90.0, 0.0, 0.0],
+        ]
+        .map(krl_frame);
+        let w = |i: usize| work[i - 1];
+        let down = krl_frame([0.0, 0.0, 0.0, 0.0, 0.0, 180.0]);
+        let slot = krl_frame([0.0, 4.0, 0.0, 0.0, 0.0, 0.0]);
+        let cut = [
+            [0.0, 4.0, 0.0, 0.0, 0.0, 180.0],
+            [20.0, 24.0, -1.5, 0.0, 0.0, 180.0],
+            [40.0, 4.0, -1.5, 0.0, 0.0, 180.0],
+        ]
+        .map(krl_frame);
+        let home = krl_frame([400.0, 0.0, 650.0, 0.0, 90.0, 0.0]);
+        let st = |s, t| Configuration::Krl {
+            status: Some(s),
+            turn: Some(t),
+        };
+        let frame = Configuration::Krl {
+            status: None,
+            turn: None,
+        };
+        let (via, to) = (Some(CircleRole::Via), Some(CircleRole::To));
+        let expected = [
+            ("xHome", "PTP", None, home, st(2, 35)),
+            ("lfWorkPos[1]", "LIN", None, w(1), frame.clone()),
+            (
+                "lfWorkPos[1]:{X 0.0,Y 4.0,Z 0,A 0.0,B 0.0,C 0.0}",
+                "LIN",
+                None,
+                w(1) * slot,
+                frame.clone(),
+            ),
+            ("lfWorkPos[2]", "LIN", None, w(2), frame.clone()),
+            (
+                "lfWorkPos[2]:{X 0.0,Y 4.0,Z 0,A 0.0,B 0.0,C 0.0}",
+                "LIN",
+                None,
+                w(2) * slot,
+                frame.clone(),
+            ),
+            (
+                "lfWorkPos[3]:fToolDown",
+                "LIN",
+                None,
+                w(3) * down,
+                frame.clone(),
+            ),
+            (
+                "lfWorkPos[4]:fToolDown:{X 20.0,Y 0.0,Z -1.5,A 0.0,B 0.0,C 0.0}",
+                "LIN",
+                None,
+                w(4) * down * krl_frame([20.0, 0.0, -1.5, 0.0, 0.0, 0.0]),
+                frame.clone(),
+            ),
+            (
+                "lfWorkPos[5]:xCut[1]",
+                "CIRC",
+                via,
+                w(5) * cut[0],
+                st(6, 50),
+            ),
+            ("lfWorkPos[5]:xCut[2]", "CIRC", to, w(5) * cut[1], st(6, 50)),
+            (
+                "lfWorkPos[ 6 ]:xCut[3]",
+                "LIN",
+                None,
+                w(6) * cut[2],
+                st(6, 18),
+            ),
+            ("lfWorkPos[7]", "LIN", None, w(7), frame.clone()),
+            ("lfWorkPos[8]", "LIN", None, w(8), frame.clone()),
+            (
+                "lfWorkPos[9]:fToolDown",
+                "PTP",
+                None,
+                w(9) * down,
+                frame.clone(),
+            ),
+            ("xHome", "PTP", None, home, st(2, 35)),
+        ];
+        let report = parse_files(&[
+            ("cell/mill_pocket.src", MILL_SRC),
+            ("cell/mill_pocket.dat", MILL_DAT),
+        ])
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+        let r = &report.programs[0].routines[0];
+        assert_eq!(r.waypoints.len(), expected.len());
+        for (got, (name, motion, role, pose, config)) in r.waypoints.iter().zip(&expected) {
+            assert_eq!(
+                (got.name.as_str(), got.motion.as_str(), got.role),
+                (*name, *motion, *role)
+            );
+            assert_eq!(got.configuration.as_ref(), Some(config), "{name}");
+            let iso = got.pose.isometry();
+            let mm = (iso.translation.vector - pose.translation.vector).norm();
+            let rad = iso.rotation.angle_to(&pose.rotation);
+            assert!(mm < 1e-9 && rad < 1e-9, "{name}: {mm:e} mm, {rad:e} rad");
+        }
+    }
+
+    #[test]
+    fn array_elements_known_only_at_run_time_are_skipped_with_the_reason() {
+        let dat = "DEFDAT cell\nDECL FRAME f[4], g[2,2]\nf[1]={X 1,Y 2,Z 3,A 0,B 0,C 0}\nf[2]={X 4,Y 5,Z 6,A 0,B 0,C 0}\ng[2,1]={X 7,Y 8,Z 9,A 90,B 0,C 0}\nDECL E6AXIS ax[2]\nax[1]={A1 0,A2 -90,A3 90,A4 0,A5 0,A6 0}\nENDDAT\n";
+        let src = "DEF cell( )\nDECL INT i\nLIN f[1]\nLIN g[2,1]\nLIN f[i]\nLIN f[3]\nLIN h[1]\nLIN f[2]:{X 5}\nPTP ax[1]\nLIN f[1]:ax[1]\nLIN_REL f[2]\nEND\n";
+        let report = parse_files(&[("cell.src", src), ("cell.dat", dat)]).unwrap();
+        let r = &report.programs[0].routines[0];
+        let names: Vec<_> = r.waypoints.iter().map(|w| w.name.as_str()).collect();
+        assert_eq!(names, ["f[1]", "g[2,1]", "f[2]"]);
+        // `LIN_REL f[2]` moves by f[2] from the previous waypoint, g[2,1].
+        let p = r.waypoints[2].pose.position();
+        assert!((p - Vector3::new(11.0, 13.0, 15.0)).norm() < 1e-12, "{p}");
+        let skipped: Vec<_> = report
+            .skipped
+            .iter()
+            .map(|s| (s.text.as_str(), s.reason))
+            .collect();
+        assert_eq!(
+            skipped,
+            [
+                ("f[i]", SkipReason::ComputedAtRunTime),
+                ("f[3]", SkipReason::ComputedAtRunTime),
+                ("h[1]", SkipReason::UnresolvedName),
+                ("f[2]:{X 5}", SkipReason::ComputedAtRunTime),
+                ("ax[1]", SkipReason::JointMove),
+                ("f[1]:ax[1]", SkipReason::ComputedAtRunTime),
+            ]
+        );
+        // A malformed element in the data list is an error naming its line, as a declaration.
+        let broken = dat.replace("f[2]={X 4,Y 5,", "f[2]={X 4,Y ,");
+        let err = parse_files(&[("cell.src", src), ("cell.dat", &broken)]).unwrap_err();
+        assert!(err.to_string().starts_with("cell.dat:4:"), "{err}");
     }
 
     #[test]

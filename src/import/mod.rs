@@ -35,7 +35,7 @@ pub mod trajectory;
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::engine::Pose;
@@ -135,7 +135,7 @@ pub struct ImportedWaypoint {
     pub frame: Option<String>,
 }
 
-/// One routine (RAPID `PROC`/`TRAP`, KRL `DEF`, one FANUC TP file).
+/// One routine (RAPID `PROC`/`TRAP`/`FUNC`, KRL `DEF`, one FANUC TP file).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ImportedRoutine {
     pub name: String,
@@ -444,6 +444,22 @@ impl LineIndex {
 pub(crate) struct Frame {
     pub position: Vector3<f64>,
     pub rotation: UnitQuaternion<f64>,
+}
+
+impl Frame {
+    fn isometry(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(Translation3::from(self.position), self.rotation)
+    }
+
+    /// `self ∘ inner`: the frame `inner`, given relative to `self`, expressed where `self` is
+    /// (KRL's geometric operator `self:inner`, the product of the two homogeneous transforms).
+    pub(crate) fn compose(&self, inner: &Frame) -> Frame {
+        let m = self.isometry() * inner.isometry();
+        Frame {
+            position: m.translation.vector,
+            rotation: m.rotation,
+        }
+    }
 }
 
 /// Rotation from ZYX Euler angles in degrees: `Rz(a)·Ry(b)·Rx(c)` — KRL `A B C`, and FANUC

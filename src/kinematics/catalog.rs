@@ -22,8 +22,9 @@ use serde::{Deserialize, Serialize};
 
 use super::Robot;
 use super::error::KinematicsError;
+use super::opw::OpwSolver;
 use super::units::MM_PER_M;
-use super::urdf::DOF;
+use super::urdf::{Chain, DOF};
 
 /// The file name of the catalogue in a robot directory.
 pub const CATALOG_FILE: &str = "catalog.json";
@@ -70,14 +71,19 @@ pub fn load_catalog(dir: &Path) -> Result<Vec<ArmFacts>, KinematicsError> {
 /// The arm's reach computed from its kinematics, mm, as the data sheets define it (module
 /// documentation): to the wrist centre for OPW arms, to the flange at zero for UR arms.
 pub fn computed_reach_mm(robot: &Robot) -> f64 {
-    match robot.opw() {
+    reach_mm(robot.chain(), robot.opw())
+}
+
+/// [`computed_reach_mm`] of a chain and its OPW model, if it has one (while a [`Robot`] is built).
+pub(crate) fn reach_mm(chain: &Chain, opw: Option<&OpwSolver>) -> f64 {
+    match opw {
         Some(opw) => {
             let p = opw.parameters();
             let stretch = p.a1.abs() + p.c2.abs() + p.c3.hypot(p.a2);
             stretch.hypot(p.b) * MM_PER_M
         }
         None => {
-            let (axes, tip) = robot.chain().axes_at(&[0.0; DOF]);
+            let (axes, tip) = chain.axes_at(&[0.0; DOF]);
             let (w1, o1) = axes[0];
             (tip.translation.vector - o1).cross(&w1).norm() * MM_PER_M
         }

@@ -44,10 +44,34 @@ pub enum KinematicsError {
     UnsupportedGeometry(String),
     #[error("joint values must be finite")]
     NonFiniteJoints,
+    /// A joint vector the arm cannot take (see [`super::Robot::check_joints`]).
+    #[error(
+        "joint {joint} ({name}) is {} rad, outside its range {} to {} rad",
+        rad(*.value),
+        rad(*.lower),
+        rad(*.upper)
+    )]
+    JointOutOfRange {
+        /// 1-based.
+        joint: usize,
+        name: String,
+        value: f64,
+        lower: f64,
+        upper: f64,
+    },
     #[error("unknown robot {0:?}")]
     UnknownRobot(String),
     #[error("malformed robot catalogue {path}: {message}")]
     Catalog { path: String, message: String },
+}
+
+/// A joint value for a message: a few decimals, or a mantissa and exponent when it is huge.
+fn rad(v: f64) -> String {
+    if v.abs() < 1e6 {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
 }
 
 impl KinematicsError {

@@ -75,6 +75,14 @@ pub const SOLUTION_TOL_M: f64 = 1e-9;
 /// … and this close in orientation (radians).
 pub const SOLUTION_TOL_RAD: f64 = 1e-9;
 
+/// How far (radians) a joint value may lie beyond a limit and still count as on it. The solvers
+/// recover a joint to about 1e-12 rad, so a pose taught exactly at a limit comes back on either
+/// side of it by round-off, and an exact comparison kept or dropped it (and its multi-turn
+/// variants) by chance. 1e-9 rad is the FK check's own tolerance ([`SOLUTION_TOL_RAD`]) and a
+/// nanometre a metre out; a value within it is clamped onto the limit, so every solution
+/// [`Robot::ik`] returns is within the limits exactly.
+pub const LIMIT_TOL_RAD: f64 = 1e-9;
+
 /// Angle wrapped into `(-π, π]`.
 pub fn wrap_angle(a: f64) -> f64 {
     let r = a.rem_euclid(TAU);
@@ -147,6 +155,8 @@ pub struct Robot {
     name: String,
     chain: Chain,
     solver: Solver,
+    /// See [`Robot::characteristic_length_m`].
+    length_m: f64,
 }
 
 impl Robot {
@@ -177,10 +187,21 @@ impl Robot {
                 }
             },
         };
+        let opw = match &solver {
+            Solver::Opw(s) => Some(s.as_ref()),
+            Solver::Ur(_) => None,
+        };
+        let length_m = catalog::reach_mm(&chain, opw) / MM_PER_M;
+        if !(length_m.is_finite() && length_m > 0.0) {
+            return Err(KinematicsError::UnsupportedGeometry(format!(
+                "the arm's reach is {length_m} m"
+            )));
+        }
         Ok(Robot {
             name: name.to_string(),
             chain,
             solver,
+            length_m,
         })
     }
 
@@ -229,11 +250,60 @@ impl Robot {
         }
     }
 
-    /// Whether every joint is within its limits.
+    /// Whether every joint is within its limits (up to [`LIMIT_TOL_RAD`]).
     pub fn within_limits(&self, q: &Joints) -> bool {
         q.iter()
             .zip(self.joints())
-            .all(|(v, j)| *v >= j.lower && *v <= j.upper)
+            .all(|(v, j)| *v >= j.lower - LIMIT_TOL_RAD && *v <= j.upper + LIMIT_TOL_RAD)
+    }
+
+    /// Checks that the arm can be at `q`: every value finite and within its joint's range (up
+    /// to [`LIMIT_TOL_RAD`]). For joints a client says the arm is at, such as the `near` of a
+    /// reach question: the solution nearest a vector it cannot take means nothing, and values
+    /// like 1e308 overflow the distance and made the choice arbitrary.
+    pub fn check_joints(&self, q: &Joints) -> Result<(), KinematicsError> {
+        if !q.iter().all(|v| v.is_finite()) {
+            return Err(KinematicsError::NonFiniteJoints);
+        }
+        let outside = q
+            .iter()
+            .zip(self.joints())
+            .enumerate()
+            .find(|(_, (v, j))| **v < j.lower - LIMIT_TOL_RAD || **v > j.upper + LIMIT_TOL_RAD);
+        match outside {
+            None => Ok(()),
+            Some((joint, (value, j))) => Err(KinematicsError::JointOutOfRange {
+                joint: joint + 1,
+                name: j.name.clone(),
+                value: *value,
+                lower: j.lower,
+                upper: j.upper,
+            }),
+        }
+    }
+
+    /// The length (m) that makes the Jacobian's linear rows commensurate with its angular ones:
+    /// the arm's reach ([`computed_reach_mm`]). See [`Robot::sigma_min`].
+    pub fn characteristic_length_m(&self) -> f64 {
+        self.length_m
+    }
+
+    /// How far `q` is from a singularity: the smallest singular value of the flange Jacobian
+    /// with its linear rows divided by [`Robot::characteristic_length_m`].
+    ///
+    /// The plain Jacobian mixes metres (linear rows) and radians (angular rows), so its singular
+    /// values depend on the unit of length and the arm's size: on a small arm every position
+    /// direction looks weak, and the UR3e (0.5 m) was called singular twice as often as the
+    /// UR10e at random poses. In reach units the measure is dimensionless and the same for an
+    /// arm and a scaled copy of it; on every bundled arm it is about 0.25 × the angle (rad) of
+    /// J5 from zero near the wrist singularity and 0.18 × the angle from the stretched elbow
+    /// (medians over random poses), so one threshold means the same for all of them
+    /// ([`ReachConfig::min_singular_value`]).
+    pub fn sigma_min(&self, q: &Joints) -> f64 {
+        let mut jac = self.jacobian(q);
+        jac.fixed_view_mut::<3, DOF>(0, 0)
+            .scale_mut(1.0 / self.length_m);
+        jac.singular_values().min()
     }
 
     /// Tip pose in the robot base frame, mm.
@@ -295,17 +365,18 @@ impl Robot {
         out
     }
 
-    /// Appends every `q + 2πk` (per joint) that lies within the limits.
+    /// Appends every `q + 2πk` (per joint) that lies within the limits, up to [`LIMIT_TOL_RAD`],
+    /// clamped onto them.
     pub(crate) fn push_variants(&self, q: &Joints, out: &mut Vec<Joints>) {
         // Per joint at most ceil(range / 2π) + 1 values; 4 covers ranges up to 1080°.
         let mut values = [[0.0f64; 4]; DOF];
         let mut counts = [0usize; DOF];
         for (i, j) in self.joints().iter().enumerate() {
-            let kmin = ((j.lower - q[i]) / TAU).ceil() as i64;
-            let kmax = ((j.upper - q[i]) / TAU).floor() as i64;
+            let kmin = ((j.lower - LIMIT_TOL_RAD - q[i]) / TAU).ceil() as i64;
+            let kmax = ((j.upper + LIMIT_TOL_RAD - q[i]) / TAU).floor() as i64;
             for k in kmin..=kmax {
                 if counts[i] < 4 {
-                    values[i][counts[i]] = q[i] + TAU * k as f64;
+                    values[i][counts[i]] = (q[i] + TAU * k as f64).clamp(j.lower, j.upper);
                     counts[i] += 1;
                 }
             }
@@ -340,19 +411,20 @@ impl Robot {
     pub fn max_variants(&self) -> usize {
         self.joints()
             .iter()
-            .map(|j| ((j.upper - j.lower) / TAU).floor() as usize + 1)
+            .map(|j| ((j.upper - j.lower + 2.0 * LIMIT_TOL_RAD) / TAU).floor() as usize + 1)
             .product()
     }
 
     /// For a principal solution, the smallest distance (rad) by which each joint misses its
-    /// range over all multi-turn variants; zero where a variant fits.
+    /// range over all multi-turn variants; zero where a variant fits (up to [`LIMIT_TOL_RAD`]).
     pub fn limit_excess(&self, q: &Joints) -> [f64; DOF] {
         let mut excess = [0.0; DOF];
         for (i, j) in self.joints().iter().enumerate() {
             let centre = 0.5 * (j.lower + j.upper);
             // The variant nearest the range centre misses the range by the least.
             let v = q[i] + TAU * ((centre - q[i]) / TAU).round();
-            excess[i] = (j.lower - v).max(v - j.upper).max(0.0);
+            let miss = (j.lower - v).max(v - j.upper);
+            excess[i] = if miss > LIMIT_TOL_RAD { miss } else { 0.0 };
         }
         excess
     }

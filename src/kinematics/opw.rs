@@ -26,6 +26,11 @@ const GEOM_TOL: f64 = 1e-9;
 /// `|sin J5|` below which the wrist counts as singular for choosing J4/J6 near a hint.
 const NEAR_SINGULAR_WRIST: f64 = 1e-6;
 
+/// `|sin J5|` below which a solution's wrist phase is recomputed from the pose
+/// ([`OpwSolver::correct_wrist_phase`]). The solver's J4 and J6 there are off by about
+/// ε/|sin J5|; above this bound that is under 1e-11 rad, well within the FK check.
+const WRIST_PHASE_CORRECTION: f64 = 1e-4;
+
 /// The OPW model of one arm.
 #[derive(Debug, Clone)]
 pub struct OpwSolver {
@@ -178,9 +183,31 @@ impl OpwSolver {
                 *v = wrap_angle(*v);
             }
             if q.iter().all(|v| v.is_finite()) {
+                if q[4].sin().abs() < WRIST_PHASE_CORRECTION {
+                    self.correct_wrist_phase(&target, &mut q);
+                }
                 out.push(q);
             }
         }
+    }
+
+    /// Near J5 = 0 (or ±180°) the solver finds J4 and J6 each as the angle of a vector of
+    /// length |sin J5|, so each is off by about ε/|sin J5| rad, and so is the wrist phase (J4 ± J6,
+    /// the rotation about the aligned axes 4 and 6) — though the pose fixes the phase to full
+    /// precision. At |J5| = 1e-7 an IRB 140's tip was turned 3e-9 rad about its axis, the FK
+    /// check dropped the solution, and a reachable pose was reported beyond a joint limit
+    /// (between about 1e-9 and 1e-6 rad neither this nor the solver's exact-pole candidate,
+    /// J5 = 0, is within the check's 1e-9 rad). The split between J4 and J6 is what the pose
+    /// barely determines and is kept; the rotation about the flange's z axis (joint 6) that
+    /// separates the solution from the target is turned away with J6 alone.
+    fn correct_wrist_phase(&self, target: &Isometry3<f64>, q: &mut Joints) {
+        let Ok(reached) = self.kin.try_forward(q) else {
+            return;
+        };
+        // What is left to turn, in the flange frame: about z for a wrist near its pole.
+        let left = (to_iso(&reached).rotation.inverse() * target.rotation).to_rotation_matrix();
+        let about_z = (left[(1, 0)] - left[(0, 1)]).atan2(left[(0, 0)] + left[(1, 1)]);
+        q[5] = wrap_angle(q[5] + f64::from(self.params.sign_corrections[5]) * about_z);
     }
 }
 

@@ -6,6 +6,13 @@
 //! The result says which solutions there are, which one the arm would take (the one nearest the
 //! previous waypoint's joints), how far that one is from a singularity and from its tightest
 //! joint limit, and, when the pose is unreachable, why.
+//!
+//! Distance from a singularity is [`Robot::sigma_min`]: the smallest singular value of the
+//! Jacobian with its linear rows divided by the arm's reach, so that metres and radians are
+//! weighed alike and one threshold ([`ReachConfig::min_singular_value`]) means about the same
+//! angle from a singular pose on a 0.5 m cobot and a 2.8 m arm. The plain Jacobian's σ_min,
+//! used before, called a UR3e singular at 10 % of random poses against 5 % for a UR10e of the
+//! same design.
 
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
@@ -63,9 +70,11 @@ pub enum ReachPolicy {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ReachConfig {
     pub policy: ReachPolicy,
-    /// A chosen solution whose smallest Jacobian singular value (metres/radians, at the flange)
-    /// is below this is singular. The default 0.005 corresponds to J5 within about 1° of zero on
-    /// an IRB 140 or KR 16 and 0.5° on a UR5e.
+    /// A chosen solution whose [`Robot::sigma_min`] (the smallest singular value of the flange
+    /// Jacobian with its linear rows in units of the arm's reach: dimensionless) is below this
+    /// is singular. The default 0.005 flags J5 within about 1° of zero on every bundled arm
+    /// (the median over random poses is 0.9°–1.2° for each) and the elbow within about 1.5° of
+    /// stretched.
     pub min_singular_value: f64,
 }
 
@@ -118,9 +127,10 @@ pub struct Reachability {
     pub solutions: Vec<Joints>,
     /// The solution nearest the previous joints (or the range centres when none were given).
     pub chosen: Option<Joints>,
-    /// Smallest singular value of the Jacobian at `chosen`.
+    /// Smallest singular value of the Jacobian at `chosen`, its linear rows in units of the
+    /// arm's reach ([`Robot::sigma_min`]).
     pub sigma_min: Option<f64>,
-    /// Yoshikawa manipulability `|det J|` at `chosen`.
+    /// Yoshikawa manipulability `|det J|` at `chosen` (the plain Jacobian: metres, radians).
     pub manipulability: Option<f64>,
     /// The joint of `chosen` nearest a limit.
     pub limiting_joint: Option<JointMargin>,
@@ -253,11 +263,9 @@ pub fn check_reach(
         .min_by(|a, b| distance_sq(a, &reference).total_cmp(&distance_sq(b, &reference)))
         .copied();
     if let Some(q) = chosen {
-        let jac = robot.jacobian(&q);
-        let sv = jac.singular_values();
-        let sigma_min = sv.min();
+        let sigma_min = robot.sigma_min(&q);
         result.sigma_min = Some(sigma_min);
-        result.manipulability = Some(sv.iter().product());
+        result.manipulability = Some(robot.jacobian(&q).determinant().abs());
         result.limiting_joint = robot
             .joints()
             .iter()

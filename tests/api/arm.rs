@@ -154,6 +154,17 @@ async fn bad_joints_and_poses_are_422_and_change_nothing() {
             "invalid",
             "near must hold 6",
         ),
+        // Joints the arm cannot be at: huge values answered with an arbitrary solution.
+        (
+            json!({ "pose": good, "near": [1e308, 1e308, 1e308, 1e308, 1e308, 1e308] }),
+            "invalid",
+            "near: joint 1 (joint_1) is 1.000e308 rad, outside its range",
+        ),
+        (
+            json!({ "pose": good, "near": [0.0, 0.0, 2.0, 0.0, 0.5, 0.0] }),
+            "invalid",
+            "near: joint 3 (joint_3) is 2.0000 rad, outside its range -4.0143 to 0.8727 rad",
+        ),
         (
             json!({ "pose": { "x": 1.0, "y": 0.0, "z": 0.0, "qw": 3.0, "qx": 0.0, "qy": 0.0, "qz": 0.0 } }),
             "invalid_pose",
@@ -264,6 +275,16 @@ async fn grpc_frames_and_reach_are_the_rest_answers() {
         .await
         .unwrap_err();
     assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    let e = c
+        .check_reach(pb::CheckReachRequest {
+            cell_id: cell,
+            pose: Some(pb_pose(&frames["tcp"])),
+            near: vec![1e308; 6],
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    assert!(e.message().contains("outside its range"), "{}", e.message());
     let e = c
         .check_reach(pb::CheckReachRequest {
             cell_id: 999,

@@ -8,6 +8,10 @@
 //! assignment to a target variable holds until the next one — a reading of the program as
 //! written, which is what the operator taught.
 //!
+//! Routines are `PROC`s, `TRAP`s and `FUNC`s: a function that moves the arm (a calibration
+//! routine that answers what it measured) is a path like any other; one without a motion
+//! instruction only computes and is left out without a report.
+//!
 //! Names resolve first in the routine (its `VAR`s and assignments so far), then in the module,
 //! then in the other modules of the upload (RAPID names are case-insensitive). A target that
 //! can only be known at run time (function results, record fields, loop-dependent offsets, a
@@ -29,7 +33,7 @@ use super::{
     drop_short_routines,
 };
 use eval::Binding;
-use resolve::{eval_decl, routine_stmt};
+use resolve::{eval_decl, is_motion, routine_stmt};
 use structure::structure;
 
 /// Deepest nesting of blocks (`IF … THEN`, `WHILE`, `FOR`, `TEST`) in a routine that is read;
@@ -74,7 +78,8 @@ pub(crate) fn parse(
     for (mi, m) in modules.iter().enumerate() {
         let mut routines = Vec::new();
         for r in &m.routines {
-            if !r.collect {
+            // A FUNC that issues no motion computes a value: no path, nothing to report.
+            if r.function && !r.stmts.iter().any(|st| is_motion(m, st)) {
                 continue;
             }
             let mut locals: HashMap<String, Binding> = HashMap::new();
@@ -185,6 +190,72 @@ ENDMODULE
         assert!((r.waypoints[1].pose.position().x - 2.0).abs() < 1e-12);
         assert_eq!(report.skipped[0].reason, SkipReason::ComputedAtRunTime);
         assert_eq!(report.skipped[0].line, 8);
+    }
+
+    const CALIBRATION: &str = include_str!("../../../tests/fixtures/import/rapid/Calibration.mod");
+
+    #[test]
+    fn a_func_that_moves_the_arm_is_a_routine_and_its_array_targets_resolve() {
+        let report =
+            parse_files(&[("HOME/Calibration.mod", CALIBRATION)]).unwrap_or_else(|e| panic!("{e}"));
+        // ProbeOk() only computes: no routine and no skip record.
+        assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+        let routines = &report.programs[0].routines;
+        let names: Vec<_> = routines.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, ["main", "MeasureSphere"]);
+        assert_eq!(routines[1].line, 26);
+        // Positions and quaternions as the module writes them; the quaternions normalised here.
+        let down = [0.0, 0.0, 1.0, 0.0];
+        // The module writes 0.7071068: the same rotation once normalised.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let expected = [
+            ("Offs(pSphereTop,0,0,50)", [0.0, 0.0, 170.0], down, None),
+            ("pSphereTop", [0.0, 0.0, 120.0], down, None),
+            ("pApproach{1}", [60.0, 0.0, 60.0], down, None),
+            ("pApproach{2}", [0.0, 60.0, 60.0], [0.0, h, h, 0.0], None),
+            (
+                "pApproach{3}",
+                [-60.0, 0.0, 60.0],
+                [0.0, 1.0, 0.0, 0.0],
+                Some(CircleRole::Via),
+            ),
+            (
+                "pApproach{4}",
+                [0.0, -60.0, 60.0],
+                [0.0, h, -h, 0.0],
+                Some(CircleRole::To),
+            ),
+            // The tool points down: 30 mm back along the tool's z is 30 mm up.
+            ("RelTool(pSphereTop,0,0,-30)", [0.0, 0.0, 150.0], down, None),
+        ];
+        let waypoints = &routines[1].waypoints;
+        assert_eq!(waypoints.len(), expected.len());
+        for (w, (name, p, q, role)) in waypoints.iter().zip(expected) {
+            assert_eq!((w.name.as_str(), w.role), (name, role));
+            assert_eq!(w.frame.as_deref(), Some("wCalib"), "{name}");
+            let want = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                q[0], q[1], q[2], q[3],
+            ));
+            let mm = (w.pose.position() - nalgebra::Vector3::from(p)).norm();
+            let rad = w.pose.rotation().angle_to(&want);
+            assert!(mm < 1e-9 && rad < 1e-9, "{name}: {mm:e} mm, {rad:e} rad");
+        }
+        assert_eq!(
+            waypoints[5].configuration,
+            Some(Configuration::Rapid {
+                cf1: -1,
+                cf4: -1,
+                cf6: 0,
+                cfx: 0
+            })
+        );
+        // The same moves in a PROC import the same routine.
+        let as_proc = CALIBRATION
+            .replace("FUNC num MeasureSphere", "PROC MeasureSphere")
+            .replace("RETURN sum / 4;", "")
+            .replacen("ENDFUNC", "ENDPROC", 1);
+        let in_proc = parse_files(&[("HOME/Calibration.mod", &as_proc)]).unwrap();
+        assert_eq!(in_proc.programs[0].routines, *routines);
     }
 
     /// `depth` nested blocks of the given opener/closer around one move pair, in one routine.

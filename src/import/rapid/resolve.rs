@@ -71,6 +71,13 @@ pub(super) fn motion_kind(name: &str) -> Option<(&'static str, MotionKind)> {
         .map(|&(n, k)| (n, k))
 }
 
+/// Whether a statement is a motion instruction (one [`motion_kind`] knows).
+pub(super) fn is_motion(m: &ModuleAst<'_>, st: &Stmt) -> bool {
+    m.toks
+        .get(st.start)
+        .is_some_and(|t| t.k == K::Ident && motion_kind(t.s).is_some())
+}
+
 /// A declaration `[CONST|PERS|VAR] type name[{dims}] [:= value]`: its lower-case name and value.
 pub(super) fn eval_decl(
     m: &ModuleAst<'_>,

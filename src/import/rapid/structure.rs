@@ -21,7 +21,8 @@ pub(super) struct Stmt {
 pub(super) struct RoutineAst {
     pub(super) name: String,
     pub(super) line: usize,
-    pub(super) collect: bool,
+    /// A `FUNC`: imported like a `PROC` when it moves the arm (see [`super::parse`]).
+    pub(super) function: bool,
     pub(super) stmts: Vec<Stmt>,
 }
 
@@ -127,7 +128,7 @@ pub(super) fn structure(file: SourceFile<'_>) -> Result<ModuleAst<'_>, ImportErr
                 routine = Some(RoutineAst {
                     name,
                     line: m.lines.line(t.at),
-                    collect: word != "FUNC",
+                    function: word == "FUNC",
                     stmts: Vec::new(),
                 });
                 in_error = false;

@@ -106,14 +106,15 @@ pub struct LayoutOptions {
     /// Further bases (work frame, mm) to start from and to score as given, e.g. the cell's
     /// current placement; the result is never worse than any of them.
     pub extra_seeds: Vec<PoseValues>,
-    /// A chosen solution whose smallest Jacobian singular value is below this is singular
-    /// (default [`DEFAULT_MIN_SINGULAR_VALUE`], as [`ReachConfig`]).
+    /// A chosen solution whose smallest Jacobian singular value (in reach units,
+    /// [`crate::kinematics::Robot::sigma_min`]) is below this is singular (default
+    /// [`DEFAULT_MIN_SINGULAR_VALUE`], as [`ReachConfig`]).
     pub min_singular_value: f64,
     /// Joint margin (rad) at which a reached target counts as fully comfortable (default 0.35,
     /// about 20°).
     pub comfort_joint_margin_rad: f64,
     /// Smallest singular value at which a reached target counts as fully clear of singularities
-    /// (default 0.05, about J5 = 10° on an IRB 140). Above `min_singular_value`.
+    /// (default 0.05, about J5 = 10° on any arm). Above `min_singular_value`.
     pub comfort_sigma: f64,
 }
 
