@@ -23,8 +23,8 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use nextpose::engine::experts::{Followers, SequenceExpert};
 use nextpose::engine::experts::frames::{Frame, Tolerance, angle, distance};
+use nextpose::engine::experts::{Followers, SequenceExpert};
 use nextpose::engine::{EngineConfig, Observation, Pose, Teacher};
 use nextpose::replay::load_paths;
 
