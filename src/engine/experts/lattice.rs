@@ -371,18 +371,18 @@ impl LatticeWalk {
         // alone would carry two placements' error into every comparison).
         let mut n = 1;
         while n < points.len() {
-            let mean = (points[n - 1] - points[0]) / (n as f64 - 1.0).max(1.0);
-            let mean = if n == 1 { a } else { mean };
+            let mean = if n == 1 {
+                a
+            } else {
+                (points[n - 1] - points[0]) / (n as f64 - 1.0)
+            };
             if !near(&(points[n] - points[n - 1]), &mean) {
                 break;
             }
             n += 1;
         }
-        let a = if n > 1 {
-            (points[n - 1] - points[0]) / (n as f64 - 1.0)
-        } else {
-            a
-        };
+        // The first step repeats itself: the row has two points or more.
+        let a = (points[n - 1] - points[0]) / (n as f64 - 1.0);
         let mut indices: Vec<(i64, i64)> = (0..n as i64).map(|i| (i, 0)).collect();
         // A row at a pitch of the layer before walks at that pitch.
         let snapped = earlier
@@ -406,10 +406,9 @@ impl LatticeWalk {
         // Laid like the layer before, its pitches are that layer's (fitted over all its
         // points), unless the second row shows another way.
         let mut a = a;
-        let mut fixed = snapped.is_some();
         let shown = match (shown, laid) {
             (Some((order, b)), Some((o, la, lb))) if order == o && near(&b, &lb) => {
-                (a, fixed) = (la, true);
+                a = la;
                 Some((o, lb))
             }
             (s, _) => s,
@@ -417,7 +416,7 @@ impl LatticeWalk {
         let setup = match (shown, laid, change) {
             (Some(s), _, _) => Some(s),
             (None, Some((o, la, lb)), _) => {
-                (a, fixed) = (la, true);
+                a = la;
                 Some((o, lb))
             }
             (None, None, Some(c)) if n >= MIN_POINTS && n + 1 == points.len() => {
@@ -436,6 +435,8 @@ impl LatticeWalk {
             }
             _ => None,
         };
+        // One row at the layer before's pitch keeps it; with rows, see below.
+        let mut fixed = snapped.is_some();
         let (mut rows, mut b) = (None, Vector3::zeros());
         if let Some((order, pitch)) = setup
             && pitch.norm() > point
@@ -671,12 +672,8 @@ impl Normal {
         }
         let mut m = self.m;
         if !self.rows {
-            // One row: the unknowns (o, a); b's row and column are left out.
+            // One row: every `j` is 0, so b's row and column are zero; solve for (o, a).
             m[(2, 2)] = 1.0;
-            m[(0, 2)] = 0.0;
-            m[(2, 0)] = 0.0;
-            m[(1, 2)] = 0.0;
-            m[(2, 1)] = 0.0;
         }
         let inv = m.try_inverse()?;
         let solve = |r: usize| {
