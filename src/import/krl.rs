@@ -224,19 +224,8 @@ fn declaration(
     }
     match c.peek(2).map(|t| t.k) {
         Some(K::Eq) => {
-            let agg = c.rest(3);
-            let value = if joint {
-                Value::Joint
-            } else {
-                aggregate(agg).ok_or_else(|| {
-                    let at = agg.first().map(|t| t.at).unwrap_or(name.at);
-                    ImportError::syntax(
-                        f.name,
-                        idx.locate(f.text, at),
-                        format!("{ty} {}: expected {{X …, Y …, …}}", name.s),
-                    )
-                })?
-            };
+            let what = format!("{ty} {}", name.s);
+            let value = bound_value(f, idx, c.rest(3), joint, name.at, &what)?;
             names.insert(key, value);
         }
         _ if joint => {
@@ -245,6 +234,30 @@ fn declaration(
         _ => {}
     }
     Ok(true)
+}
+
+/// The value a name or an array element is bound to: a joint position, or the position
+/// aggregate `agg` (`{X …, Y …, …}`); a malformed aggregate is an error naming `what`, at the
+/// aggregate (or at `fallback` when it is empty).
+fn bound_value(
+    f: &SourceFile<'_>,
+    idx: &LineIndex,
+    agg: &[Tok<'_>],
+    joint: bool,
+    fallback: usize,
+    what: &str,
+) -> Result<Value, ImportError> {
+    if joint {
+        return Ok(Value::Joint);
+    }
+    aggregate(agg).ok_or_else(|| {
+        let at = agg.first().map(|t| t.at).unwrap_or(fallback);
+        ImportError::syntax(
+            f.name,
+            idx.locate(f.text, at),
+            format!("{what}: expected {{X …, Y …, …}}"),
+        )
+    })
 }
 
 /// The key an array element is bound under: `F[1]`, `G[2,3]` (the name in upper case, the
@@ -290,19 +303,7 @@ fn element(
     ) else {
         return Ok(());
     };
-    let agg = c.rest(close + 2);
-    let value = if joint {
-        Value::Joint
-    } else {
-        aggregate(agg).ok_or_else(|| {
-            let at = agg.first().map(|t| t.at).unwrap_or(name.at);
-            ImportError::syntax(
-                f.name,
-                idx.locate(f.text, at),
-                format!("{key}: expected {{X …, Y …, …}}"),
-            )
-        })?
-    };
+    let value = bound_value(f, idx, c.rest(close + 2), joint, name.at, &key)?;
     names.insert(key, value);
     Ok(())
 }
