@@ -44,11 +44,12 @@ fn main() -> anyhow::Result<()> {
     println!("pub const PRIOR: &[(Coarse, u32, u32)] = &[");
     for (k, c) in total {
         println!(
-            "    (Coarse {{ model: {}, template: {}, lattice: {}, station: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
+            "    (Coarse {{ model: {}, template: {}, lattice: {}, station: {}, follower: {}, agree: {}, in_routine: {}, long_context: {}, several_places: {} }}, {}, {}),",
             k.model,
             k.template,
             k.lattice,
             k.station,
+            k.follower,
             k.agree,
             k.in_routine,
             k.long_context,

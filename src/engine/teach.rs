@@ -542,6 +542,8 @@ impl Teacher {
                 .as_ref()
                 .and_then(|t| t.propose(routine, noise, &self.tolerance)),
         );
+        let moves = noise.widen(self.tolerance, Frame::Tool);
+        out.extend(lattice::follow(routine, moves.mm, moves.rad));
         out.extend(lattice::propose(
             routine,
             &self.previous,

@@ -92,6 +92,9 @@ pub struct Coarse {
     pub lattice: bool,
     /// … as the station its items keep returning to ([`super::lattice::STATION`]).
     pub station: bool,
+    /// … as the move that followed the same role in the items before
+    /// ([`super::lattice::FOLLOWER`]).
+    pub follower: bool,
     /// The model: its gates passed; a sequence expert: every earlier place agrees.
     pub agree: bool,
     pub in_routine: bool,
@@ -107,6 +110,7 @@ impl Coarse {
                 template: false,
                 lattice: false,
                 station: false,
+                follower: false,
                 agree: e.gated_in,
                 in_routine: false,
                 long_context: false,
@@ -117,6 +121,7 @@ impl Coarse {
                 template: expert == Expert::Template,
                 lattice: expert == Expert::Lattice,
                 station: expert == Expert::Lattice && e.places == super::lattice::STATION,
+                follower: expert == Expert::Lattice && e.places == super::lattice::FOLLOWER,
                 agree: e.agreeing == e.places,
                 in_routine: e.in_routine,
                 // A lattice walk has three points at least: long from four on (a station from
@@ -185,20 +190,20 @@ impl Count {
 /// 89.2 %). Its worth is in noisy cells, where no exact-program prior would fit anyway.
 #[rustfmt::skip]
 pub const PRIOR: &[(Coarse, u32, u32)] = &[
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
-    (Coarse { model: false, template: false, lattice: false, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
-    (Coarse { model: true, template: false, lattice: false, station: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
-    (Coarse { model: true, template: false, lattice: false, station: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: false, in_routine: false, long_context: false, several_places: true }, 142, 20),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: false, in_routine: false, long_context: true, several_places: true }, 37, 4),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: false, in_routine: true, long_context: false, several_places: true }, 178, 43),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: false, in_routine: true, long_context: true, several_places: true }, 25, 12),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: false, long_context: false, several_places: false }, 585, 516),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: false, long_context: false, several_places: true }, 434, 408),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: false, long_context: true, several_places: false }, 1544, 1488),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: false, long_context: true, several_places: true }, 1204, 1140),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: true, long_context: false, several_places: false }, 245, 88),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: true, long_context: false, several_places: true }, 66, 59),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: true, long_context: true, several_places: false }, 220, 147),
+    (Coarse { model: false, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: true, long_context: true, several_places: true }, 84, 84),
+    (Coarse { model: true, template: false, lattice: false, station: false, follower: false, agree: false, in_routine: false, long_context: false, several_places: false }, 152, 41),
+    (Coarse { model: true, template: false, lattice: false, station: false, follower: false, agree: true, in_routine: false, long_context: false, several_places: false }, 410, 376),
 ];
 
 /// The chosen candidates' outcomes per band of their first-stage estimate on the same half and
@@ -215,16 +220,20 @@ pub const CHOSEN_PRIOR: [(u32, u32); 12] = [
 /// (one place), short or long (from four points: rows of the tuning set are three or four
 /// long, so a long row going on was always wrong); a grid's next point or a layer laid like one
 /// before (several places); a station, from three visits or from four (three is what a
-/// back-and-forth inside one item gives). The held-out set is never counted.
+/// back-and-forth inside one item gives); a follower, from two or three items that moved alike
+/// (right about half the time: a period that merely repeats) or from four. The held-out set is
+/// never counted.
 #[rustfmt::skip]
 pub const LATTICE_PRIOR: &[(Coarse, u32, u32)] = &[
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: false, in_routine: true, long_context: true, several_places: true }, 159, 132),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: false, several_places: false }, 93, 54),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: false, several_places: true }, 18, 18),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: false }, 18, 0),
-    (Coarse { model: false, template: false, lattice: true, station: false, agree: true, in_routine: true, long_context: true, several_places: true }, 648, 648),
-    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: false, several_places: true }, 114, 51),
-    (Coarse { model: false, template: false, lattice: true, station: true, agree: true, in_routine: true, long_context: true, several_places: true }, 627, 624),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: false, agree: false, in_routine: true, long_context: true, several_places: true }, 159, 144),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: false, agree: true, in_routine: true, long_context: false, several_places: false }, 99, 54),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: false, agree: true, in_routine: true, long_context: false, several_places: true }, 18, 18),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: false, agree: true, in_routine: true, long_context: true, several_places: false }, 18, 0),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: false, agree: true, in_routine: true, long_context: true, several_places: true }, 684, 684),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: true, agree: true, in_routine: true, long_context: false, several_places: true }, 471, 261),
+    (Coarse { model: false, template: false, lattice: true, station: false, follower: true, agree: true, in_routine: true, long_context: true, several_places: true }, 993, 960),
+    (Coarse { model: false, template: false, lattice: true, station: true, follower: false, agree: true, in_routine: true, long_context: false, several_places: true }, 114, 51),
+    (Coarse { model: false, template: false, lattice: true, station: true, follower: false, agree: true, in_routine: true, long_context: true, several_places: true }, 627, 624),
 ];
 
 fn prior(c: &Coarse) -> f64 {

@@ -53,19 +53,29 @@
 //! read (the newest [`MAX_WALK_POINTS`]): a role whose newest [`MIN_POINTS`] or more are one
 //! place is a *station*, proposed again (at its visits' mean); else the role's last layer,
 //! when it ends at the newest point, proposes its next point, turned as the waypoint one
-//! period back. The shortest period
-//! that gives either wins. The layer before is the role's own, or (a routine per layer) a layer
-//! of the previous routine's roles of the same period. Where the pattern ends: once a layer is
-//! complete, nothing of that period or a longer one is proposed, and a station is not proposed
-//! once another role of its items has completed its layer (the routine goes on elsewhere);
-//! nothing either after a new layer's first point (where its rows go is not known yet). The
-//! first layer's end cannot be known: its new rows are proposed from six points on (two rows of
-//! two zigzag in any star), and the cell's outcomes (below) learn how often they hold.
+//! period back. The shortest period that gives either wins, except that a station of fewer
+//! than [`STRONG_STATION`] visits (a machine's back-and-forth inside one item gives three)
+//! lets the longer periods propose too: a tending item's tray slots walk beside it. The layer
+//! before is the role's own, or (a routine per layer) a layer of the previous routine's roles
+//! of the same period. Where the pattern ends: once a layer is complete, nothing of that period
+//! or a longer one is proposed, and a station is not proposed once another role of its items
+//! has completed its layer (the routine goes on elsewhere); nothing either after a new layer's
+//! first point (where its rows go is not known yet), nor for any role of an item one of whose
+//! roles has just left its layer for a new one (the place under a new layer's first approach
+//! is not the old layer's next place). The first layer's end cannot be known: its new rows are
+//! proposed from six points on (two rows of two zigzag in any star), and the cell's outcomes
+//! (below) learn how often they hold.
 //!
-//! Its evidence: the walk's length or the station's visits (as a context: long from four); a
-//! station ([`STATION`] places), a grid or a layer laid like one before (two places), one row
-//! (one place); a new row only the layer's own rows foretell, or the guessed order, does not
-//! agree. The calibration starts each class from its counts on the pattern tuning set
+//! **Followers** ([`follow`]). The move into a new slot is new each time, so no context of
+//! moves foretells what follows it; but the items before moved alike from the same role (the
+//! place 150 mm under the approach, in the tool frame). For the shortest period whose newest
+//! [`MIN_FOLLOWS`] or more items did, that move is proposed from the newest waypoint. Slots
+//! need not be on a lattice.
+//!
+//! Its evidence: the walk's length, the station's visits or the items that moved alike (as a
+//! context: long from four); a station ([`STATION`] places), a follower ([`FOLLOWER`]), a grid
+//! or a layer laid like one before (two places), one row (one place); a new row only the
+//! layer's own rows foretell, or the guessed order, does not agree. The calibration starts each class from its counts on the pattern tuning set
 //! (`calibration::LATTICE_PRIOR`) and learns the cell's own outcomes.
 //!
 //! Pure: no I/O; the expert reads the routine being taught and the previous one.
@@ -73,7 +83,7 @@
 use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 
 use super::{Candidate, Evidence, Expert};
-use crate::engine::pose::Pose;
+use crate::engine::pose::{Move, Pose};
 
 /// The shortest period of a routine's items the expert reads (every other waypoint).
 pub const MIN_PERIOD: usize = 2;
@@ -102,11 +112,35 @@ impl From<f64> for WalkTolerance {
     }
 }
 
-/// The lattice expert's candidate for the waypoint after `routine` (module doc, "The expert"),
-/// with steps matched within `tolerance`.
-pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Option<Candidate> {
+/// The lattice expert's candidates for the waypoint after `routine` (module doc, "The expert"),
+/// with steps matched within `tolerance`: the shortest period's, and while that is a station of
+/// fewer than [`STRONG_STATION`] visits (what a back-and-forth inside one item gives too), the
+/// next period's as well.
+pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let mut from = MIN_PERIOD;
+    while let Some((c, period)) = propose_from(routine, previous, tol, from) {
+        out.push(c);
+        if c.evidence.places != STATION || c.evidence.context >= STRONG_STATION {
+            break;
+        }
+        from = period + 1;
+    }
+    out
+}
+
+/// Visits from which a station is read as one without looking at longer periods.
+pub const STRONG_STATION: usize = 4;
+
+/// The candidate of the shortest period from `from` on that gives one, and that period.
+fn propose_from(
+    routine: &[Pose],
+    previous: &[Pose],
+    tol: WalkTolerance,
+    from: usize,
+) -> Option<(Candidate, usize)> {
     let n = routine.len();
-    for period in MIN_PERIOD..=MAX_PERIOD.min(n) {
+    for period in from..=MAX_PERIOD.min(n) {
         let role = role_points(routine, period, period);
         let last = &routine[n - period];
         let candidate = |position: Vector3<f64>, evidence: Evidence| Candidate {
@@ -129,15 +163,18 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Optio
             }
             // Its visits' mean: a hand-taught station's scatter averages out.
             let mean = role[role.len() - visits..].iter().sum::<Vector3<f64>>() / visits as f64;
-            return Some(candidate(
-                mean,
-                Evidence {
-                    context: visits.min(8),
-                    places: STATION,
-                    agreeing: STATION,
-                    in_routine: true,
-                    gated_in: false,
-                },
+            return Some((
+                candidate(
+                    mean,
+                    Evidence {
+                        context: visits.min(8),
+                        places: STATION,
+                        agreeing: STATION,
+                        in_routine: true,
+                        gated_in: false,
+                    },
+                ),
+                period,
             ));
         }
         let Some(layer) = Layer::of(&role, tol, previous, period) else {
@@ -151,6 +188,14 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Optio
         if layer.complete() {
             // Nothing of this period is proposed, and no longer period either (its walk would
             // skip items).
+            return None;
+        }
+        if (1..period).any(|back| {
+            let other = role_points(routine, period, back);
+            Layer::of(&other, tol, previous, period).is_none() && Layer::starting(&other, tol)
+        }) {
+            // A role of the same items has just left its layer for a new one: this item is off
+            // this role's walk too (the place under a new layer's first approach).
             return None;
         }
         let walk = &layer.walk;
@@ -168,19 +213,71 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Optio
         } else {
             places
         };
-        return Some(candidate(
-            walk.next(),
-            Evidence {
-                context: walk.indices.len().min(8),
-                places,
-                agreeing,
-                in_routine: true,
-                gated_in: false,
-            },
+        return Some((
+            candidate(
+                walk.next(),
+                Evidence {
+                    context: walk.indices.len().min(8),
+                    places,
+                    agreeing,
+                    in_routine: true,
+                    gated_in: false,
+                },
+            ),
+            period,
         ));
     }
     None
 }
+
+/// The move that followed the previous waypoint's role in the routine's items: for the
+/// shortest period whose newest [`MIN_FOLLOWS`] or more items (at least) moved alike from that
+/// role (in its tool frame), that move from the newest waypoint — the place under a new slot's
+/// approach, which no context of moves foretells (the move into a new slot is new each time).
+pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
+    let n = routine.len();
+    let last = routine.last()?;
+    for period in MIN_PERIOD..=MAX_PERIOD {
+        let moves: Vec<Move> = (1..)
+            .map_while(|k| {
+                let to = n.checked_sub(k * period)?;
+                let from = to.checked_sub(1)?;
+                Some(Move::between(&routine[from], &routine[to]))
+            })
+            .take(8)
+            .collect();
+        let Some(newest) = moves.first() else {
+            break;
+        };
+        let alike = moves
+            .iter()
+            .take_while(|m| {
+                let d = m.isometry().inverse() * newest.isometry();
+                d.translation.vector.norm() <= mm && d.rotation.angle() <= rad
+            })
+            .count();
+        if alike >= MIN_FOLLOWS {
+            return Some(Candidate {
+                expert: Expert::Lattice,
+                pose: last.then(newest),
+                evidence: Evidence {
+                    context: alike,
+                    places: FOLLOWER,
+                    agreeing: FOLLOWER,
+                    in_routine: true,
+                    gated_in: false,
+                },
+            });
+        }
+    }
+    None
+}
+
+/// Items that must have moved alike for [`follow`].
+pub const MIN_FOLLOWS: usize = 2;
+
+/// The evidence's `places` of a [`follow`]er, beside a row's 1, a grid's 2 and a station's 3.
+pub const FOLLOWER: usize = 4;
 
 /// The positions of one role of a routine's items of `period` waypoints, oldest first: the
 /// waypoints `back`, `back + period`, … before the next one (the newest [`MAX_WALK_POINTS`]).
@@ -706,6 +803,11 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// The expert's first candidate (the shortest period's).
+    fn propose1(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Option<Candidate> {
+        propose(routine, previous, tol).into_iter().next()
+    }
+
     /// The points of an `n × m` layer at pitches `a`, `b` from `o`, in `order`, first axis `a`.
     fn walk(n: i64, m: i64, a: Vector3<f64>, b: Vector3<f64>, order: Order) -> Vec<Vector3<f64>> {
         let o = Vector3::new(900.0, -300.0, 200.0);
@@ -920,7 +1022,7 @@ mod tests {
         let routine = crate::engine::experts::noise::estimate::tests::pallet();
         let tol = WalkTolerance::from(1.0);
         for n in 30..routine.len() {
-            let c = propose(&routine[..n], &[], tol)
+            let c = propose1(&routine[..n], &[], tol)
                 .unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
             assert_eq!(c.expert, Expert::Lattice);
             assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
@@ -931,20 +1033,20 @@ mod tests {
         }
         // After the first row of three, one place: the row goes on (its end could not be seen
         // coming), 200 mm on from its last slot.
-        let c = propose(&routine[..21], &[], tol).expect("a row of three");
+        let c = propose1(&routine[..21], &[], tol).expect("a row of three");
         assert_eq!(c.evidence.places, 1);
         let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
         assert!((c.pose.position() - on).norm() < 1e-6);
         // The second row's first slot settles the order: its second is a grid's next point.
-        let c = propose(&routine[..27], &[], tol).expect("the second row's second slot");
+        let c = propose1(&routine[..27], &[], tol).expect("the second row's second slot");
         assert!(c.pose.distance_to(&routine[27]) < 1e-6);
         assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 2));
         // A new row foretold by the layer's own rows alone is a class of its own.
-        let c = propose(&routine[..39], &[], tol).expect("the third row's first slot");
+        let c = propose1(&routine[..39], &[], tol).expect("the third row's first slot");
         assert!(c.pose.distance_to(&routine[39]) < 1e-6);
         assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 1));
         // A pick station visited twice is no station yet.
-        assert!(propose(&routine[..12], &[], tol).is_none_or(|c| c.evidence.places != STATION));
+        assert!(propose1(&routine[..12], &[], tol).is_none_or(|c| c.evidence.places != STATION));
     }
 
     /// A first row and the second row's first point (the three corners a wizard asks for)
@@ -1034,14 +1136,14 @@ mod tests {
                 for k in 2..second.len() {
                     for role in 3..6 {
                         let n = start + 6 * k + role;
-                        let c = propose(&routine[..n], &previous, tol)
+                        let c = propose1(&routine[..n], &previous, tol)
                             .unwrap_or_else(|| panic!("slot {k}, waypoint {n}: nothing"));
                         let err = c.pose.distance_to(&routine[n]);
                         assert!(err < 1e-6, "slot {k}, waypoint {n}: {err} mm off");
                     }
                 }
                 assert!(
-                    propose(&routine, &previous, tol).is_none(),
+                    propose1(&routine, &previous, tol).is_none(),
                     "the pattern is done"
                 );
             }
@@ -1084,12 +1186,133 @@ mod tests {
             at(0.0, 150.0),
             at(-600.0, -500.0),
         ];
-        assert!(propose(&star, &[], 1.0.into()).is_none());
+        assert!(propose1(&star, &[], 1.0.into()).is_none());
         let path = [
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(100.0, 0.0, 0.0),
             Vector3::new(130.0, 0.0, 0.0),
         ];
         assert!(LatticeWalk::fit(&path, 1.0).is_none());
+    }
+
+    /// A pose at `p`, the tool pointing down.
+    fn down_at(p: Vector3<f64>) -> Pose {
+        Pose::from_isometry(Isometry3::from_parts(
+            Translation3::from(p),
+            nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),
+        ))
+    }
+
+    /// The place under a slot's approach: the move into each new slot is new, so no context of
+    /// moves foretells it, but the items before moved alike from their approach. Slots need
+    /// not be on a lattice; one item before is not enough; random poses follow nothing.
+    #[test]
+    fn the_place_under_a_new_slot_follows_the_items_before() {
+        let (pick, lift, depth) = (
+            Vector3::new(600.0, -700.0, 400.0),
+            Vector3::new(0.0, 0.0, 100.0),
+            Vector3::new(0.0, 0.0, 150.0),
+        );
+        let slots: Vec<_> = (0..6)
+            .map(|i| Vector3::new(900.0 + 170.0 * f64::from(i), 40.0 * f64::from(i * i), 200.0))
+            .collect();
+        let routine: Vec<Pose> = slots
+            .iter()
+            .flat_map(|s| [pick + lift, pick, pick + lift, s + depth, *s, s + depth].map(down_at))
+            .collect();
+        assert!(
+            follow(&routine[..10], 1.0, 0.01).is_none(),
+            "one item before"
+        );
+        for k in 2..slots.len() {
+            let n = 6 * k + 4;
+            let c = follow(&routine[..n], 1.0, 0.01)
+                .unwrap_or_else(|| panic!("item {k}: nothing follows"));
+            assert_eq!(c.expert, Expert::Lattice);
+            assert_eq!((c.evidence.places, c.evidence.context), (FOLLOWER, k));
+            assert!(c.pose.distance_to(&routine[n]) < 1e-6, "item {k}");
+            assert!(c.pose.angle_to(&routine[n]) < 1e-9);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let scattered: Vec<Pose> = (0..60)
+            .map(|_| {
+                let p = Vector3::new(
+                    rng.random_range(0.0..900.0),
+                    rng.random_range(0.0..900.0),
+                    rng.random_range(0.0..900.0),
+                );
+                Pose::from_isometry(Isometry3::from_parts(
+                    Translation3::from(p),
+                    nalgebra::UnitQuaternion::from_euler_angles(
+                        rng.random_range(-3.0..3.0),
+                        rng.random_range(-1.5..1.5),
+                        rng.random_range(-3.0..3.0),
+                    ),
+                ))
+            })
+            .collect();
+        for n in 1..scattered.len() {
+            assert!(follow(&scattered[..n], 1.0, 0.01).is_none(), "after {n}");
+        }
+    }
+
+    /// A machine-tending item goes back and forth at the machine, so its last waypoints, two
+    /// apart, are a station of three visits at every item's start: that short station does not
+    /// hide the tray's slots, which walk with the item's longer period.
+    #[test]
+    fn a_short_station_does_not_hide_a_longer_periods_walk() {
+        let (m1, m2, up) = (
+            Vector3::new(450.0, 840.0, 700.0),
+            Vector3::new(600.0, 860.0, 700.0),
+            Vector3::new(0.0, 0.0, 150.0),
+        );
+        let slots = walk(
+            3,
+            3,
+            Vector3::new(80.0, 0.0, 0.0),
+            Vector3::new(0.0, 80.0, 0.0),
+            Order::Raster,
+        );
+        let routine: Vec<Pose> = slots
+            .iter()
+            .flat_map(|s| [s + up, *s, s + up, m1, m2, m1, m2, m1].map(down_at))
+            .collect();
+        let tol = WalkTolerance::from(1.0);
+        // From the second row's second slot on (the first row's end could not be seen coming).
+        for k in 4..slots.len() {
+            let n = 8 * k + 1;
+            let all = propose(&routine[..n], &[], tol);
+            let first = all.first().expect("a candidate");
+            assert_eq!(
+                (first.evidence.places, first.evidence.context),
+                (STATION, 3)
+            );
+            assert!(
+                all.iter().any(|c| c.pose.distance_to(&routine[n]) < 1e-6),
+                "slot {k}: the tray's next slot is not proposed"
+            );
+        }
+    }
+
+    /// When a role of an item leaves its layer for a new one (the first approach of a new
+    /// layer, somewhere the first layer's rows do not go), the item's other roles leave theirs
+    /// too: the place under that approach is not the first layer's next place.
+    #[test]
+    fn a_new_layers_first_approach_ends_the_other_roles_walks() {
+        let (x, y) = (Vector3::new(200.0, 0.0, 0.0), Vector3::new(0.0, 250.0, 0.0));
+        let first = walk(3, 4, x, y, Order::Raster);
+        let second: Vec<_> = walk(4, 3, y, x, Order::Raster)
+            .iter()
+            .map(|p| p + Vector3::new(0.0, 0.0, 120.0))
+            .collect();
+        let routine = items(&[first.clone(), second].concat());
+        let tol = WalkTolerance::from(1.0);
+        // The first layer's last place is still proposed as its walk's.
+        let n = 6 * (first.len() - 1) + 4;
+        let c = propose1(&routine[..n], &[], tol).expect("the first layer's last place");
+        assert!(c.pose.distance_to(&routine[n]) < 1e-6);
+        // The second layer's first place is not.
+        let n = 6 * first.len() + 4;
+        assert!(propose(&routine[..n], &[], tol).is_empty());
     }
 }
