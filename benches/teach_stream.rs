@@ -195,6 +195,7 @@ async fn main() {
         addr: "127.0.0.1:0".into(),
         http: TransportOptions::default(),
         robots: nextpose::kinematics::bundled_robots_dir(),
+        backup_dir: None,
     })
     .await
     .expect("server");

@@ -26,9 +26,11 @@ cargo test --locked --test engine -- --ignored --exact \
   lead_through::lasa_handwriting_is_segmented_and_reproduced
 
 # The API tests once more on PostgreSQL (a throwaway cluster, its server installed when missing),
-# then the tests of several instances on one database (ignored by plain `cargo test`: they need
-# the cluster), named exactly. The one that teaches a corpus program also needs ../shared.
+# then the tests of several instances on one database and the pg_dump/pg_restore round trip
+# (ignored by plain `cargo test`: they need the cluster), named exactly. The instances test that
+# teaches a corpus program also needs ../shared.
 instances="instances::concurrent_appends_on_two_instances_are_serialised"
+instances+=" backup::pg_dump_and_pg_restore_give_the_same_models_and_predictions"
 if [ -d ../shared/corpus/json ]; then
   instances+=" instances::two_instances_alternating_with_a_kill_match_one_instance"
 else

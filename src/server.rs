@@ -33,6 +33,8 @@ pub struct ServerSettings {
     pub http: TransportOptions,
     /// Directory of robot models (`*.urdf`).
     pub robots: PathBuf,
+    /// Where `POST /v1/backups` writes; `None`: `backups/` beside the SQLite file.
+    pub backup_dir: Option<PathBuf>,
 }
 
 impl Default for ServerSettings {
@@ -43,6 +45,7 @@ impl Default for ServerSettings {
             addr: "127.0.0.1:8080".into(),
             http: TransportOptions::default(),
             robots: crate::kinematics::bundled_robots_dir(),
+            backup_dir: None,
         }
     }
 }
@@ -71,7 +74,10 @@ impl Application {
                 .await
                 .context("reading the uploaded robot models")?,
         );
-        let app = Arc::new(App::new(store, Arc::new(Metrics::new()), Arc::new(robots)));
+        let app = Arc::new(
+            App::new(store, Arc::new(Metrics::new()), Arc::new(robots))
+                .with_backup_dir(settings.backup_dir.clone()),
+        );
         // REST and gRPC on one port: gRPC calls are told apart by their content type.
         let router = grpc::beside(
             http::router(app.clone(), &settings.http, token.clone()),

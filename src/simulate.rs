@@ -508,6 +508,7 @@ impl LocalServer {
             addr: "127.0.0.1:0".into(),
             http: crate::transport::TransportOptions::default(),
             robots: bundled_robots_dir(),
+            backup_dir: None,
         };
         let server = Application::build(settings).await?.spawn()?;
         Ok(LocalServer {

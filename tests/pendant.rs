@@ -98,6 +98,7 @@ async fn start_server(dir: &tempfile::TempDir) -> Running {
             ..TransportOptions::default()
         },
         robots: nextpose::kinematics::bundled_robots_dir(),
+        backup_dir: None,
     };
     Application::build(settings)
         .await

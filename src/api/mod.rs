@@ -19,6 +19,7 @@
 //!   tolerance, the profile) get their schemas in [`schema`]: the engine derives no web traits.
 
 pub mod arm;
+pub mod backups;
 pub mod cells;
 pub mod error;
 pub mod feedback;
@@ -39,6 +40,7 @@ use serde::{Deserialize, Deserializer};
 pub use arm::{
     ArmFrames, FramesQuery, LinkFrame, Placement, PlacementSearch, Placements, ReachQuery,
 };
+pub use backups::{Backup, BackupRequest};
 pub use cells::{
     CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo,
     TeachingStats,

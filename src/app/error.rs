@@ -5,7 +5,7 @@ use crate::engine::lead_through::segment::TrajectoryError;
 use crate::engine::{ConfigError, PoseError};
 use crate::import::ImportError;
 use crate::kinematics::KinematicsError;
-use crate::storage::StorageError;
+use crate::storage::{BackupError, StorageError};
 
 #[derive(Debug, thiserror::Error)]
 pub enum AppError {
@@ -55,6 +55,10 @@ pub enum AppError {
     /// request changed nothing and can be sent again.
     #[error("{0}")]
     Stale(String),
+    /// A backup that was not written: the file exists (409), the database is PostgreSQL or in
+    /// memory (409 `backup_unsupported`), or the copy failed (ours: 500).
+    #[error(transparent)]
+    Backup(#[from] BackupError),
     /// The database failed. The storage error is kept as the source, so the edge logs the
     /// whole chain (down to sqlx's) once.
     #[error("the database failed")]
@@ -97,6 +101,15 @@ impl AppError {
             | AppError::Trajectory(_)
             | AppError::SamplePose { .. }
             | AppError::Robot(_) => ErrorKind::Invalid,
+            AppError::Backup(e) => match e {
+                BackupError::Exists(_) => ErrorKind::Exists,
+                BackupError::Postgres | BackupError::InMemory => ErrorKind::Conflict,
+                BackupError::NoDatabase(_)
+                | BackupError::BadPath(_)
+                | BackupError::Corrupt(_)
+                | BackupError::Io { .. }
+                | BackupError::Database(_) => ErrorKind::Internal,
+            },
             AppError::Storage(_) | AppError::Internal(_) => ErrorKind::Internal,
         }
     }
@@ -115,7 +128,9 @@ impl AppError {
             AppError::Trajectory(_) => "invalid_trajectory",
             AppError::SamplePose { .. } => "invalid_pose",
             AppError::Robot(_) => "invalid_robot",
-            AppError::Storage(_) | AppError::Internal(_) => "internal",
+            AppError::Backup(BackupError::Exists(_)) => "conflict",
+            AppError::Backup(BackupError::Postgres | BackupError::InMemory) => "backup_unsupported",
+            AppError::Backup(_) | AppError::Storage(_) | AppError::Internal(_) => "internal",
         }
     }
 

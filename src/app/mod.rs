@@ -2,12 +2,12 @@
 //!
 //! Both adapters, REST ([`crate::http`]) and gRPC ([`crate::grpc`]), call these operations and
 //! nothing else; they speak the wire types of [`crate::api`]. One file per use case (cells,
-//! programs, routines, teaching, editing, imports, exports, trajectory, feedback, replays, ...);
-//! the cell's model in memory ([`cell_model`]) owns its own state changes. Each operation
-//! checks its input, writes to the database ([`crate::storage`], SQLite or PostgreSQL) in one
-//! transaction, and keeps the cell's model in memory in step. The database is the source of
-//! truth: a cell's model is rebuilt from it on first use after start-up (and on request), and
-//! that rebuild gives the same model as the incremental updates.
+//! programs, routines, teaching, editing, imports, exports, trajectory, feedback, replays,
+//! backups, ...); the cell's model in memory ([`cell_model`]) owns its own state changes. Each
+//! operation checks its input, writes to the database ([`crate::storage`], SQLite or
+//! PostgreSQL) in one transaction, and keeps the cell's model in memory in step. The database
+//! is the source of truth: a cell's model is rebuilt from it on first use after start-up (and
+//! on request), and that rebuild gives the same model as the incremental updates.
 //!
 //! **Concurrency.** Requests on one cell are serialised by the cell's lock, held from the first
 //! read of the routine's state to the last write, so the model and the database never diverge;
@@ -23,6 +23,7 @@
 //! cell's import does not stall other cells' requests.
 
 mod arm;
+mod backups;
 mod calibration;
 mod cell_model;
 mod cells;
@@ -53,6 +54,8 @@ use tokio_util::task::TaskTracker;
 use crate::storage::Store;
 use crate::telemetry::Metrics;
 pub use arm::frames_joints;
+use backups::Backups;
+pub use backups::{BackupName, MAX_BACKUP_NAME};
 pub use error::{AppError, ErrorKind};
 use registry::Slot;
 pub(crate) use registry::blocking;
@@ -82,6 +85,8 @@ pub struct App {
     routine_cells: Arc<Mutex<HashMap<i64, i64>>>,
     /// The operations running to completion (see [`App::to_completion`]).
     tasks: TaskTracker,
+    /// Where backups go, taken one at a time ([`backups`]).
+    backups: Arc<Backups>,
 }
 
 fn check_name(what: &str, name: &str) -> Result<()> {
@@ -111,6 +116,7 @@ impl App {
             robots,
             routine_cells: Arc::default(),
             tasks: TaskTracker::new(),
+            backups: Arc::default(),
         }
     }
 

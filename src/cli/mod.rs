@@ -4,6 +4,7 @@
 //! - `replay` / `sweep` ([`replay`]): the scoreboard of the engine and the baselines over
 //!   corpus programs, and the engine over a grid of δ, φ_min and h.
 //! - `serve` ([`serve`]): the service until SIGINT/SIGTERM.
+//! - `backup` ([`backup`]): a consistent copy of an SQLite database, served or not.
 //! - `import` ([`import`]): offline program files into a cell of a running server.
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
 //! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
@@ -17,6 +18,7 @@
 //! field, and the result is validated before anything runs, so a bad value is a one-line
 //! error, not a panic.
 
+mod backup;
 mod engine_args;
 mod export;
 mod import;
@@ -37,6 +39,7 @@ use clap::{Parser, Subcommand};
 use serde::Serialize;
 use serde_json::{Value, json};
 
+pub use backup::BackupArgs;
 pub use engine_args::{EngineArgs, GateArg, Limit, MergeArg, ProfileArg, Switch};
 pub use export::ExportArgs;
 pub use import::ImportArgs;
@@ -67,6 +70,8 @@ pub enum Command {
     Sweep(SweepArgs),
     /// Run the service (REST API) until SIGINT/SIGTERM.
     Serve(ServeArgs),
+    /// Write a consistent copy of an SQLite database to OUT, while a server may serve it.
+    Backup(BackupArgs),
     /// Print the OpenAPI description of the REST API (YAML), as committed in openapi.yaml.
     Openapi,
     /// Import offline program files (RAPID, KRL, FANUC TP) into a cell of a running server.
@@ -100,6 +105,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Replay(args) => replay::run_replay(&args),
         Command::Sweep(args) => replay::run_sweep(&args),
         Command::Serve(args) => serve::run_serve(args),
+        Command::Backup(args) => backup::run_backup(&args),
         Command::Import(args) => import::run_import(args),
         Command::Export(args) => export::run_export(args),
         Command::Simulate(args) => simulate::run_simulate(&args),

@@ -30,6 +30,10 @@ pub struct ServeArgs {
     /// Directory of robot models (*.urdf); default: the bundled robots/.
     #[arg(long, env = "NEXTPOSE_ROBOTS")]
     pub robots: Option<PathBuf>,
+    /// Directory POST /v1/backups writes into (created when missing); default: backups/
+    /// beside the SQLite file.
+    #[arg(long, env = "NEXTPOSE_BACKUP_DIR")]
+    pub backup_dir: Option<PathBuf>,
 }
 
 pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
@@ -61,6 +65,7 @@ pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
             .robots
             .clone()
             .unwrap_or_else(crate::kinematics::bundled_robots_dir),
+        backup_dir: args.backup_dir.clone(),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

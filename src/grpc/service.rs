@@ -313,4 +313,8 @@ impl Nextpose for Service {
         let input = convert::replay_request(r.into_inner())?;
         reply(self.app.replay(input).await)
     }
+
+    async fn create_backup(&self, r: Request<pb::CreateBackupRequest>) -> Reply<pb::Backup> {
+        reply(self.app.backup(r.into_inner().into()).await)
+    }
 }

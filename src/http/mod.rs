@@ -6,6 +6,7 @@
 //! generated description, committed, and a test fails when it and the code drift apart
 //! (regenerate with `nextpose openapi > openapi.yaml`).
 
+mod backups;
 mod cells;
 pub mod error;
 mod imports;
@@ -51,7 +52,7 @@ use crate::transport::auth::BearerToken;
         (name = "routines", description = "Ordered routines of a program"),
         (name = "teaching", description = "Waypoints, predictions, undo, finish and feedback"),
         (name = "robots", description = "Arm models for reachability checks"),
-        (name = "system", description = "Health and metrics"),
+        (name = "system", description = "Health, metrics and backups"),
     )
 )]
 struct ApiDoc;
@@ -82,6 +83,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(robots::router())
         .merge(imports::router())
         .merge(replays::router())
+        .merge(backups::router())
 }
 
 /// The OpenAPI description of every route.

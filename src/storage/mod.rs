@@ -12,6 +12,8 @@
 //! latency). Queries are checked at run time (`query_as` + `FromRow`), so building needs no
 //! live database.
 //!
+//! Backups of an SQLite file while it serves are [`backup`]'s.
+//!
 //! [`Store`]'s methods are spread by table: [`cells`], [`programs`], [`routines`],
 //! [`waypoints`], [`predictions`], [`feedback`], [`robots`]. What they share is written once:
 //! the reads by id ([`query`]), the statements a write makes in its transaction
@@ -19,6 +21,7 @@
 //! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
 
 mod backend;
+mod backup;
 mod binds;
 mod cell_write;
 mod cells;
@@ -35,11 +38,14 @@ mod slots;
 mod transaction;
 mod waypoints;
 
+use std::sync::Arc;
+
 use sqlx::AnyPool;
 
 use error::Result;
 
 pub use backend::{Backend, Durability, Location};
+pub use backup::{BackupError, BackupFile, backup_database};
 pub use cell_write::CellWrite;
 pub use error::StorageError;
 pub use group_commit::{Append, Appended};
@@ -56,6 +62,8 @@ pub use rows::{
 pub struct Store {
     pool: AnyPool,
     backend: Backend,
+    /// Where the database is (the SQLite file a backup copies).
+    location: Arc<Location>,
     appends: group_commit::Writer,
 }
 
@@ -67,6 +75,7 @@ impl Store {
         Ok(Store {
             pool,
             backend,
+            location: Arc::new(location.clone()),
             appends,
         })
     }

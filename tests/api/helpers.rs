@@ -98,6 +98,7 @@ async fn start(db: Database, http: TransportOptions) -> TestApp {
         addr: "127.0.0.1:0".into(),
         http,
         robots: nextpose::kinematics::bundled_robots_dir(),
+        backup_dir: None,
     };
     let server = Application::build(settings)
         .await

@@ -1,8 +1,9 @@
 //! The gRPC adapter through a real tonic client against the real server on its loopback port
 //! (the same port as REST), by concern: unary calls for every resource (`unary`), `Teach`
 //! sessions (`teach`: the same predictions as the REST loop, cancellation), import and replay
-//! (`import`, `replay`: the same results as REST), error mapping and limits (`errors`), and what
-//! every call goes through: token, health, reflection, metrics and request ids (`transport`).
+//! (`import`, `replay`: the same results as REST), backups (`backup`), error mapping and limits
+//! (`errors`), and what every call goes through: token, health, reflection, metrics and request
+//! ids (`transport`).
 //!
 //! The tests drive the generated client (`pb`), not `nextpose::client`: they assert what goes
 //! over the wire (status codes and their metadata, the tags and error events of a `Teach`
@@ -10,6 +11,7 @@
 //! types and `ClientError`s. `client` has the connection and the message builders, `session` a
 //! `Teach` stream driven command by command.
 
+mod backup;
 pub(crate) mod client;
 mod errors;
 mod import;
