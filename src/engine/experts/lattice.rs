@@ -230,10 +230,10 @@ fn propose_from(
     None
 }
 
-/// The move that followed the previous waypoint's role in the routine's items: for the
-/// shortest period whose newest [`MIN_FOLLOWS`] or more items (at least) moved alike from that
-/// role (in its tool frame), that move from the newest waypoint — the place under a new slot's
-/// approach, which no context of moves foretells (the move into a new slot is new each time).
+/// The move that followed the previous waypoint's role in the routine's items (module doc,
+/// "Followers"): for the shortest period whose newest [`MIN_FOLLOWS`] items or more moved alike
+/// from that role (within `mm` and `rad`, in its tool frame), the newest such move from the
+/// newest waypoint. The evidence's context is how many items moved alike (up to 8).
 pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
     let n = routine.len();
     let last = routine.last()?;
