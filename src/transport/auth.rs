@@ -62,16 +62,20 @@ impl BearerToken {
         let Some(value) = authorization else {
             return false;
         };
-        const SCHEME: &[u8] = b"bearer";
-        let Some((scheme, rest)) = value.split_at_checked(SCHEME.len()) else {
-            return false;
-        };
-        if !scheme.eq_ignore_ascii_case(SCHEME) || rest.first() != Some(&b' ') {
-            return false;
-        }
-        let given = rest.trim_ascii_start();
-        constant_time_eq(given, self.0.as_bytes())
+        bearer_secret(value).is_some_and(|given| constant_time_eq(given, self.0.as_bytes()))
     }
+}
+
+/// The credentials of an `Authorization` value of the scheme `Bearer` (in any case, RFC 7235
+/// §2.1), after one or more spaces; None for another scheme or none given.
+pub fn bearer_secret(value: &[u8]) -> Option<&[u8]> {
+    const SCHEME: &[u8] = b"bearer";
+    let (scheme, rest) = value.split_at_checked(SCHEME.len())?;
+    if !scheme.eq_ignore_ascii_case(SCHEME) || rest.first() != Some(&b' ') {
+        return None;
+    }
+    let given = rest.trim_ascii_start();
+    (!given.is_empty()).then_some(given)
 }
 
 /// Compares without an early exit, so the time taken does not reveal how much matched.
