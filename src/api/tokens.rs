@@ -42,6 +42,7 @@ impl Role {
 #[serde(deny_unknown_fields)]
 pub struct NewToken {
     /// Who or what holds it (unique among unrevoked tokens; 1 to 200 characters).
+    #[schema(min_length = 1, max_length = 200)]
     pub name: String,
     pub role: Role,
     /// The cells it is limited to; absent or null: every cell.

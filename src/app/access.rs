@@ -18,7 +18,7 @@
 //! Without a bootstrap token and without any stored token, the service does not authenticate
 //! and every caller is an unscoped admin (`anonymous`), as before tokens existed.
 
-use crate::api::Role;
+use crate::api::{Cell, Role};
 
 use super::{App, AppError, Result};
 
@@ -132,6 +132,14 @@ impl App {
         } else {
             denied(format!("may not touch cell {cell}"))
         }
+    }
+
+    /// The cells the caller may touch (all of them when it is not limited), in the order
+    /// [`App::cells`] lists them: a token limited to some cells does not learn of the others.
+    pub async fn visible_cells(&self, caller: &Caller) -> Result<Vec<Cell>> {
+        let mut cells = self.cells().await?;
+        cells.retain(|c| caller.may_touch(c.id));
+        Ok(cells)
     }
 
     /// The cell a resource belongs to; None for the service or a resource that does not exist.

@@ -530,3 +530,32 @@ async fn every_route_answers_each_role_and_scope_as_specified() {
         }
     }
 }
+
+#[tokio::test]
+async fn a_token_limited_to_some_cells_lists_only_those() {
+    let mut app = spawn_with(TransportOptions {
+        token: Some(BOOTSTRAP.into()),
+        ..TransportOptions::default()
+    })
+    .await;
+    app.token = Some(BOOTSTRAP.into());
+    let mine = app.create_cell("mine").await;
+    app.create_cell("theirs").await;
+    let operator = secret(&app, "op", "operator", Some(vec![mine])).await;
+    let engineer = secret(&app, "eng", "engineer", None).await;
+    let ids = |v: Value| -> Vec<i64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["id"].as_i64().unwrap())
+            .collect()
+    };
+    app.token = Some(operator);
+    assert_eq!(ids(app.get_ok("/v1/cells").await), vec![mine]);
+    let me = app.get_ok("/v1/whoami").await;
+    assert_eq!(me["name"], "op");
+    assert_eq!(me["role"], "operator");
+    assert_eq!(me["cells"], json!([mine]));
+    app.token = Some(engineer);
+    assert_eq!(ids(app.get_ok("/v1/cells").await).len(), 2);
+}
