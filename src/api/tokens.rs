@@ -45,8 +45,9 @@ pub struct NewToken {
     #[schema(min_length = 1, max_length = 200)]
     pub name: String,
     pub role: Role,
-    /// The cells it is limited to; absent or null: every cell.
+    /// The cells it is limited to (at least one); absent or null: every cell.
     #[serde(default)]
+    #[schema(min_items = 1)]
     pub cells: Option<Vec<i64>>,
 }
 

@@ -7,8 +7,8 @@
 //! (see [`beside`]), so REST's JSON error bodies, timeouts and body limits never touch gRPC
 //! responses. Callers are found from gRPC metadata (`authorization: Bearer …`: the bootstrap
 //! token or a stored one, `UNAUTHENTICATED` otherwise), except for the health service, like
-//! REST's `/healthz`; for now the API's methods are an admin's (`PERMISSION_DENIED` for other
-//! roles) until each names its operation as REST's routes do (`app::access`).
+//! REST's `/healthz`; each method names its operation and the resource it touches, as REST's
+//! routes do, and a caller outside its role or cells is `PERMISSION_DENIED` (`app::access`).
 //! Reflection (v1 and v1alpha) and health (`grpc.health.v1`) are served for `grpcurl` and
 //! load balancers.
 
@@ -30,9 +30,9 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response as HttpResponse};
 use tower::ServiceExt;
 
-use crate::app::{Action, App, Caller, Scope};
+use crate::app::App;
 use crate::transport::TransportOptions;
-use crate::transport::auth::{BearerToken, bearer_secret};
+use crate::transport::auth::{BearerToken, identify};
 use crate::transport::request_id::{Protocol, with_request_ids};
 
 use pb::nextpose_server::NextposeServer;
@@ -92,40 +92,22 @@ struct Gate {
 }
 
 /// Finds the caller from `authorization: Bearer <token>` metadata on every call but health
-/// checks (`UNAUTHENTICATED` without a known token). Until each method names its operation,
-/// the API's methods are an admin's (`PERMISSION_DENIED` for other roles); reflection is
-/// anyone's who is known.
+/// checks (`UNAUTHENTICATED` without a known token) and hands it to the method in the
+/// request's extensions; each method then asks whether the caller may do what it does
+/// ([`service`]'s `allow`). Reflection is anyone's who is known.
 async fn require_caller(
     State(gate): State<Gate>,
     mut request: HttpRequest,
     next: Next,
 ) -> HttpResponse {
-    let path = request.uri().path();
-    if path.starts_with("/grpc.health.v1.Health/") {
+    if request.uri().path().starts_with("/grpc.health.v1.Health/") {
         return next.run(request).await;
     }
-    let api = path.starts_with("/nextpose.");
     let given = request
         .headers()
         .get(header::AUTHORIZATION)
         .map(|v| v.as_bytes());
-    let caller = match &gate.bootstrap {
-        Some(token) if token.admits(given) => Ok(Caller::bootstrap()),
-        bootstrap => {
-            gate.app
-                .caller(given.and_then(bearer_secret), bootstrap.is_some())
-                .await
-        }
-    };
-    let allowed = match caller {
-        Ok(caller) if api => gate
-            .app
-            .authorize(&caller, Action::Administer, Scope::Service)
-            .await
-            .map(|()| caller),
-        other => other,
-    };
-    match allowed {
+    match identify(&gate.app, gate.bootstrap.as_ref(), given).await {
         Ok(caller) => {
             request.extensions_mut().insert(caller);
             next.run(request).await

@@ -12,8 +12,8 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
 use super::error::ApiError;
-use crate::app::{Action, App, AppError, Caller, Scope};
-use crate::transport::auth::{BearerToken, bearer_secret};
+use crate::app::{Action, App, AppError, Scope};
+use crate::transport::auth::{BearerToken, identify};
 
 /// What the middleware needs: the application and the bootstrap token, if any.
 #[derive(Clone)]
@@ -87,7 +87,7 @@ pub fn operation(method: &Method, route: &str, id: Option<i64>) -> Option<(Actio
 }
 
 /// Finds the caller and checks the route's operation before the handler runs; the handler
-/// finds the [`Caller`] in the request's extensions. `/healthz` and the pendant page's files
+/// finds the [`Caller`](crate::app::Caller) in the request's extensions. `/healthz` and the pendant page's files
 /// are open (the page asks for the token and sends it on its API calls).
 pub async fn authorize(State(gate): State<Gate>, request: Request, next: Next) -> Response {
     let (mut parts, body) = request.into_parts();
@@ -101,15 +101,7 @@ pub async fn authorize(State(gate): State<Gate>, request: Request, next: Next) -
         .headers()
         .get(header::AUTHORIZATION)
         .map(HeaderValue::as_bytes);
-    let caller = match &gate.bootstrap {
-        Some(token) if token.admits(given) => Ok(Caller::bootstrap()),
-        bootstrap => {
-            gate.app
-                .caller(given.and_then(bearer_secret), bootstrap.is_some())
-                .await
-        }
-    };
-    let caller = match caller {
+    let caller = match identify(&gate.app, gate.bootstrap.as_ref(), given).await {
         Ok(caller) => caller,
         Err(e) => return refusal(e),
     };

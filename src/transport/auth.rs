@@ -5,7 +5,10 @@
 use std::fmt;
 use std::sync::Arc;
 
+use subtle::ConstantTimeEq;
 use thiserror::Error;
+
+use crate::app::{App, AppError, Caller};
 
 /// A configured token that cannot be used.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -80,10 +83,24 @@ pub fn bearer_secret(value: &[u8]) -> Option<&[u8]> {
 
 /// Compares without an early exit, so the time taken does not reveal how much matched.
 fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    if a.len() != b.len() {
-        return false;
+    a.ct_eq(b).into()
+}
+
+/// The caller a request's `Authorization` value names, for both adapters: the bootstrap
+/// token's ([`Caller::bootstrap`]) when it is that, else whoever the stored tokens say
+/// ([`App::caller`]: anonymous when the service authenticates no one, 401 otherwise).
+pub async fn identify(
+    app: &App,
+    bootstrap: Option<&BearerToken>,
+    authorization: Option<&[u8]>,
+) -> Result<Caller, AppError> {
+    match bootstrap {
+        Some(token) if token.admits(authorization) => Ok(Caller::bootstrap()),
+        _ => {
+            app.caller(authorization.and_then(bearer_secret), bootstrap.is_some())
+                .await
+        }
     }
-    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 #[cfg(test)]

@@ -173,3 +173,101 @@ async fn the_cli_creates_lists_and_revokes_tokens_and_keeps_only_their_hashes() 
     assert_eq!(caller.cells, Some(vec![]));
     app.store().close().await;
 }
+
+/// Over REST, without `NEXTPOSE_TOKEN`: the first stored token turns authentication on
+/// (`/healthz` says so, an anonymous call becomes 401); a token limited to no cells, a
+/// duplicate name or an unknown cell is refused and stores nothing; a revoked token is 401.
+#[tokio::test]
+async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_refused() {
+    use crate::helpers::*;
+    use reqwest::StatusCode;
+    use serde_json::json;
+
+    let mut app = spawn_app().await;
+    let health = app.get_ok("/healthz").await;
+    assert_eq!(health["token_required"], false);
+    let cell = app.create_cell("weld-1").await;
+
+    for (body, status, code) in [
+        (
+            json!({ "name": "none", "role": "operator", "cells": [] }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid",
+        ),
+        (
+            json!({ "name": "ghost", "role": "operator", "cells": [cell + 1000] }),
+            StatusCode::NOT_FOUND,
+            "not_found",
+        ),
+        (
+            json!({ "name": "x", "role": "superuser" }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "unprocessable",
+        ),
+    ] {
+        let r = app.post("/v1/tokens", &body).await;
+        assert_eq!(r.status(), status, "{body}");
+        let error: serde_json::Value = r.json().await.unwrap();
+        assert_eq!(error["error"]["code"], code, "{body}: {error}");
+    }
+    // Nothing was stored: the service still asks no one for a token.
+    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
+    assert_eq!(app.get_ok("/v1/tokens").await, json!([]));
+
+    let admin = app
+        .post_ok(
+            "/v1/tokens",
+            &json!({ "name": "admin", "role": "admin" }),
+            StatusCode::CREATED,
+        )
+        .await["secret"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert_eq!(app.get_ok("/healthz").await["token_required"], true);
+    let r = app.get("/v1/cells").await;
+    assert_eq!(r.status(), StatusCode::UNAUTHORIZED);
+    assert_eq!(r.headers()["www-authenticate"], "Bearer");
+
+    app.token = Some(admin.clone());
+    let r = app
+        .post(
+            "/v1/tokens",
+            &json!({ "name": "admin", "role": "operator" }),
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::CONFLICT, "a name is taken");
+    let op = app
+        .post_ok(
+            "/v1/tokens",
+            &json!({ "name": "op", "role": "operator", "cells": [cell] }),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(op["token"]["cells"], json!([cell]));
+    let op = op["secret"].as_str().unwrap().to_string();
+    let names: Vec<String> = app
+        .get_ok("/v1/tokens")
+        .await
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["admin", "op"]);
+
+    app.token = Some(op.clone());
+    assert_eq!(app.get_ok("/v1/whoami").await["name"], "op");
+    app.token = Some(admin);
+    let r = app.delete("/v1/tokens/op").await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    let r = app.delete("/v1/tokens/op").await;
+    assert_eq!(r.status(), StatusCode::NOT_FOUND, "revoked already");
+    app.token = Some(op);
+    let r = app.get("/v1/whoami").await;
+    assert_eq!(
+        r.status(),
+        StatusCode::UNAUTHORIZED,
+        "a revoked token is unknown"
+    );
+}
