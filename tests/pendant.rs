@@ -6,7 +6,8 @@
 //! the suggestion drawn as a ghost of the arm; accept it, undo, reject one; start a copy at the
 //! edge of the arm's reach and see the suggestion flagged unreachable with its reason. The
 //! page's state is asserted through the DOM, the server's through its REST API (stored
-//! waypoints, feedback counts). Screenshots go to `$CARGO_TARGET_TMPDIR/pendant/`, with the
+//! waypoints, feedback counts). With tokens of each role (issue 31) the page shows who is signed
+//! in and turns off what the role may not do. Screenshots go to `$CARGO_TARGET_TMPDIR/pendant/`, with the
 //! Record → suggestion latencies the page measured (`latency.json`, reported in docs/results/performance.md, not
 //! asserted). Any console error fails the test.
 //!
@@ -210,14 +211,16 @@ impl Page {
             .unwrap_or_else(|e| panic!("click {css}: {e}"));
     }
 
+    /// Types into a field once it is on (the page turns its controls on when it knows who
+    /// is calling).
     async fn fill(&self, css: &str, text: &str) {
-        let e = self.wait_for(css).await;
+        let e = self.wait_for(&format!("{css}:not([disabled])")).await;
         e.clear().await.expect("clear");
         e.send_keys(text).await.expect("type");
     }
 
     async fn select(&self, css: &str, value: &str) {
-        self.wait_for(&format!("{css} option[value=\"{value}\"]"))
+        self.wait_for(&format!("{css}:not([disabled]) option[value=\"{value}\"]"))
             .await
             .click()
             .await
@@ -284,6 +287,39 @@ impl Page {
             .collect()
     }
 
+    /// Whether each control is off, and its title: `(id, disabled, title)`.
+    async fn controls(&self, ids: &[&str]) -> Vec<(String, bool, String)> {
+        let v = self
+            .c
+            .execute(
+                "return arguments[0].map((id) => { const e = document.getElementById(id); \
+                   return [id, e.disabled, e.title]; });",
+                vec![json!(ids)],
+            )
+            .await
+            .expect("controls");
+        v.as_array()
+            .expect("array")
+            .iter()
+            .map(|c| {
+                (
+                    c[0].as_str().expect("id").to_string(),
+                    c[1].as_bool().expect("disabled"),
+                    c[2].as_str().expect("title").to_string(),
+                )
+            })
+            .collect()
+    }
+
+    /// Sets aside the console errors logged so far whose message contains `expected` (a
+    /// refused request the test caused on purpose: Chromium logs its status).
+    async fn set_aside(&mut self, expected: &str) {
+        self.read_console().await;
+        self.console.retain(|e| {
+            !(e["level"] == "SEVERE" && e["message"].as_str().is_some_and(|m| m.contains(expected)))
+        });
+    }
+
     /// Fails on any console error the page logged, then closes the browser.
     async fn close(mut self) {
         self.read_console().await;
@@ -310,6 +346,19 @@ impl Api {
             .http
             .get(format!("{}{path}", self.base))
             .bearer_auth(TOKEN)
+            .send()
+            .await
+            .expect("send");
+        assert!(r.status().is_success(), "{path}: {}", r.status());
+        r.json().await.expect("json")
+    }
+
+    async fn post(&self, path: &str, body: Value) -> Value {
+        let r = self
+            .http
+            .post(format!("{}{path}", self.base))
+            .bearer_auth(TOKEN)
+            .json(&body)
             .send()
             .await
             .expect("send");
@@ -806,6 +855,219 @@ async fn a_grid_is_finished_by_suggestions_on_the_pendant() {
     // The next slot is not offered: the arm cannot reach it.
     page.wait_for("#accept-n[disabled]").await;
     page.screenshot("pendant-grid-accepted.png").await;
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 31's tokens with roles on the page: the bootstrap admin creates a cell with an open
+/// routine (and another cell) and two tokens limited to that cell, an operator and an engineer.
+/// Signed in with each in turn (the page's *Change token* forgets the one before), then with
+/// the admin token, the header says who is signed in, and each control is on or off as the
+/// role allows (src/app/access.rs): the operator teaches (Record is on and a recorded waypoint
+/// is stored) but may not create cells or programs, edit waypoints or calibrate, and each such
+/// control's title names the role it needs; the engineer may edit but, limited to a cell, not
+/// create cells; the admin may do all. A 403 the operator meets anyway (a control forced on, as
+/// on a page whose token lost a role) is shown with the service's message and changes nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_page_shows_who_is_signed_in_and_greys_out_what_the_role_may_not_do() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        mut page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let arm = json!({ "robot": "abb_irb140" });
+    api.post(
+        "/v1/cells",
+        json!({ "name": "other cell", "settings": arm }),
+    )
+    .await;
+    let cell = api
+        .post("/v1/cells", json!({ "name": "line 3", "settings": arm }))
+        .await;
+    let cell_id = cell["id"].as_i64().expect("cell id");
+    let program = api
+        .post(
+            &format!("/v1/cells/{cell_id}/programs"),
+            json!({ "name": "Seams" }),
+        )
+        .await;
+    let program_id = program["id"].as_i64().expect("program id");
+    let routine = api
+        .post(&format!("/v1/programs/{program_id}/routines"), json!({}))
+        .await;
+    let routine_id = routine["id"].as_i64().expect("routine id");
+    let token = |name: &'static str, role: &'static str| {
+        let api = &api;
+        async move {
+            let created = api
+                .post(
+                    "/v1/tokens",
+                    json!({ "name": name, "role": role, "cells": [cell_id] }),
+                )
+                .await;
+            assert_eq!(created["token"]["role"], role, "{created}");
+            created["secret"].as_str().expect("secret").to_string()
+        }
+    };
+    let operator = token("op-1", "operator").await;
+    let engineer = token("eng-1", "engineer").await;
+
+    // What a role may not use, by the least role each needs.
+    let edits = [
+        "create-program",
+        "new-program-name",
+        "wp-reteach",
+        "wp-rename",
+        "wp-motion",
+        "wp-insert-before",
+        "wp-insert-after",
+        "wp-delete",
+        "calib-record",
+        "calib-apply",
+        "calib-clear",
+    ];
+    let whole_service = [
+        "create-cell",
+        "new-cell-name",
+        "new-cell-robot",
+        "new-cell-policy",
+    ];
+    let teaching = ["record", "undo", "finish", "create-routine", "show-path"];
+
+    // The operator signs in through the token dialog.
+    page.c
+        .goto(&format!("{base}/"))
+        .await
+        .expect("open the page");
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", &operator).await;
+    page.click("#token-submit").await;
+    let signed_in = page
+        .wait_for("#signed-in[data-role=operator][data-name=op-1]")
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(
+        signed_in.contains("op-1")
+            && signed_in.contains("operator")
+            && signed_in.contains(&format!("cell {cell_id}")),
+        "{signed_in:?}"
+    );
+    // It sees its cell only, and teaches in its open routine.
+    page.wait_for("#record:not([disabled])").await;
+    let listed = page
+        .c
+        .execute(
+            "return [...document.querySelectorAll('#cell-select option')].map((o) => o.value);",
+            vec![],
+        )
+        .await
+        .expect("cells listed");
+    assert_eq!(listed, json!([cell_id.to_string()]));
+    page.record().await;
+    let stored = api.get(&format!("/v1/routines/{routine_id}")).await;
+    assert_eq!(
+        stored["waypoints"].as_array().expect("waypoints").len(),
+        1,
+        "the operator's Record is stored"
+    );
+    // With a waypoint selected, the edits would be on for a role that may edit.
+    page.click("#waypoints li").await;
+    page.wait_for("#waypoints li[aria-selected=true]").await;
+    for (id, off, title) in page.controls(&teaching).await {
+        assert!(!off, "{id} is on for the operator ({title:?})");
+    }
+    for (id, off, title) in page
+        .controls(&[&edits[..], &whole_service[..]].concat())
+        .await
+    {
+        assert!(off, "{id} is off for the operator");
+        assert!(
+            title.contains("needs the engineer role"),
+            "{id}'s title says what it needs: {title:?}"
+        );
+    }
+
+    // A 403 all the same (a control forced on and pressed) is shown, and creates nothing.
+    page.c
+        .execute(
+            "const b = document.getElementById('create-program'); b.disabled = false; b.click();",
+            vec![],
+        )
+        .await
+        .expect("press create-program");
+    page.wait_for("#status[data-level=error][data-code=forbidden]")
+        .await;
+    let shown = page.attr("#status", "title").await.unwrap_or_default();
+    assert!(
+        shown.contains("op-1") && shown.contains("engineer"),
+        "the service's message is shown: {shown:?}"
+    );
+    page.wait_for("#create-program[disabled]").await;
+    let programs = api.get(&format!("/v1/cells/{cell_id}/programs")).await;
+    assert_eq!(programs.as_array().expect("programs").len(), 1);
+    page.set_aside("status of 403").await;
+    page.screenshot("pendant-operator.png").await;
+
+    // Change token: the engineer of the same cell may edit, but not create a cell.
+    page.click("#sign-out").await;
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", &engineer).await;
+    page.click("#token-submit").await;
+    page.wait_for("#signed-in[data-role=engineer][data-name=eng-1]")
+        .await;
+    page.wait_for("#record:not([disabled])").await;
+    page.click("#waypoints li").await;
+    page.wait_for("#waypoints li[aria-selected=true]").await;
+    for (id, off, title) in page.controls(&teaching).await {
+        assert!(!off, "{id} is on for the engineer ({title:?})");
+    }
+    for (id, off, title) in page.controls(&edits).await {
+        // Setting the noise waits for three recorded points.
+        assert_eq!(
+            off,
+            id == "calib-apply",
+            "{id} for the engineer ({title:?})"
+        );
+    }
+    for (id, off, title) in page.controls(&whole_service).await {
+        assert!(off, "{id} is off for an engineer limited to a cell");
+        assert!(
+            title.contains("not limited to some cells"),
+            "{id}'s title says why: {title:?}"
+        );
+    }
+
+    // The bootstrap admin may do all, in every cell.
+    page.click("#sign-out").await;
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", TOKEN).await;
+    page.click("#token-submit").await;
+    let signed_in = page
+        .wait_for("#signed-in[data-role=admin][data-name=bootstrap]")
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(!signed_in.contains("cell"), "{signed_in:?}");
+    page.wait_for("#record:not([disabled])").await;
+    page.wait_for("#cell-select option:nth-child(2)").await;
+    page.click("#waypoints li").await;
+    page.wait_for("#waypoints li[aria-selected=true]").await;
+    for (id, off, title) in page
+        .controls(&[&teaching[..], &edits[..], &whole_service[..]].concat())
+        .await
+    {
+        assert_eq!(off, id == "calib-apply", "{id} for the admin ({title:?})");
+    }
+    page.screenshot("pendant-admin.png").await;
 
     page.close().await;
     drop(driver);

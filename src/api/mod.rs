@@ -32,6 +32,7 @@ pub mod routines;
 mod schema;
 pub mod settings;
 pub mod system;
+pub mod tokens;
 pub mod trajectory;
 pub mod waypoints;
 
@@ -60,6 +61,7 @@ pub use robots::{Joint, Robot, RobotSource, RobotUpload};
 pub use routines::{CreateRoutine, Finished, Routine, RoutineDetail, RoutineEdit, RoutinePatch};
 pub use settings::{CellSettings, CellSettingsInput, ScaleSettings};
 pub use system::Health;
+pub use tokens::{CreatedToken, NewToken, Role, Token, WhoAmI};
 pub use trajectory::{
     Criterion, Segmentation, TrajectoryAnswer, TrajectoryPoint, TrajectoryRequest,
     TrajectorySample, TrajectorySegment, TrajectorySettings,

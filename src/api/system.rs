@@ -7,6 +7,7 @@ use utoipa::ToSchema;
 pub struct Health {
     /// `ok`
     pub status: String,
-    /// Whether the other routes want a bearer token (a page asks for it before calling them).
+    /// Whether the other routes want a bearer token: the service has a bootstrap token
+    /// (`NEXTPOSE_TOKEN`) or a stored one not revoked (a page asks for it before calling them).
     pub token_required: bool,
 }

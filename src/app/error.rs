@@ -63,6 +63,13 @@ pub enum AppError {
     /// whole chain (down to sqlx's) once.
     #[error("the database failed")]
     Storage(#[source] StorageError),
+    /// No bearer token, or one the service does not know (never issued, or revoked), while
+    /// the service authenticates.
+    #[error("a valid bearer token is required")]
+    Unauthenticated,
+    /// A known token whose role or cells do not allow the operation: nothing was done.
+    #[error("{0}")]
+    PermissionDenied(String),
     /// A failure of ours (corrupted stored data, a task that died).
     #[error("internal error: {0}")]
     Internal(String),
@@ -82,6 +89,10 @@ pub enum ErrorKind {
     Stale,
     /// The client's input cannot be used.
     Invalid,
+    /// No valid token (401, `UNAUTHENTICATED`).
+    Unauthenticated,
+    /// A known token not allowed the operation (403, `PERMISSION_DENIED`).
+    PermissionDenied,
     /// A failure of ours or of the database.
     Internal,
 }
@@ -93,6 +104,8 @@ impl AppError {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => ErrorKind::NotFound,
             AppError::Exists(_) => ErrorKind::Exists,
             AppError::Conflict(_) => ErrorKind::Conflict,
+            AppError::Unauthenticated => ErrorKind::Unauthenticated,
+            AppError::PermissionDenied(_) => ErrorKind::PermissionDenied,
             AppError::Stale(_) => ErrorKind::Stale,
             AppError::Invalid(_)
             | AppError::Import(_)
@@ -120,6 +133,8 @@ impl AppError {
             AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
             AppError::Conflict(_) | AppError::Exists(_) => "conflict",
             AppError::Stale(_) => "busy",
+            AppError::Unauthenticated => "unauthorized",
+            AppError::PermissionDenied(_) => "forbidden",
             AppError::Invalid(_) | AppError::Import(_) => "invalid",
             AppError::Pose(_) => "invalid_pose",
             AppError::Config(_) | AppError::Trajectory(TrajectoryError::Settings(_)) => {

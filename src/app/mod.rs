@@ -22,6 +22,7 @@
 //! imports, learning a model from the database) runs on blocking threads ([`blocking`]), so one
 //! cell's import does not stall other cells' requests.
 
+mod access;
 mod arm;
 mod backups;
 mod calibration;
@@ -44,6 +45,7 @@ mod routines;
 mod rows;
 pub mod settings;
 mod teaching;
+mod tokens;
 mod trajectory;
 
 use std::collections::HashMap;
@@ -53,6 +55,7 @@ use tokio_util::task::TaskTracker;
 
 use crate::storage::Store;
 use crate::telemetry::Metrics;
+pub use access::{Action, Caller, Scope};
 pub use arm::frames_joints;
 use backups::Backups;
 pub use backups::{BackupName, MAX_BACKUP_NAME};
@@ -60,6 +63,7 @@ pub use error::{AppError, ErrorKind};
 use registry::Slot;
 pub(crate) use registry::blocking;
 use robots::Robots;
+pub use tokens::{SECRET_PREFIX, secret_hash};
 pub use trajectory::{
     MAX_POSITION_MM, MAX_ROTATION_MM_PER_RAD, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET,
     REPRODUCTION_ERROR_BUDGET,

@@ -29,6 +29,7 @@ mod replay;
 mod segment;
 mod serve;
 mod simulate;
+mod token;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -50,6 +51,7 @@ pub use replay::{ReplayArgs, SweepArgs};
 pub use segment::{CriterionArg, SegmentArgs};
 pub use serve::ServeArgs;
 pub use simulate::{HistoryArg, OperatorArg, ReachPolicyArg, SimulateArgs, TransportArg};
+pub use token::{RoleArg, TokenArgs, TokenCommand};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -72,6 +74,9 @@ pub enum Command {
     Serve(ServeArgs),
     /// Write a consistent copy of an SQLite database to OUT, while a server may serve it.
     Backup(BackupArgs),
+    /// Create, list or revoke bearer tokens with a role (operator, engineer, admin) and the
+    /// cells they are limited to, in the database directly.
+    Token(TokenArgs),
     /// Print the OpenAPI description of the REST API (YAML), as committed in openapi.yaml.
     Openapi,
     /// Import offline program files (RAPID, KRL, FANUC TP) into a cell of a running server.
@@ -106,6 +111,7 @@ pub fn run_cli(cli: Cli) -> Result<()> {
         Command::Sweep(args) => replay::run_sweep(&args),
         Command::Serve(args) => serve::run_serve(args),
         Command::Backup(args) => backup::run_backup(&args),
+        Command::Token(args) => token::run_token(args),
         Command::Import(args) => import::run_import(args),
         Command::Export(args) => export::run_export(args),
         Command::Simulate(args) => simulate::run_simulate(&args),

@@ -5,8 +5,10 @@
 //!
 //! Requests with `content-type: application/grpc*` go to the gRPC router before any REST layer
 //! (see [`beside`]), so REST's JSON error bodies, timeouts and body limits never touch gRPC
-//! responses. The optional bearer token applies to gRPC metadata (`authorization: Bearer …`,
-//! `UNAUTHENTICATED` otherwise), except for the health service, like REST's `/healthz`.
+//! responses. Callers are found from gRPC metadata (`authorization: Bearer …`: the bootstrap
+//! token or a stored one, `UNAUTHENTICATED` otherwise), except for the health service, like
+//! REST's `/healthz`; each method names its operation and the resource it touches, as REST's
+//! routes do, and a caller outside its role or cells is `PERMISSION_DENIED` (`app::access`).
 //! Reflection (v1 and v1alpha) and health (`grpc.health.v1`) are served for `grpcurl` and
 //! load balancers.
 
@@ -26,12 +28,11 @@ use axum::extract::{Request as HttpRequest, State};
 use axum::http::header;
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response as HttpResponse};
-use tonic::Status;
 use tower::ServiceExt;
 
 use crate::app::App;
 use crate::transport::TransportOptions;
-use crate::transport::auth::BearerToken;
+use crate::transport::auth::{BearerToken, identify};
 use crate::transport::request_id::{Protocol, with_request_ids};
 
 use pb::nextpose_server::NextposeServer;
@@ -65,23 +66,38 @@ pub async fn router(
         .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
         .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
         .build_v1alpha()?;
+    let app_for_gate = app.clone();
     let api = NextposeServer::new(Service::new(app)).max_decoding_message_size(options.body_limit);
     let mut routes = tonic::service::Routes::new(api)
         .add_service(health_service)
         .add_service(reflection)
         .add_service(reflection_alpha)
         .into_axum_router();
-    if let Some(token) = token {
-        routes = routes.layer(axum::middleware::from_fn_with_state(token, require_token));
-    }
+    routes = routes.layer(axum::middleware::from_fn_with_state(
+        Gate {
+            app: app_for_gate,
+            bootstrap: token,
+        },
+        require_caller,
+    ));
     let routes = routes.layer(axum::middleware::from_fn_with_state(metrics, track::track));
     Ok(with_request_ids(routes, Protocol::Grpc))
 }
 
-/// Requires `authorization: Bearer <token>` metadata on every call but health checks.
-async fn require_token(
-    State(token): State<BearerToken>,
-    request: HttpRequest,
+/// What the gate needs: the application and the bootstrap token, if any.
+#[derive(Clone)]
+struct Gate {
+    app: Arc<App>,
+    bootstrap: Option<BearerToken>,
+}
+
+/// Finds the caller from `authorization: Bearer <token>` metadata on every call but health
+/// checks (`UNAUTHENTICATED` without a known token) and hands it to the method in the
+/// request's extensions; each method then asks whether the caller may do what it does
+/// ([`service`]'s `allow`). Reflection is anyone's who is known.
+async fn require_caller(
+    State(gate): State<Gate>,
+    mut request: HttpRequest,
     next: Next,
 ) -> HttpResponse {
     if request.uri().path().starts_with("/grpc.health.v1.Health/") {
@@ -91,12 +107,15 @@ async fn require_token(
         .headers()
         .get(header::AUTHORIZATION)
         .map(|v| v.as_bytes());
-    if token.admits(given) {
-        return next.run(request).await;
+    match identify(&gate.app, gate.bootstrap.as_ref(), given).await {
+        Ok(caller) => {
+            request.extensions_mut().insert(caller);
+            next.run(request).await
+        }
+        Err(e) => status::status(e)
+            .into_http::<axum::body::Body>()
+            .into_response(),
     }
-    Status::unauthenticated("a valid bearer token is required")
-        .into_http::<axum::body::Body>()
-        .into_response()
 }
 
 /// Whether a request is a gRPC call (`content-type: application/grpc`, `application/grpc+proto`…).

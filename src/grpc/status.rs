@@ -17,6 +17,8 @@ pub fn code(e: &AppError) -> Code {
         ErrorKind::Conflict => Code::FailedPrecondition,
         ErrorKind::Stale => Code::Aborted,
         ErrorKind::Invalid => Code::InvalidArgument,
+        ErrorKind::Unauthenticated => Code::Unauthenticated,
+        ErrorKind::PermissionDenied => Code::PermissionDenied,
         ErrorKind::Internal => Code::Internal,
     }
 }

@@ -10,7 +10,7 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Code, Status, Streaming};
 
-use crate::app::{App, AppError};
+use crate::app::{Action, App, AppError, Caller, Scope};
 
 use super::convert;
 use super::pb;
@@ -26,6 +26,7 @@ pub const TEACH_BUFFER: usize = 16;
 /// Runs a session on `inbound` commands in a task of its own; its responses.
 pub(super) fn run(
     app: Arc<App>,
+    caller: Caller,
     mut inbound: Streaming<pb::TeachRequest>,
 ) -> ReceiverStream<Result<pb::TeachResponse, Status>> {
     let (tx, rx) = mpsc::channel(TEACH_BUFFER);
@@ -35,7 +36,11 @@ pub(super) fn run(
     // as the client goes away.
     tokio::spawn(async move {
         let _counted = counted;
-        let mut session = Session { app, routine: None };
+        let mut session = Session {
+            app,
+            caller,
+            routine: None,
+        };
         loop {
             let next = tokio::select! {
                 m = inbound.message() => m,
@@ -66,9 +71,11 @@ pub(super) fn run(
     ReceiverStream::new(rx)
 }
 
-/// One `Teach` stream: which routine its commands apply to.
+/// One `Teach` stream: who teaches, and which routine its commands apply to (one the caller
+/// may teach: `start` asks).
 struct Session {
     app: Arc<App>,
+    caller: Caller,
     routine: Option<i64>,
 }
 
@@ -117,6 +124,9 @@ impl Session {
                 "a command (start, waypoint, undo or finish) is required",
             ))),
             Some(Command::Start(s)) => {
+                app.authorize(&self.caller, Action::Teach, Scope::Routine(s.routine_id))
+                    .await
+                    .map_err(app_error)?;
                 let detail = app.resume_routine(s.routine_id).await.map_err(app_error)?;
                 self.routine = Some(s.routine_id);
                 Ok(Event::Started(pb::Started {

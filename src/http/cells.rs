@@ -2,6 +2,7 @@
 
 use std::sync::Arc;
 
+use axum::Extension;
 use axum::extract::State;
 use axum::http::StatusCode;
 use utoipa_axum::router::OpenApiRouter;
@@ -13,7 +14,7 @@ use crate::api::{
     ArmFrames, CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, ErrorBody, FramesQuery,
     ModelInfo, ReachQuery, Reachability,
 };
-use crate::app::{App, frames_joints};
+use crate::app::{App, Caller, frames_joints};
 
 pub fn router() -> OpenApiRouter<Arc<App>> {
     OpenApiRouter::new()
@@ -47,11 +48,15 @@ async fn create_cell(
     ))
 }
 
-/// List the work cells.
+/// List the work cells (those the token is limited to, if it is).
 #[utoipa::path(get, path = "/v1/cells", tag = "cells",
-    responses((status = 200, description = "All cells", body = [Cell])))]
-async fn list_cells(State(app): State<Arc<App>>) -> Result<axum::Json<Vec<Cell>>, ApiError> {
-    Ok(axum::Json(app.cells().await?))
+    responses((status = 200, description = "The cells the token may touch (all when it is not limited)", body = [Cell])))]
+async fn list_cells(
+    State(app): State<Arc<App>>,
+    caller: Option<Extension<Caller>>,
+) -> Result<axum::Json<Vec<Cell>>, ApiError> {
+    let caller = caller.map_or_else(Caller::anonymous, |Extension(c)| c);
+    Ok(axum::Json(app.visible_cells(&caller).await?))
 }
 
 /// One work cell.

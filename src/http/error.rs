@@ -34,6 +34,7 @@ pub fn for_status(status: StatusCode) -> ApiError {
         StatusCode::PAYLOAD_TOO_LARGE => ("payload_too_large", "request body too large"),
         StatusCode::REQUEST_TIMEOUT => ("timeout", "the request took too long"),
         StatusCode::UNAUTHORIZED => ("unauthorized", "a valid bearer token is required"),
+        StatusCode::FORBIDDEN => ("forbidden", "the token may not do this"),
         StatusCode::UNSUPPORTED_MEDIA_TYPE => (
             "unsupported_media_type",
             "expected Content-Type: application/json",
@@ -51,6 +52,8 @@ impl From<AppError> for ApiError {
             // REST answers a name taken like any other conflict; gRPC tells them apart.
             ErrorKind::Exists | ErrorKind::Conflict | ErrorKind::Stale => StatusCode::CONFLICT,
             ErrorKind::Invalid => StatusCode::UNPROCESSABLE_ENTITY,
+            ErrorKind::Unauthenticated => StatusCode::UNAUTHORIZED,
+            ErrorKind::PermissionDenied => StatusCode::FORBIDDEN,
             ErrorKind::Internal => StatusCode::INTERNAL_SERVER_ERROR,
         };
         if status.is_server_error() {

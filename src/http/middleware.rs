@@ -1,4 +1,4 @@
-//! Cross-cutting request handling of the REST adapter: bearer-token check, request metrics, and JSON bodies for errors produced outside the
+//! Cross-cutting request handling of the REST adapter: request metrics, and JSON bodies for errors produced outside the
 //! handlers (timeouts, body limits, unknown routes).
 
 use std::sync::Arc;
@@ -6,44 +6,17 @@ use std::time::Instant;
 
 use axum::body::Body;
 use axum::extract::{MatchedPath, Request, State};
-use axum::http::{HeaderValue, StatusCode, header};
+use axum::http::{HeaderValue, header};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
 use super::error::for_status;
 use crate::telemetry::Metrics;
-use crate::transport::auth::BearerToken;
 
 /// Whether the service was started with a bearer token (`/healthz` says so).
 #[derive(Debug, Clone, Copy)]
 pub struct Authentication {
     pub token_required: bool,
-}
-
-/// Requires `Authorization: Bearer <token>` on everything but `/healthz` and the pendant
-/// page's files (the page asks for the token and sends it on its API calls), and CORS
-/// preflights, which the CORS layer answers before this runs.
-pub async fn require_token(
-    State(token): State<BearerToken>,
-    request: Request,
-    next: Next,
-) -> Response {
-    let path = request.uri().path();
-    if path == "/healthz" || super::pendant::is_page(path) {
-        return next.run(request).await;
-    }
-    let given = request
-        .headers()
-        .get(header::AUTHORIZATION)
-        .map(HeaderValue::as_bytes);
-    if token.admits(given) {
-        return next.run(request).await;
-    }
-    let mut response = for_status(StatusCode::UNAUTHORIZED).into_response();
-    response
-        .headers_mut()
-        .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
-    response
 }
 
 /// Counts requests and observes their latency by route template.

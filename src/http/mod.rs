@@ -6,6 +6,7 @@
 //! generated description, committed, and a test fails when it and the code drift apart
 //! (regenerate with `nextpose openapi > openapi.yaml`).
 
+mod access;
 mod backups;
 mod cells;
 pub mod error;
@@ -18,6 +19,7 @@ mod robots;
 mod routines;
 pub mod strict;
 mod system;
+mod tokens;
 
 use crate::transport::TransportOptions;
 use std::sync::Arc;
@@ -84,6 +86,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(imports::router())
         .merge(replays::router())
         .merge(backups::router())
+        .merge(tokens::router())
 }
 
 /// The OpenAPI description of every route.
@@ -91,8 +94,9 @@ pub fn openapi() -> OpenApiDoc {
     api().split_for_parts().1
 }
 
-/// The service's router with all its layers; with a `token`, every route but `/healthz` and
-/// the pendant page's files requires it.
+/// The service's router with all its layers; every route but `/healthz` and the pendant
+/// page's files asks who the caller is and whether it may (`access`); `token` is the
+/// bootstrap admin token (`NEXTPOSE_TOKEN`).
 pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerToken>) -> Router {
     let (routes, _) = api().split_for_parts();
     let request_id = crate::transport::request_id::REQUEST_ID;
@@ -106,12 +110,15 @@ pub fn router(app: Arc<App>, options: &TransportOptions, token: Option<BearerTok
     let auth = middleware::Authentication {
         token_required: token.is_some(),
     };
-    if let Some(token) = token {
-        routes = routes.layer(axum::middleware::from_fn_with_state(
-            token,
-            middleware::require_token,
-        ));
-    }
+    // Every route but `/healthz` and the page's files: the caller, and whether its role and
+    // cells allow the route's operation (`access`).
+    routes = routes.layer(axum::middleware::from_fn_with_state(
+        access::Gate {
+            app: app.clone(),
+            bootstrap: token,
+        },
+        access::authorize,
+    ));
     let cors = CorsLayer::new()
         .allow_origin(Any)
         .allow_methods([

@@ -30,10 +30,14 @@ async fn healthz(
     State(app): State<Arc<App>>,
     Extension(auth): Extension<Authentication>,
 ) -> Result<axum::Json<Health>, ApiError> {
-    match app.health().await {
-        Ok(()) => Ok(axum::Json(Health {
+    let health = match app.health().await {
+        Ok(()) => app.asks_for_token(auth.token_required).await,
+        Err(e) => Err(e),
+    };
+    match health {
+        Ok(token_required) => Ok(axum::Json(Health {
             status: "ok".into(),
-            token_required: auth.token_required,
+            token_required,
         })),
         Err(e) => {
             tracing::error!(error = %e, "health check failed");

@@ -15,7 +15,7 @@
 //! Backups of an SQLite file while it serves are [`backup`]'s.
 //!
 //! [`Store`]'s methods are spread by table: [`cells`], [`programs`], [`routines`],
-//! [`waypoints`], [`predictions`], [`feedback`], [`robots`]. What they share is written once:
+//! [`waypoints`], [`predictions`], [`feedback`], [`robots`], [`tokens`]. What they share is written once:
 //! the reads by id ([`query`]), the statements a write makes in its transaction
 //! ([`transaction`]), the rows and their columns ([`rows`]), the order values are bound in
 //! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
@@ -35,6 +35,7 @@ mod robots;
 mod routines;
 mod rows;
 mod slots;
+mod tokens;
 mod transaction;
 mod waypoints;
 
@@ -51,8 +52,8 @@ pub use error::StorageError;
 pub use group_commit::{Append, Appended};
 pub use rows::{
     CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
-    NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, WaypointRow,
-    WaypointValues,
+    NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, TokenRow,
+    WaypointRow, WaypointValues,
 };
 
 /// The store: SQLite (one file, this process the only writer) or PostgreSQL (shared by several

@@ -124,6 +124,27 @@ impl<'r> FromRow<'r, AnyRow> for PoseValues {
     }
 }
 
+/// A bearer token, without its secret (only its SHA-256 is stored).
+#[derive(Debug, Clone, PartialEq, FromRow)]
+pub struct TokenRow {
+    pub id: i64,
+    pub name: String,
+    /// `operator`, `engineer` or `admin` (the database checks it).
+    pub role: String,
+    /// The SHA-256 of its secret, in hex.
+    pub secret_sha256: String,
+    /// 1: every cell; 0: only the cells in `token_cells`.
+    pub all_cells: i64,
+    pub created_at: String,
+    pub revoked_at: Option<String>,
+}
+
+impl Stored for TokenRow {
+    const COLUMNS: &'static str =
+        "id, name, role, secret_sha256, all_cells, created_at, revoked_at";
+    const FROM: &'static str = "tokens";
+}
+
 /// An arm model uploaded through the API.
 #[derive(Debug, Clone, PartialEq, FromRow)]
 pub struct RobotRow {

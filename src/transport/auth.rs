@@ -5,7 +5,10 @@
 use std::fmt;
 use std::sync::Arc;
 
+use subtle::ConstantTimeEq;
 use thiserror::Error;
+
+use crate::app::{App, AppError, Caller};
 
 /// A configured token that cannot be used.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -62,24 +65,42 @@ impl BearerToken {
         let Some(value) = authorization else {
             return false;
         };
-        const SCHEME: &[u8] = b"bearer";
-        let Some((scheme, rest)) = value.split_at_checked(SCHEME.len()) else {
-            return false;
-        };
-        if !scheme.eq_ignore_ascii_case(SCHEME) || rest.first() != Some(&b' ') {
-            return false;
-        }
-        let given = rest.trim_ascii_start();
-        constant_time_eq(given, self.0.as_bytes())
+        bearer_secret(value).is_some_and(|given| constant_time_eq(given, self.0.as_bytes()))
     }
+}
+
+/// The credentials of an `Authorization` value of the scheme `Bearer` (in any case, RFC 7235
+/// §2.1), after one or more spaces; None for another scheme or none given.
+pub fn bearer_secret(value: &[u8]) -> Option<&[u8]> {
+    const SCHEME: &[u8] = b"bearer";
+    let (scheme, rest) = value.split_at_checked(SCHEME.len())?;
+    if !scheme.eq_ignore_ascii_case(SCHEME) || rest.first() != Some(&b' ') {
+        return None;
+    }
+    let given = rest.trim_ascii_start();
+    (!given.is_empty()).then_some(given)
 }
 
 /// Compares without an early exit, so the time taken does not reveal how much matched.
 fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
-    if a.len() != b.len() {
-        return false;
+    a.ct_eq(b).into()
+}
+
+/// The caller a request's `Authorization` value names, for both adapters: the bootstrap
+/// token's ([`Caller::bootstrap`]) when it is that, else whoever the stored tokens say
+/// ([`App::caller`]: anonymous when the service authenticates no one, 401 otherwise).
+pub async fn identify(
+    app: &App,
+    bootstrap: Option<&BearerToken>,
+    authorization: Option<&[u8]>,
+) -> Result<Caller, AppError> {
+    match bootstrap {
+        Some(token) if token.admits(authorization) => Ok(Caller::bootstrap()),
+        _ => {
+            app.caller(authorization.and_then(bearer_secret), bootstrap.is_some())
+                .await
+        }
     }
-    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 #[cfg(test)]

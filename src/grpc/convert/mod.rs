@@ -21,6 +21,7 @@ mod replays;
 mod robots;
 mod routines;
 mod settings;
+mod tokens;
 mod trajectory;
 mod waypoints;
 mod wire;

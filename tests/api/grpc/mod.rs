@@ -16,6 +16,7 @@ pub(crate) mod client;
 mod errors;
 mod import;
 mod replay;
+mod roles;
 mod session;
 mod teach;
 mod transport;

@@ -1,5 +1,6 @@
 // The REST client of the page: same-origin calls to /v1/…, the bearer token (asked for once,
-// kept for the browser session), and the service's error shape turned into ApiError.
+// kept for the browser session, forgotten on sign-out), and the service's error shape
+// (`{error: {code, message}}`) turned into ApiError: a 403's message says which role it needs.
 
 const TOKEN_KEY = 'nextpose-token';
 
@@ -13,9 +14,32 @@ export class ApiError extends Error {
 
 let token = sessionStorage.getItem(TOKEN_KEY);
 let askToken = null; // () => Promise<string>, set by the page
+let tokenChanged = () => {}; // called after a new token is kept, set by the page
 
 export function onTokenNeeded(fn) {
   askToken = fn;
+}
+
+/** `fn()` runs after the page is given another token (who is calling may have changed). */
+export function onTokenChanged(fn) {
+  tokenChanged = fn;
+}
+
+function keep(given) {
+  token = given;
+  sessionStorage.setItem(TOKEN_KEY, token);
+  tokenChanged();
+}
+
+/** Whether the page holds a token (it may still be refused). */
+export function hasToken() {
+  return Boolean(token);
+}
+
+/** Forgets the token (sign out): the next guarded call asks for one. */
+export function forget() {
+  token = null;
+  sessionStorage.removeItem(TOKEN_KEY);
 }
 
 async function send(method, path, body) {
@@ -44,8 +68,7 @@ async function send(method, path, body) {
 
 /** Asks for the token now (the service said it wants one) and keeps it. */
 export async function ask() {
-  token = await askToken();
-  sessionStorage.setItem(TOKEN_KEY, token);
+  keep(await askToken());
 }
 
 /** One call; a 401 asks for the token and tries again with it. */
@@ -55,8 +78,7 @@ export async function call(method, path, body) {
       return await send(method, path, body);
     } catch (e) {
       if (!(e instanceof ApiError) || e.status !== 401 || !askToken) throw e;
-      token = await askToken();
-      sessionStorage.setItem(TOKEN_KEY, token);
+      keep(await askToken());
     }
   }
 }

@@ -1,7 +1,9 @@
 // The pendant page: wires the DOM (pickers, waypoint list, jog pad, actions, keyboard, the
-// token dialog) to the teaching session (teach.js) and the 3D view (scene.js). Every action
-// runs one at a time; a failure is shown in #status, never thrown.
+// token dialog, who is signed in) to the teaching session (teach.js) and the 3D view
+// (scene.js). Every action runs one at a time; a failure (a 403 too) is shown in #status, never
+// thrown. A control whose action the caller's role may not do is off (access.js).
 
+import { allowed, describe, refusal } from './access.js';
 import * as api from './api.js';
 import { View } from './scene.js';
 import { Session } from './teach.js';
@@ -11,21 +13,26 @@ const view = new View($('view3d'));
 const session = new Session(view);
 window.nextposeLatencies = session.latencies;
 let selected = null; // id of the selected waypoint
+let me = null; // who the token says the caller is (GET /v1/whoami); null until known
 
-function status(text, level = 'info') {
+function status(text, level = 'info', code = '') {
   const s = $('status');
   s.textContent = text;
   s.dataset.level = level;
+  s.dataset.code = code;
   s.title = text;
+}
+
+/** Shows a failure: the service's message (a 403 says which role or cell it needed). */
+function report(e) {
+  const message = e.message || String(e);
+  status(e.status === 403 ? `not allowed: ${message}` : message, 'error', e.code || '');
 }
 
 // One action at a time, in order; errors end up in #status.
 let queue = Promise.resolve();
 function run(action) {
-  queue = queue
-    .then(action)
-    .catch((e) => status(e.message || String(e), 'error'))
-    .finally(render);
+  queue = queue.then(action).catch(report).finally(render);
   return queue;
 }
 
@@ -48,6 +55,42 @@ api.onTokenNeeded(() => {
     });
   }
   return asking;
+});
+
+// ---- who is signed in ----
+
+let meLoading = null;
+/** Asks the service who the token is, then shows it and greys out what it may not do. */
+function loadMe() {
+  meLoading = api.get('/v1/whoami').then((answer) => {
+    me = answer;
+    renderMe();
+    render();
+  });
+  return meLoading;
+}
+
+// Another token (the dialog after a 401): another caller, perhaps another role.
+api.onTokenChanged(() => {
+  me = null;
+  renderMe();
+  render();
+  loadMe().catch(report);
+});
+
+function renderMe() {
+  const el = $('signed-in');
+  el.dataset.role = me ? me.role : '';
+  el.dataset.name = me ? me.name : '';
+  el.dataset.cells = me && me.cells ? me.cells.join(',') : '';
+  el.textContent = me ? describe(me) : 'not signed in';
+  $('sign-out').hidden = !(me && me.authenticated);
+}
+
+// Sign out: forget the token; the page starts again and asks for one.
+$('sign-out').addEventListener('click', () => {
+  api.forget();
+  window.location.reload();
 });
 
 // ---- rendering ----
@@ -121,21 +164,36 @@ function renderSuggestion() {
   reason.textContent = reachable ? '' : `not reachable: ${reach.unreachable ? reach.unreachable.message : ''}`;
 }
 
+/**
+ * Turns a control on when `when` holds and the caller may do its action (`data-needs`), off
+ * otherwise; a control the role may not use says in its title what it needs.
+ */
+function able(el, when) {
+  const why = el.dataset.needs ? refusal(me, el.dataset.needs, el.dataset.scope) : null;
+  el.disabled = !when || why !== null;
+  if (el.dataset.help === undefined) el.dataset.help = el.title;
+  const help = el.dataset.help;
+  el.title = why === null ? help : help ? `${why} — ${help}` : why;
+}
+
 function renderButtons() {
   const open = session.open;
   const n = session.routine ? session.routine.waypoints.length : 0;
-  $('record').disabled = !open || !session.frames;
-  $('undo').disabled = !open || n === 0;
-  $('finish').disabled = !open || n === 0;
-  $('accept').disabled = !session.reachableSuggestion;
-  $('accept-n').disabled = !session.reachableSuggestion;
-  $('adjust').disabled = !session.reachableSuggestion;
-  $('reject').disabled = !session.offered || session.verdict !== undefined;
-  $('create-routine').disabled = !$('program-select').value;
-  $('create-program').disabled = !session.cell;
+  // Every control the role gates, then those that also depend on the session.
+  for (const el of document.querySelectorAll('[data-needs]')) able(el, true);
+  able($('record'), open && session.frames);
+  able($('undo'), open && n > 0);
+  able($('finish'), open && n > 0);
+  able($('accept'), session.reachableSuggestion);
+  able($('accept-n'), session.reachableSuggestion);
+  able($('adjust'), session.reachableSuggestion);
+  able($('reject'), session.offered && session.verdict === undefined);
+  able($('create-routine'), $('program-select').value);
+  able($('create-program'), session.cell);
+  able($('calib-apply'), calibrationReady());
   const chosen = session.routine && session.routine.waypoints.find((w) => w.id === selected);
   for (const id of ['wp-reteach', 'wp-rename', 'wp-motion', 'wp-insert-before', 'wp-insert-after', 'wp-delete']) {
-    $(id).disabled = !chosen;
+    able($(id), chosen);
   }
   for (const b of document.querySelectorAll('[data-jog]')) b.disabled = !session.frames;
 }
@@ -348,10 +406,13 @@ $('create-routine').addEventListener('click', () =>
 
 const calibration = [];
 let calibrationCell = null; // the cell the recorded points are of
+function calibrationReady() {
+  return calibration.length >= 3 && Boolean(session.cell);
+}
 function renderCalibration() {
   $('calib-count').textContent = `${calibration.length} recorded`;
   $('calib-count').dataset.count = String(calibration.length);
-  $('calib-apply').disabled = calibration.length < 3 || !session.cell;
+  able($('calib-apply'), calibrationReady());
 }
 $('calib-record').addEventListener('click', () =>
   run(async () => {
@@ -440,15 +501,22 @@ document.addEventListener('keydown', (e) => {
 
 run(async () => {
   const health = await api.get('/healthz');
-  if (health.token_required && !sessionStorage.getItem('nextpose-token')) {
-    // Ask before the first guarded call, so no request is refused.
+  if (health.token_required && !api.hasToken()) {
+    // Ask before the first guarded call, so no request is refused (the new token loads who
+    // it is).
     await api.ask();
   }
+  // Who is calling, before anything is offered: the controls follow the role.
+  await (meLoading || loadMe());
   const robots = await api.get('/v1/robots');
   options($('new-cell-robot'), robots, 'abb_irb140', (r) => (r.product ? `${r.name} (${r.product})` : r.name));
   await loadCells(null);
   if (!session.cell) {
-    $('setup').open = true;
-    status('create a cell to start');
+    if (allowed(me, 'edit', 'service')) {
+      $('setup').open = true;
+      status('create a cell to start');
+    } else {
+      status('no cell to teach in yet: an engineer creates one');
+    }
   }
 });

@@ -1,0 +1,273 @@
+//! Stored tokens (`nextpose token`, `app::tokens`): a secret is shown once and only its
+//! SHA-256 is stored (the secret never appears in the database file), it names its token's
+//! role and cells, a revoked or unknown one is refused, and without any token (and without
+//! `NEXTPOSE_TOKEN`) the service does not authenticate.
+
+use std::path::Path;
+use std::process::Command;
+use std::sync::Arc;
+
+use nextpose::api::{NewToken, Role};
+use nextpose::app::robots::Robots;
+use nextpose::app::{App, AppError, Caller};
+use nextpose::storage::{Durability, Store};
+use nextpose::telemetry::Metrics;
+
+async fn app_on(path: &Path) -> App {
+    let store = Store::open(path, Durability::Process).await.expect("store");
+    let robots = Robots::load(&nextpose::kinematics::bundled_robots_dir()).expect("robots");
+    App::new(store, Arc::new(Metrics::new()), Arc::new(robots))
+}
+
+fn token_cli(db: &Path, args: &[&str]) -> std::process::Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .arg("token")
+        .args(args)
+        .arg("--db")
+        .arg(db)
+        .env_remove("NEXTPOSE_DB")
+        .output()
+        .expect("run nextpose token");
+    assert!(
+        out.status.success(),
+        "nextpose token {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Every byte of the database's files (the main file and its WAL).
+fn database_bytes(db: &Path) -> Vec<u8> {
+    let mut bytes = std::fs::read(db).expect("database file");
+    let wal = db.with_extension("db-wal");
+    if let Ok(more) = std::fs::read(wal) {
+        bytes.extend(more);
+    }
+    bytes
+}
+
+#[tokio::test]
+async fn the_cli_creates_lists_and_revokes_tokens_and_keeps_only_their_hashes() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("nextpose.db");
+    let cell = {
+        let app = app_on(&db).await;
+        // Without any token the service does not authenticate.
+        assert_eq!(app.caller(None, false).await.unwrap(), Caller::anonymous());
+        let cell = app
+            .create_cell(serde_json::from_value(serde_json::json!({"name": "weld-1"})).unwrap())
+            .await
+            .unwrap()
+            .id;
+        app.store().close().await;
+        cell
+    };
+
+    let out = token_cli(
+        &db,
+        &[
+            "create",
+            "--name",
+            "op-1",
+            "--role",
+            "operator",
+            "--cell",
+            &cell.to_string(),
+        ],
+    );
+    let secret = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    assert!(secret.starts_with("npt_") && secret.len() == 68, "{secret}");
+    let out = token_cli(&db, &["create", "--name", "eng", "--role", "engineer"]);
+    let engineer = String::from_utf8(out.stdout).unwrap().trim().to_string();
+
+    let list = String::from_utf8(token_cli(&db, &["list"]).stdout).unwrap();
+    let lines: Vec<&str> = list.lines().collect();
+    assert_eq!(lines.len(), 2, "{list}");
+    assert!(lines[0].starts_with("eng\tengineer\tall cells\t"), "{list}");
+    assert!(
+        lines[1].starts_with(&format!("op-1\toperator\tcells {cell}\t")),
+        "{list}"
+    );
+    assert!(!list.contains(&secret) && !list.contains(&engineer));
+
+    let app = app_on(&db).await;
+    let op = app.caller(Some(secret.as_bytes()), false).await.unwrap();
+    assert_eq!(
+        (op.name.as_str(), op.role, op.cells.clone()),
+        ("op-1", Role::Operator, Some(vec![cell]))
+    );
+    let eng = app.caller(Some(engineer.as_bytes()), false).await.unwrap();
+    assert_eq!((eng.role, eng.cells), (Role::Engineer, None));
+    // Unknown secrets, and none at all, are refused now that tokens exist.
+    for bad in [None, Some(&b"npt_00"[..]), Some(&secret.as_bytes()[1..])] {
+        assert!(matches!(
+            app.caller(bad, false).await,
+            Err(AppError::Unauthenticated)
+        ));
+    }
+    // A name taken by an unrevoked token is refused; a cell that does not exist too.
+    let taken = NewToken {
+        name: "op-1".into(),
+        role: Role::Admin,
+        cells: None,
+    };
+    assert!(matches!(
+        app.create_token(taken).await,
+        Err(AppError::Exists(_))
+    ));
+    let nowhere = NewToken {
+        name: "nowhere".into(),
+        role: Role::Operator,
+        cells: Some(vec![cell + 100]),
+    };
+    assert!(matches!(
+        app.create_token(nowhere).await,
+        Err(AppError::NotFound { .. })
+    ));
+    app.store().close().await;
+
+    // Only the hashes are stored: no secret appears anywhere in the database's files.
+    let bytes = database_bytes(&db);
+    for s in [&secret, &engineer] {
+        let hex = &s["npt_".len()..];
+        assert!(
+            !bytes.windows(hex.len()).any(|w| w == hex.as_bytes()),
+            "a secret is in the database file"
+        );
+        let hash = nextpose::app::secret_hash(s.as_bytes());
+        assert!(bytes.windows(hash.len()).any(|w| w == hash.as_bytes()));
+    }
+
+    token_cli(&db, &["revoke", "op-1"]);
+    let app = app_on(&db).await;
+    assert!(matches!(
+        app.caller(Some(secret.as_bytes()), false).await,
+        Err(AppError::Unauthenticated)
+    ));
+    // The name is free again; revoking what is not there says so.
+    let again = NewToken {
+        name: "op-1".into(),
+        role: Role::Operator,
+        cells: None,
+    };
+    let created = app.create_token(again).await.unwrap();
+    assert_ne!(created.secret, secret);
+    assert!(matches!(
+        app.revoke_token("nobody").await,
+        Err(AppError::NotFoundName { .. })
+    ));
+    // Deleting the only cell of a scoped token leaves it with no cells, never all of them.
+    let scoped = app
+        .create_token(NewToken {
+            name: "scoped".into(),
+            role: Role::Operator,
+            cells: Some(vec![cell]),
+        })
+        .await
+        .unwrap();
+    app.delete_cell(cell).await.unwrap();
+    let caller = app
+        .caller(Some(scoped.secret.as_bytes()), false)
+        .await
+        .unwrap();
+    assert_eq!(caller.cells, Some(vec![]));
+    app.store().close().await;
+}
+
+/// Over REST, without `NEXTPOSE_TOKEN`: the first stored token turns authentication on
+/// (`/healthz` says so, an anonymous call becomes 401); a token limited to no cells, a
+/// duplicate name or an unknown cell is refused and stores nothing; a revoked token is 401.
+#[tokio::test]
+async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_refused() {
+    use crate::helpers::*;
+    use reqwest::StatusCode;
+    use serde_json::json;
+
+    let mut app = spawn_app().await;
+    let health = app.get_ok("/healthz").await;
+    assert_eq!(health["token_required"], false);
+    let cell = app.create_cell("weld-1").await;
+
+    for (body, status, code) in [
+        (
+            json!({ "name": "none", "role": "operator", "cells": [] }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid",
+        ),
+        (
+            json!({ "name": "ghost", "role": "operator", "cells": [cell + 1000] }),
+            StatusCode::NOT_FOUND,
+            "not_found",
+        ),
+        (
+            json!({ "name": "x", "role": "superuser" }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "unprocessable",
+        ),
+    ] {
+        let r = app.post("/v1/tokens", &body).await;
+        assert_eq!(r.status(), status, "{body}");
+        let error: serde_json::Value = r.json().await.unwrap();
+        assert_eq!(error["error"]["code"], code, "{body}: {error}");
+    }
+    // Nothing was stored: the service still asks no one for a token.
+    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
+    assert_eq!(app.get_ok("/v1/tokens").await, json!([]));
+
+    let admin = app
+        .post_ok(
+            "/v1/tokens",
+            &json!({ "name": "admin", "role": "admin" }),
+            StatusCode::CREATED,
+        )
+        .await["secret"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert_eq!(app.get_ok("/healthz").await["token_required"], true);
+    let r = app.get("/v1/cells").await;
+    assert_eq!(r.status(), StatusCode::UNAUTHORIZED);
+    assert_eq!(r.headers()["www-authenticate"], "Bearer");
+
+    app.token = Some(admin.clone());
+    let r = app
+        .post(
+            "/v1/tokens",
+            &json!({ "name": "admin", "role": "operator" }),
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::CONFLICT, "a name is taken");
+    let op = app
+        .post_ok(
+            "/v1/tokens",
+            &json!({ "name": "op", "role": "operator", "cells": [cell] }),
+            StatusCode::CREATED,
+        )
+        .await;
+    assert_eq!(op["token"]["cells"], json!([cell]));
+    let op = op["secret"].as_str().unwrap().to_string();
+    let names: Vec<String> = app
+        .get_ok("/v1/tokens")
+        .await
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["name"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["admin", "op"]);
+
+    app.token = Some(op.clone());
+    assert_eq!(app.get_ok("/v1/whoami").await["name"], "op");
+    app.token = Some(admin);
+    let r = app.delete("/v1/tokens/op").await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    let r = app.delete("/v1/tokens/op").await;
+    assert_eq!(r.status(), StatusCode::NOT_FOUND, "revoked already");
+    app.token = Some(op);
+    let r = app.get("/v1/whoami").await;
+    assert_eq!(
+        r.status(),
+        StatusCode::UNAUTHORIZED,
+        "a revoked token is unknown"
+    );
+}
