@@ -307,6 +307,12 @@ fn routes(f: &Fixture, n: usize) -> Vec<(Method, String, Value, Need)> {
             json!({ "files": [module] }),
             Engineer,
         ),
+        (
+            Method::GET,
+            format!("/v1/audit?cell_id={c}&limit=5"),
+            json!(null),
+            Engineer,
+        ),
         (Method::GET, "/v1/tokens".into(), json!(null), Admin),
         (
             Method::POST,

@@ -97,6 +97,7 @@ const METHODS: &[(&str, Need, bool)] = &[
     ("ListTokens", Need::Admin, false),
     ("RevokeToken", Need::Admin, false),
     ("WhoAmI", Need::Operator, false),
+    ("ListAudit", Need::Engineer, false),
 ];
 
 /// Sets up, as the admin, what `method` needs beyond the fixture to succeed (before the
@@ -444,6 +445,14 @@ async fn call(c: &mut Client, method: &str, f: &Fixture, n: usize) -> Result<(),
             .await
             .map(drop),
         "WhoAmI" => c.who_am_i(pb::WhoAmIRequest {}).await.map(drop),
+        "ListAudit" => c
+            .list_audit(pb::ListAuditRequest {
+                cell_id: Some(f.cell),
+                limit: Some(5),
+                ..Default::default()
+            })
+            .await
+            .map(drop),
         other => panic!("no call for {other}"),
     }
 }
