@@ -15,7 +15,8 @@ CREATE TABLE audit (
     target TEXT,
     -- The cell the change was to, if it was to a cell.
     cell_id INTEGER,
-    -- How the request was answered ("201", "OK"); "committed" until the answer is known.
+    -- "ok" when the request succeeded; when it failed after a change had committed (a
+    -- request of several transactions), its answer ("500", "ABORTED").
     outcome TEXT NOT NULL,
     -- One row per request however many transactions it commits.
     request_key TEXT NOT NULL UNIQUE

@@ -40,9 +40,9 @@ pub struct AuditEntry {
     pub target: Option<String>,
     /// The cell the change was to, if it was to a cell.
     pub cell_id: Option<i64>,
-    /// How the request was answered: the HTTP status (`201`) or the gRPC code (`OK`);
-    /// `committed` when the change committed but the answer was never recorded (the service
-    /// stopped in between).
+    /// `ok` when the request succeeded; when it failed after a change had committed (a
+    /// request of several transactions), its answer: the HTTP status (`500`) or the gRPC code
+    /// (`ABORTED`).
     pub outcome: String,
 }
 

@@ -1,7 +1,8 @@
 //! The audit trail as the adapters use it: a request that may change something runs inside
 //! a [`Recorder`] (who, which request, which operation), every write it makes puts the
 //! request's one row in its own transaction (`storage::audit`), and once answered the adapter
-//! records the answer ([`App::audit_outcome`]). `GET /v1/audit` reads it ([`App::audit`]).
+//! hands over the answer ([`App::audit_answer`]): a failure after a change is written into the
+//! row. `GET /v1/audit` reads it ([`App::audit`]).
 
 use crate::api::{AuditEntry, AuditPage, AuditQuery};
 use crate::storage::{AuditFilter, AuditRow};
@@ -54,10 +55,14 @@ impl App {
         })
     }
 
-    /// Records how a request that changed something was answered (its row says `committed`
-    /// until then). A failure here is logged, not answered: the change and its row stand.
-    pub async fn audit_outcome(&self, recorder: &Recorder, outcome: &str) {
-        if let Err(e) = self.store.audit_outcome(recorder, outcome).await {
+    /// How a request was answered (`ok`: it succeeded, as its row says already; otherwise
+    /// its status or code, written into its row if it changed something before it failed).
+    /// A failure here is logged, not answered: the change and its row stand.
+    pub async fn audit_answer(&self, recorder: &Recorder, ok: bool, answer: &str) {
+        if ok {
+            return;
+        }
+        if let Err(e) = self.store.audit_failure(recorder, answer).await {
             tracing::error!(error = %e, "recording a request's outcome in the audit trail");
         }
     }

@@ -142,7 +142,9 @@ async fn require_caller(
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.parse::<i32>().ok())
         .map_or(tonic::Code::Ok, tonic::Code::from);
-    gate.app.audit_outcome(&recorder, &code_name(code)).await;
+    gate.app
+        .audit_answer(&recorder, code == tonic::Code::Ok, &code_name(code))
+        .await;
     response
 }
 

@@ -146,11 +146,10 @@ impl Session {
             .scope(self.try_apply(command))
             .await
             .unwrap_or_else(Event::Error);
-        let outcome = match &event {
-            Event::Error(e) => super::code_name(Code::from(e.code)),
-            _ => super::code_name(Code::Ok),
-        };
-        app.audit_outcome(&recorder, &outcome).await;
+        if let Event::Error(e) = &event {
+            let code = super::code_name(Code::from(e.code));
+            app.audit_answer(&recorder, false, &code).await;
+        }
         event
     }
 

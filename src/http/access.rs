@@ -152,7 +152,11 @@ pub async fn authorize(State(gate): State<Gate>, request: Request, next: Next) -
     };
     let response = recorder.clone().scope(next.run(request)).await;
     gate.app
-        .audit_outcome(&recorder, response.status().as_str())
+        .audit_answer(
+            &recorder,
+            response.status().is_success(),
+            response.status().as_str(),
+        )
         .await;
     response
 }

@@ -7,8 +7,9 @@
 //! writer's batches with each append). Every write transaction calls [`record`] before it
 //! commits; the row is keyed by the request, so a request committing several transactions
 //! leaves one row (the first to commit). A request that changed nothing (refused, failed,
-//! or a read) leaves none. After answering, the adapter writes the answer into the row's
-//! `outcome` ([`Store::audit_outcome`]).
+//! or a read) leaves none. The row says `ok`; a request that fails after one of its changes
+//! committed has its answer written into the row ([`Store::audit_failure`]), so the answer
+//! costs the usual request nothing.
 
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -24,7 +25,8 @@ pub struct Recorder {
     token: Arc<str>,
     request_id: Arc<str>,
     operation: Arc<str>,
-    /// Unique to this request (a request id is the client's to choose and may repeat).
+    /// Unique to this request (a request id is the client's to choose and may repeat); a
+    /// UUID v7, ordered by time, so that the unique index grows at its end.
     key: Arc<str>,
     state: Arc<Mutex<State>>,
 }
@@ -47,7 +49,7 @@ impl Recorder {
             token: token.into(),
             request_id: request_id.into(),
             operation: operation.into(),
-            key: uuid::Uuid::new_v4().to_string().into(),
+            key: uuid::Uuid::now_v7().to_string().into(),
             state: Arc::default(),
         }
     }
@@ -83,7 +85,7 @@ impl Recorder {
         let target = self.state().target.clone();
         sqlx::query(
             "INSERT INTO audit (token, request_id, operation, target, cell_id, outcome, \
-               request_key) VALUES ($1, $2, $3, $4, $5, 'committed', $6) \
+               request_key) VALUES ($1, $2, $3, $4, $5, 'ok', $6) \
              ON CONFLICT (request_key) DO NOTHING",
         )
         .bind(&*self.token)
@@ -98,7 +100,8 @@ impl Recorder {
         Ok(())
     }
 
-    /// The values of its row, for the append writer's batches.
+    /// The values of its row (token, request id, operation, target, key), for the append
+    /// writer's batches.
     pub(super) fn values(&self) -> [Option<String>; 5] {
         [
             Some(self.token.to_string()),
@@ -136,8 +139,8 @@ pub struct AuditFilter {
 }
 
 impl Store {
-    /// Writes how a request that changed the database was answered into its row.
-    pub async fn audit_outcome(&self, recorder: &Recorder, outcome: &str) -> Result<()> {
+    /// Writes the answer of a request that failed after changing the database into its row.
+    pub async fn audit_failure(&self, recorder: &Recorder, outcome: &str) -> Result<()> {
         if !recorder.recorded() {
             return Ok(());
         }

@@ -261,30 +261,10 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
             )
         })
         .collect();
-    // Each request's audit row (none for a spare slot or an append outside a request: its
-    // key is NULL), kept when the request has one already.
-    let audit_rows: Vec<String> = filled
-        .iter()
-        .enumerate()
-        .zip(&waypoints)
-        .map(|((i, _), w)| {
-            let values = batch
-                .get(i)
-                .and_then(|j| j.audit.as_ref())
-                .map(Recorder::values);
-            let [token, request_id, operation, target, key] = values.unwrap_or_default();
-            format!(
-                "SELECT {}, {}, {}, {}, {cell}, 'committed', {key} {from} AND {key} IS NOT NULL",
-                params.push(token),
-                params.push(request_id),
-                params.push(operation),
-                params.push(target),
-                cell = w.cell,
-                key = params.push(key),
-                from = fresh(w),
-            )
-        })
-        .collect();
+    // The requests' audit rows, all in one parameter (a JSON array: binding is per parameter,
+    // and a batch has many), each kept only while its cell is at the revision expected, and
+    // when its request has no row already.
+    let audit = params.push(audit_json(batch));
     let cells: Vec<String> = waypoints
         .iter()
         .map(|w| format!("(id = {} AND revision = {})", w.cell, w.revision))
@@ -298,14 +278,18 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
            qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) {predictions} \
            RETURNING '{PREDICTION}' AS returned, id, after_waypoint_id; \
          INSERT OR IGNORE INTO audit (token, request_id, operation, target, cell_id, outcome, \
-           request_key) {audit}; \
+           request_key) \
+           SELECT json_extract(a.value, '$.token'), json_extract(a.value, '$.request_id'), \
+             json_extract(a.value, '$.operation'), json_extract(a.value, '$.target'), c.id, 'ok', \
+             json_extract(a.value, '$.key') \
+           FROM json_each({audit}) a JOIN cells c ON c.id = json_extract(a.value, '$.cell') \
+             AND c.revision = json_extract(a.value, '$.revision'); \
          UPDATE cells SET revision = revision + 1 WHERE {cells} \
            RETURNING '{CELL}' AS returned, {state}; \
          COMMIT;",
         waypoints = waypoint_rows.join(" UNION ALL "),
         columns = WaypointRow::COLUMNS,
         predictions = prediction_rows.join(" UNION ALL "),
-        audit = audit_rows.join(" UNION ALL "),
         cells = cells.join(" OR "),
         state = CellState::COLUMNS,
     );
@@ -354,6 +338,26 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
         }
     }
     Ok(answers(&appends, &states, rows, predictions))
+}
+
+/// The audit rows of a batch's appends made in a request, as one JSON array.
+fn audit_json(batch: &[Job]) -> String {
+    let rows: Vec<serde_json::Value> = batch
+        .iter()
+        .filter_map(|job| {
+            let [token, request_id, operation, target, key] = job.audit.as_ref()?.values();
+            Some(serde_json::json!({
+                "cell": job.append.cell_id,
+                "revision": job.append.expected_revision,
+                "token": token,
+                "request_id": request_id,
+                "operation": operation,
+                "target": target,
+                "key": key,
+            }))
+        })
+        .collect();
+    serde_json::Value::Array(rows).to_string()
 }
 
 /// The tags of the script's rows (its `returned` column).
