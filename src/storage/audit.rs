@@ -14,10 +14,11 @@
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use sqlx::AnyConnection;
+
 use super::Store;
 use super::error::Result;
 use super::rows::{AuditRow, Stored};
-use super::transaction::Tx;
 
 /// Who is changing what, for the request being served.
 #[derive(Debug, Clone)]
@@ -81,7 +82,7 @@ impl Recorder {
     }
 
     /// Puts the request's row in `tx` (nothing when it is there already).
-    pub(super) async fn record(&self, tx: &mut Tx<'_>, cell_id: Option<i64>) -> Result<()> {
+    pub(super) async fn record(&self, tx: &mut AnyConnection, cell_id: Option<i64>) -> Result<()> {
         let target = self.state().target.clone();
         sqlx::query(
             "INSERT INTO audit (token, request_id, operation, target, cell_id, outcome, \
@@ -94,7 +95,7 @@ impl Recorder {
         .bind(target)
         .bind(cell_id)
         .bind(&*self.key)
-        .execute(&mut **tx)
+        .execute(&mut *tx)
         .await?;
         self.state().recorded = true;
         Ok(())
@@ -119,7 +120,7 @@ impl Recorder {
 
 /// Puts the current request's row in `tx`, if a request is being served (see the module doc);
 /// `cell_id` is the cell the change is to.
-pub(super) async fn record(tx: &mut Tx<'_>, cell_id: Option<i64>) -> Result<()> {
+pub(super) async fn record(tx: &mut AnyConnection, cell_id: Option<i64>) -> Result<()> {
     match Recorder::current() {
         Some(r) => r.record(tx, cell_id).await,
         None => Ok(()),
