@@ -19,6 +19,7 @@
 //!   tolerance, the profile) get their schemas in [`schema`]: the engine derives no web traits.
 
 pub mod arm;
+pub mod audit;
 pub mod backups;
 pub mod cells;
 pub mod error;
@@ -41,6 +42,7 @@ use serde::{Deserialize, Deserializer};
 pub use arm::{
     ArmFrames, FramesQuery, LinkFrame, Placement, PlacementSearch, Placements, ReachQuery,
 };
+pub use audit::{AuditEntry, AuditPage, AuditQuery};
 pub use backups::{Backup, BackupRequest};
 pub use cells::{
     CalibrationRoutine, Cell, CellPatch, CellStats, CreateCell, FeedbackStats, ModelInfo,

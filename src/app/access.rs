@@ -77,6 +77,8 @@ pub enum Action {
     Delete,
     /// Tokens and backups.
     Administer,
+    /// Reading the audit trail.
+    Inspect,
 }
 
 impl Action {
@@ -84,7 +86,7 @@ impl Action {
     pub fn role(self) -> Role {
         match self {
             Action::Read | Action::Teach => Role::Operator,
-            Action::Edit => Role::Engineer,
+            Action::Edit | Action::Inspect => Role::Engineer,
             Action::Delete | Action::Administer => Role::Admin,
         }
     }
@@ -100,6 +102,20 @@ pub enum Scope {
     Routine(i64),
     Waypoint(i64),
     Prediction(i64),
+}
+
+impl std::fmt::Display for Scope {
+    /// As the audit trail names it: `routine 12`, `service`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Scope::Service => f.write_str("service"),
+            Scope::Cell(id) => write!(f, "cell {id}"),
+            Scope::Program(id) => write!(f, "program {id}"),
+            Scope::Routine(id) => write!(f, "routine {id}"),
+            Scope::Waypoint(id) => write!(f, "waypoint {id}"),
+            Scope::Prediction(id) => write!(f, "prediction {id}"),
+        }
+    }
 }
 
 impl App {
@@ -176,6 +192,7 @@ mod tests {
         }
         assert_eq!(Action::Teach.role(), Role::Operator);
         assert_eq!(Action::Edit.role(), Role::Engineer);
+        assert_eq!(Action::Inspect.role(), Role::Engineer);
         assert_eq!(Action::Delete.role(), Role::Admin);
         assert!(Role::Operator < Role::Engineer && Role::Engineer < Role::Admin);
     }

@@ -113,6 +113,8 @@ impl App {
             let written = app.store.backup_to(&dir.join(name.as_str())).await?;
             let took_ms = u64::try_from(started.elapsed().as_millis()).unwrap_or(u64::MAX);
             tracing::info!(path = %written.path.display(), bytes = written.bytes, took_ms, "backup written");
+            // A backup changes no table, but who took one belongs in the audit trail.
+            app.store.audit_alone().await?;
             Ok(Backup {
                 name: name.0,
                 path: written.path.display().to_string(),

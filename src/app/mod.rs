@@ -24,6 +24,7 @@
 
 mod access;
 mod arm;
+pub mod audit;
 mod backups;
 mod calibration;
 mod cell_model;

@@ -5,7 +5,7 @@
 use super::cell_model::{Behind, CellModel};
 use super::error::AppError;
 use super::{App, Result};
-use crate::storage::{CellRow, ProgramRow, RoutineRow};
+use crate::storage::{CellRow, ProgramRow, Recorder, RoutineRow};
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::{Arc, Mutex};
@@ -73,8 +73,17 @@ impl App {
         F: Future<Output = Result<T>> + Send + 'static,
         T: Send + 'static,
     {
+        // The request's audit trail goes with the operation onto its task.
+        let work = op(self.clone());
+        let recorder = Recorder::current();
+        let work = async move {
+            match recorder {
+                Some(recorder) => recorder.scope(work).await,
+                None => work.await,
+            }
+        };
         self.tasks
-            .spawn(op(self.clone()))
+            .spawn(work)
             .await
             .map_err(|e| AppError::Internal(format!("operation task: {e}")))?
     }

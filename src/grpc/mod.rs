@@ -31,8 +31,10 @@ use axum::response::{IntoResponse, Response as HttpResponse};
 use tower::ServiceExt;
 
 use crate::app::App;
+use crate::app::audit::Recorder;
 use crate::transport::TransportOptions;
 use crate::transport::auth::{BearerToken, identify};
+use crate::transport::request_id::REQUEST_ID;
 use crate::transport::request_id::{Protocol, with_request_ids};
 
 use pb::nextpose_server::NextposeServer;
@@ -107,15 +109,69 @@ async fn require_caller(
         .headers()
         .get(header::AUTHORIZATION)
         .map(|v| v.as_bytes());
-    match identify(&gate.app, gate.bootstrap.as_ref(), given).await {
-        Ok(caller) => {
-            request.extensions_mut().insert(caller);
-            next.run(request).await
+    let caller = match identify(&gate.app, gate.bootstrap.as_ref(), given).await {
+        Ok(caller) => caller,
+        Err(e) => {
+            return status::status(e)
+                .into_http::<axum::body::Body>()
+                .into_response();
         }
-        Err(e) => status::status(e)
-            .into_http::<axum::body::Body>()
-            .into_response(),
+    };
+    // A call that may change something is recorded in the audit trail (by its writes, so one
+    // that changes nothing leaves no row), then its answer; a `Teach` stream records each
+    // command (`teach`).
+    let method = request.uri().path().to_string();
+    let recorder = changes(&method).then(|| {
+        let request_id = request
+            .headers()
+            .get(REQUEST_ID)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("-");
+        Recorder::new(&caller.name, request_id, &method)
+    });
+    request.extensions_mut().insert(caller);
+    let Some(recorder) = recorder else {
+        return next.run(request).await;
+    };
+    let response = recorder.clone().scope(next.run(request)).await;
+    // An error is answered in the headers (trailers-only); a success's status follows the
+    // message, in the trailers.
+    let code = response
+        .headers()
+        .get("grpc-status")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<i32>().ok())
+        .map_or(tonic::Code::Ok, tonic::Code::from);
+    gate.app
+        .audit_answer(&recorder, code == tonic::Code::Ok, &code_name(code))
+        .await;
+    response
+}
+
+/// Whether a method of the API may change something (its writes are then audited): not the
+/// reads, nor a prediction asked for again (which stores the prediction it offers), nor a
+/// `Teach` stream (each of whose commands is recorded on its own).
+fn changes(path: &str) -> bool {
+    let Some(method) = path.strip_prefix("/nextpose.v1.Nextpose/") else {
+        return false;
+    };
+    !(method.starts_with("Get")
+        || method.starts_with("List")
+        || matches!(method, "Predict" | "WhoAmI" | "Teach"))
+}
+
+/// A status code as the audit trail names it (`OK`, `NOT_FOUND`, …).
+pub fn code_name(code: tonic::Code) -> String {
+    // `Code`'s Debug is its CamelCase name; the wire's names are upper snake case.
+    let camel = format!("{code:?}");
+    let mut name = String::new();
+    for (i, c) in camel.chars().enumerate() {
+        if c.is_uppercase() && i > 0 {
+            name.push('_');
+        }
+        name.push(c.to_ascii_uppercase());
     }
+    name
 }
 
 /// Whether a request is a gRPC call (`content-type: application/grpc`, `application/grpc+proto`…).
@@ -139,4 +195,23 @@ pub fn beside(rest: Router, grpc: Router) -> Router {
         Box::pin(target.oneshot(request))
     });
     Router::new().fallback_service(dispatch)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_are_named_as_on_the_wire() {
+        assert_eq!(code_name(tonic::Code::Ok), "OK");
+        assert_eq!(code_name(tonic::Code::NotFound), "NOT_FOUND");
+        assert_eq!(
+            code_name(tonic::Code::PermissionDenied),
+            "PERMISSION_DENIED"
+        );
+        assert!(changes("/nextpose.v1.Nextpose/AppendWaypoint"));
+        assert!(!changes("/nextpose.v1.Nextpose/GetCell"));
+        assert!(!changes("/nextpose.v1.Nextpose/Teach"));
+        assert!(!changes("/grpc.health.v1.Health/Check"));
+    }
 }

@@ -8,6 +8,7 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
 
 use crate::api::{CreateProgram, CreateRoutine, ExportQuery, NewToken, Rename};
+use crate::app::audit::Recorder;
 use crate::app::{Action, App, AppError, Caller, Scope};
 
 use super::convert;
@@ -38,10 +39,16 @@ impl Service {
     ) -> Result<T, Status> {
         let caller = caller(&r)?;
         let message = r.into_inner();
+        let scope = scope(&message);
         self.app
-            .authorize(&caller, action, scope(&message))
+            .authorize(&caller, action, scope)
             .await
             .map_err(status::status)?;
+        if let Some(recorder) = Recorder::current()
+            && scope != Scope::Service
+        {
+            recorder.name_target(scope.to_string());
+        }
         Ok(message)
     }
 }
@@ -54,7 +61,7 @@ fn caller<T>(r: &Request<T>) -> Result<Caller, Status> {
         .ok_or_else(|| Status::unauthenticated("no caller was found for this call"))
 }
 
-use Action::{Administer, Delete, Edit, Read, Teach};
+use Action::{Administer, Delete, Edit, Inspect, Read, Teach};
 
 fn service<T>(_: &T) -> Scope {
     Scope::Service
@@ -337,9 +344,16 @@ impl Nextpose for Service {
     async fn teach(&self, r: Request<Streaming<pb::TeachRequest>>) -> Reply<Self::TeachStream> {
         // Each `start` asks whether the caller may teach that routine.
         let caller = caller(&r)?;
+        let request_id = r
+            .metadata()
+            .get("x-request-id")
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("-")
+            .to_string();
         Ok(Response::new(teach::run(
             self.app.clone(),
             caller,
+            request_id,
             r.into_inner(),
         )))
     }
@@ -437,6 +451,11 @@ impl Nextpose for Service {
     ) -> Reply<pb::RevokeTokenResponse> {
         let r = self.allow(r, Administer, service).await?;
         done(self.app.revoke_token(&r.name).await)
+    }
+
+    async fn list_audit(&self, r: Request<pb::ListAuditRequest>) -> Reply<pb::AuditPage> {
+        let r = self.allow(r, Inspect, service).await?;
+        reply(self.app.audit(r.into()).await)
     }
 
     async fn who_am_i(&self, r: Request<pb::WhoAmIRequest>) -> Reply<pb::Caller> {

@@ -10,6 +10,7 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Code, Status, Streaming};
 
+use crate::app::audit::Recorder;
 use crate::app::{Action, App, AppError, Caller, Scope};
 
 use super::convert;
@@ -27,6 +28,7 @@ pub const TEACH_BUFFER: usize = 16;
 pub(super) fn run(
     app: Arc<App>,
     caller: Caller,
+    request_id: String,
     mut inbound: Streaming<pb::TeachRequest>,
 ) -> ReceiverStream<Result<pb::TeachResponse, Status>> {
     let (tx, rx) = mpsc::channel(TEACH_BUFFER);
@@ -39,6 +41,7 @@ pub(super) fn run(
         let mut session = Session {
             app,
             caller,
+            request_id,
             routine: None,
         };
         loop {
@@ -76,6 +79,8 @@ pub(super) fn run(
 struct Session {
     app: Arc<App>,
     caller: Caller,
+    /// The stream's request id, which each command's audit entry carries.
+    request_id: String,
     routine: Option<i64>,
 }
 
@@ -113,8 +118,39 @@ impl Session {
         })
     }
 
+    /// Applies a command, recorded in the audit trail as an operation of its own
+    /// (`…/Teach waypoint`) when it changes something.
     async fn apply(&mut self, command: Option<Command>) -> Event {
-        self.try_apply(command).await.unwrap_or_else(Event::Error)
+        let kind = match &command {
+            None => "none",
+            Some(Command::Start(_)) => "start",
+            Some(Command::Waypoint(_)) => "waypoint",
+            Some(Command::Undo(_)) => "undo",
+            Some(Command::Finish(_)) => "finish",
+        };
+        let recorder = Recorder::new(
+            &self.caller.name,
+            &self.request_id,
+            &format!("/nextpose.v1.Nextpose/Teach {kind}"),
+        );
+        let routine = match &command {
+            Some(Command::Start(s)) => Some(s.routine_id),
+            _ => self.routine,
+        };
+        if let Some(id) = routine {
+            recorder.name_target(format!("routine {id}"));
+        }
+        let app = self.app.clone();
+        let event = recorder
+            .clone()
+            .scope(self.try_apply(command))
+            .await
+            .unwrap_or_else(Event::Error);
+        if let Event::Error(e) = &event {
+            let code = super::code_name(Code::from(e.code));
+            app.audit_answer(&recorder, false, &code).await;
+        }
+        event
     }
 
     async fn try_apply(&mut self, command: Option<Command>) -> Result<Event, pb::TeachError> {

@@ -12,8 +12,10 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
 use super::error::ApiError;
+use crate::app::audit::Recorder;
 use crate::app::{Action, App, AppError, Scope};
 use crate::transport::auth::{BearerToken, identify};
+use crate::transport::request_id::REQUEST_ID;
 
 /// What the middleware needs: the application and the bootstrap token, if any.
 #[derive(Clone)]
@@ -36,6 +38,7 @@ pub fn operation(method: &Method, route: &str, id: Option<i64>) -> Option<(Actio
     let m = |want: Method| *method == want;
     Some(match route {
         "/metrics" | "/v1/whoami" if m(Method::GET) => (Read, service),
+        "/v1/audit" if m(Method::GET) => (Inspect, service),
         "/v1/backups" if m(Method::POST) => (Administer, service),
         "/v1/tokens" if m(Method::GET) || m(Method::POST) => (Administer, service),
         "/v1/tokens/{name}" if m(Method::DELETE) => (Administer, service),
@@ -124,8 +127,38 @@ pub async fn authorize(State(gate): State<Gate>, request: Request, next: Next) -
     if let Err(e) = gate.app.authorize(&caller, action, scope).await {
         return refusal(e);
     }
+    // A request that may change something is recorded in the audit trail (by its writes,
+    // so one that changes nothing leaves no row), then its answer.
+    let recorder = (request.method() != Method::GET).then(|| {
+        let request_id = request
+            .headers()
+            .get(REQUEST_ID)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("-");
+        let operation = format!(
+            "{} {}",
+            request.method(),
+            route.as_deref().unwrap_or(request.uri().path())
+        );
+        let recorder = Recorder::new(&caller.name, request_id, &operation);
+        if scope != Scope::Service {
+            recorder.name_target(scope.to_string());
+        }
+        recorder
+    });
     request.extensions_mut().insert(caller);
-    next.run(request).await
+    let Some(recorder) = recorder else {
+        return next.run(request).await;
+    };
+    let response = recorder.clone().scope(next.run(request)).await;
+    gate.app
+        .audit_answer(
+            &recorder,
+            response.status().is_success(),
+            response.status().as_str(),
+        )
+        .await;
+    response
 }
 
 fn refusal(e: AppError) -> Response {

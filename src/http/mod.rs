@@ -7,6 +7,7 @@
 //! (regenerate with `nextpose openapi > openapi.yaml`).
 
 mod access;
+mod audit;
 mod backups;
 mod cells;
 pub mod error;
@@ -87,6 +88,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(replays::router())
         .merge(backups::router())
         .merge(tokens::router())
+        .merge(audit::router())
 }
 
 /// The OpenAPI description of every route.

@@ -2,6 +2,7 @@
 //! advances (see [`super::CellWrite`]).
 
 use super::Store;
+use super::audit;
 use super::error::{Result, StorageError, classify};
 use super::query::found;
 use super::rows::{CellRow, CellState, Stored};
@@ -12,12 +13,16 @@ impl Store {
             "INSERT INTO cells (name, settings) VALUES ($1, $2) RETURNING {}",
             CellRow::COLUMNS
         );
-        sqlx::query_as::<_, CellRow>(sqlx::AssertSqlSafe(sql))
+        let mut tx = self.pool.begin().await?;
+        let row = sqlx::query_as::<_, CellRow>(sqlx::AssertSqlSafe(sql))
             .bind(name)
             .bind(settings_json)
-            .fetch_one(&self.pool)
+            .fetch_one(&mut *tx)
             .await
-            .map_err(classify)
+            .map_err(classify)?;
+        audit::record(&mut tx, Some(row.id)).await?;
+        tx.commit().await?;
+        Ok(row)
     }
 
     pub async fn cell(&self, id: i64) -> Result<Option<CellRow>> {
@@ -62,17 +67,22 @@ impl Store {
             .await
             .map_err(classify)?
             .ok_or(StorageError::NotFound)?;
+        audit::record(&mut tx, Some(id)).await?;
         tx.commit().await?;
         Ok(row)
     }
 
     /// Deletes a cell with everything it holds.
     pub async fn delete_cell(&self, id: i64) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
         found(
             sqlx::query("DELETE FROM cells WHERE id = $1")
                 .bind(id)
-                .execute(&self.pool)
+                .execute(&mut *tx)
                 .await?,
-        )
+        )?;
+        audit::record(&mut tx, Some(id)).await?;
+        tx.commit().await?;
+        Ok(())
     }
 }

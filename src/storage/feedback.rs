@@ -2,6 +2,7 @@
 //! so many mm, or rejected), at most one per prediction, and a cell's counts of them.
 
 use super::Store;
+use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, classify};
 use super::rows::{CellState, FeedbackCounts, NewFeedback, Stored, TeachingVerdictRow, flag, real};
@@ -13,6 +14,7 @@ impl Store {
     pub async fn insert_feedback(&self, fb: &NewFeedback) -> Result<()> {
         let mut tx = self.pool.begin().await?;
         insert(&mut tx, fb).await?;
+        audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())
     }

@@ -11,7 +11,7 @@
 //! revisions, the waypoints, the predictions). Both are built to the batch's size with named
 //! parameter slots ([`super::slots`]): each value is bound where the SQL names it, so nothing
 //! counts positions; the script's rows say which of its statements returned them (a `returned`
-//! column). A failing statement rolls back the whole batch (PostgreSQL aborts the transaction),
+//! column). Each append's audit row ([`super::audit`]) goes in with it. A failing statement rolls back the whole batch (PostgreSQL aborts the transaction),
 //! so the writer then commits the batch's appends one by one, each with its own answer. A stale cell ([`StorageError::Stale`]) is not a failure: that
 //! append is left out and the rest commit.
 
@@ -20,6 +20,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use std::collections::HashMap;
 
+use super::audit::Recorder;
 use super::backend::Backend;
 use super::binds::Binds;
 use super::cell_write::CellWrite;
@@ -59,6 +60,8 @@ pub struct Appended {
 
 struct Job {
     append: Append,
+    /// The request it is part of, whose audit row goes in with it.
+    audit: Option<Recorder>,
     reply: oneshot::Sender<Result<Appended>>,
 }
 
@@ -79,7 +82,11 @@ impl Writer {
     pub(super) async fn append(&self, append: Append) -> Result<Appended> {
         let (reply, answer) = oneshot::channel();
         self.jobs
-            .send(Job { append, reply })
+            .send(Job {
+                append,
+                audit: Recorder::current(),
+                reply,
+            })
             .map_err(|_| StorageError::Unavailable("the append writer has stopped".into()))?;
         answer
             .await
@@ -123,7 +130,7 @@ async fn commit(pool: &AnyPool, backend: Backend, batch: Vec<Job>) {
         }
     }
     for job in batch {
-        let result = alone(pool, &job.append).await;
+        let result = alone(pool, &job).await;
         let _ = job.reply.send(result);
     }
 }
@@ -148,6 +155,13 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
         })
         .collect();
     let predictions = insert_prediction_rows(&mut tx, &with_prediction).await?;
+    for job in batch {
+        if let Some(r) = &job.audit
+            && states.contains_key(&job.append.cell_id)
+        {
+            r.record(&mut tx, Some(job.append.cell_id)).await?;
+        }
+    }
     tx.commit().await?;
     Ok(answers(&appends, &states, rows, predictions))
 }
@@ -247,6 +261,10 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
             )
         })
         .collect();
+    // The requests' audit rows, all in one parameter (a JSON array: binding is per parameter,
+    // and a batch has many), each kept only while its cell is at the revision expected, and
+    // when its request has no row already.
+    let audit = params.push(audit_json(batch));
     let cells: Vec<String> = waypoints
         .iter()
         .map(|w| format!("(id = {} AND revision = {})", w.cell, w.revision))
@@ -259,6 +277,13 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
          INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
            qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) {predictions} \
            RETURNING '{PREDICTION}' AS returned, id, after_waypoint_id; \
+         INSERT OR IGNORE INTO audit (token, request_id, operation, target, cell_id, outcome, \
+           request_key) \
+           SELECT json_extract(a.value, '$.token'), json_extract(a.value, '$.request_id'), \
+             json_extract(a.value, '$.operation'), json_extract(a.value, '$.target'), c.id, 'ok', \
+             json_extract(a.value, '$.key') \
+           FROM json_each({audit}) a JOIN cells c ON c.id = json_extract(a.value, '$.cell') \
+             AND c.revision = json_extract(a.value, '$.revision'); \
          UPDATE cells SET revision = revision + 1 WHERE {cells} \
            RETURNING '{CELL}' AS returned, {state}; \
          COMMIT;",
@@ -305,7 +330,34 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
         let _ = sqlx::query("ROLLBACK").execute(&mut *conn).await;
         return Err(classify(e));
     }
+    for job in batch {
+        if let Some(r) = &job.audit
+            && states.contains_key(&job.append.cell_id)
+        {
+            r.mark_recorded();
+        }
+    }
     Ok(answers(&appends, &states, rows, predictions))
+}
+
+/// The audit rows of a batch's appends made in a request, as one JSON array.
+fn audit_json(batch: &[Job]) -> String {
+    let rows: Vec<serde_json::Value> = batch
+        .iter()
+        .filter_map(|job| {
+            let [token, request_id, operation, target, key] = job.audit.as_ref()?.values();
+            Some(serde_json::json!({
+                "cell": job.append.cell_id,
+                "revision": job.append.expected_revision,
+                "token": token,
+                "request_id": request_id,
+                "operation": operation,
+                "target": target,
+                "key": key,
+            }))
+        })
+        .collect();
+    serde_json::Value::Array(rows).to_string()
 }
 
 /// The tags of the script's rows (its `returned` column).
@@ -519,9 +571,12 @@ async fn insert_prediction_rows(
         .collect())
 }
 
-async fn alone(pool: &AnyPool, append: &Append) -> Result<Appended> {
+async fn alone(pool: &AnyPool, job: &Job) -> Result<Appended> {
     let mut tx = pool.begin().await?;
-    let done = store(&mut tx, append).await?;
+    let done = store(&mut tx, &job.append).await?;
+    if let Some(r) = &job.audit {
+        r.record(&mut tx, Some(job.append.cell_id)).await?;
+    }
     tx.commit().await?;
     Ok(done)
 }

@@ -20,6 +20,7 @@
 //! ([`transaction`]), the rows and their columns ([`rows`]), the order values are bound in
 //! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
 
+mod audit;
 mod backend;
 mod backup;
 mod binds;
@@ -45,13 +46,14 @@ use sqlx::AnyPool;
 
 use error::Result;
 
+pub use audit::{AuditFilter, Recorder};
 pub use backend::{Backend, Durability, Location};
 pub use backup::{BackupError, BackupFile, backup_database};
 pub use cell_write::CellWrite;
 pub use error::StorageError;
 pub use group_commit::{Append, Appended};
 pub use rows::{
-    CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
+    AuditRow, CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
     NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, TokenRow,
     WaypointRow, WaypointValues,
 };

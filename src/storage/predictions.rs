@@ -2,6 +2,7 @@
 //! refer to one and a cell's real-world precision can be counted ([`super::feedback`]).
 
 use super::Store;
+use super::audit;
 use super::binds::Binds;
 use super::error::Result;
 use super::rows::{NewPrediction, PredictionRow};
@@ -36,6 +37,7 @@ impl Store {
             Some((id,)) => id,
             None => insert_prediction(&mut tx, pr, last).await?,
         };
+        audit::record(&mut tx, Some(pr.cell_id)).await?;
         tx.commit().await?;
         Ok(id)
     }

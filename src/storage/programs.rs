@@ -5,6 +5,7 @@ use sqlx::any::{Any, AnyArguments};
 use sqlx::query::QueryAs;
 
 use super::Store;
+use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::query::found;
@@ -24,10 +25,14 @@ fn insert<'q>(cell_id: i64, name: &'q str) -> QueryAs<'q, Any, ProgramRow, AnyAr
 
 impl Store {
     pub async fn insert_program(&self, cell_id: i64, name: &str) -> Result<ProgramRow> {
-        insert(cell_id, name)
-            .fetch_one(&self.pool)
+        let mut tx = self.pool.begin().await?;
+        let row = insert(cell_id, name)
+            .fetch_one(&mut *tx)
             .await
-            .map_err(classify)
+            .map_err(classify)?;
+        audit::record(&mut tx, Some(cell_id)).await?;
+        tx.commit().await?;
+        Ok(row)
     }
 
     pub async fn program(&self, id: i64) -> Result<Option<ProgramRow>> {
@@ -44,13 +49,17 @@ impl Store {
             "UPDATE programs SET name = $1 WHERE id = $2 RETURNING {}",
             ProgramRow::COLUMNS
         );
-        sqlx::query_as::<_, ProgramRow>(sqlx::AssertSqlSafe(sql))
+        let mut tx = self.pool.begin().await?;
+        let row = sqlx::query_as::<_, ProgramRow>(sqlx::AssertSqlSafe(sql))
             .bind(name)
             .bind(id)
-            .fetch_optional(&self.pool)
+            .fetch_optional(&mut *tx)
             .await
             .map_err(classify)?
-            .ok_or(StorageError::NotFound)
+            .ok_or(StorageError::NotFound)?;
+        audit::record(&mut tx, Some(row.cell_id)).await?;
+        tx.commit().await?;
+        Ok(row)
     }
 
     /// Deletes a program with its routines; returns the model version (advanced when a

@@ -2,6 +2,7 @@
 //! it), beside the built-in ones, by name.
 
 use super::Store;
+use super::audit;
 use super::error::{Result, classify};
 use super::query::found;
 use super::rows::{RobotRow, Stored, real};
@@ -22,15 +23,19 @@ impl Store {
              VALUES ($1, $2, $3, $4, $5) RETURNING {}",
             RobotRow::COLUMNS
         );
-        sqlx::query_as::<_, RobotRow>(sqlx::AssertSqlSafe(sql))
+        let mut tx = self.pool.begin().await?;
+        let row = sqlx::query_as::<_, RobotRow>(sqlx::AssertSqlSafe(sql))
             .bind(name)
             .bind(urdf)
             .bind(maker)
             .bind(product)
             .bind(real(payload_kg))
-            .fetch_one(&self.pool)
+            .fetch_one(&mut *tx)
             .await
-            .map_err(classify)
+            .map_err(classify)?;
+        audit::record(&mut tx, None).await?;
+        tx.commit().await?;
+        Ok(row)
     }
 
     /// The uploaded arm models, by name.
@@ -40,11 +45,15 @@ impl Store {
 
     /// Deletes an uploaded arm model.
     pub async fn delete_robot(&self, name: &str) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
         found(
             sqlx::query("DELETE FROM robots WHERE name = $1")
                 .bind(name)
-                .execute(&self.pool)
+                .execute(&mut *tx)
                 .await?,
-        )
+        )?;
+        audit::record(&mut tx, None).await?;
+        tx.commit().await?;
+        Ok(())
     }
 }

@@ -2,6 +2,7 @@
 //! it is finished (then the cell's model has learned it, in `finish_seq` order) or imported.
 
 use super::Store;
+use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::query::found;
@@ -60,6 +61,7 @@ impl Store {
         let mut tx = self.pool.begin().await?;
         let id = append_to(&mut tx, program, name, true).await?;
         insert_waypoints(&mut tx, id, waypoints).await?;
+        audit::record(&mut tx, Some(program.cell_id)).await?;
         tx.commit().await?;
         Ok(id)
     }
@@ -178,14 +180,18 @@ impl Store {
 
     /// Renames a routine (None: no name).
     pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
+        let mut tx = self.pool.begin().await?;
         found(
             sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
                 .bind(name)
                 .bind(id)
-                .execute(&self.pool)
+                .execute(&mut *tx)
                 .await
                 .map_err(classify)?,
-        )
+        )?;
+        audit::record(&mut tx, None).await?;
+        tx.commit().await?;
+        Ok(())
     }
 
     /// Moves a routine to place `position` of its program (1 = first, clamped to the last);
@@ -216,6 +222,7 @@ impl Store {
             .bind(id)
             .execute(&mut *tx)
             .await?;
+        audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())
     }

@@ -124,6 +124,24 @@ impl<'r> FromRow<'r, AnyRow> for PoseValues {
     }
 }
 
+/// A row of the audit trail (see `storage::audit`).
+#[derive(Debug, Clone, PartialEq, FromRow)]
+pub struct AuditRow {
+    pub id: i64,
+    pub at: String,
+    pub token: String,
+    pub request_id: String,
+    pub operation: String,
+    pub target: Option<String>,
+    pub cell_id: Option<i64>,
+    pub outcome: String,
+}
+
+impl Stored for AuditRow {
+    const COLUMNS: &'static str = "id, at, token, request_id, operation, target, cell_id, outcome";
+    const FROM: &'static str = "audit";
+}
+
 /// A bearer token, without its secret (only its SHA-256 is stored).
 #[derive(Debug, Clone, PartialEq, FromRow)]
 pub struct TokenRow {

@@ -2,6 +2,7 @@
 //! SHA-256 of their secret, which is all that is kept of it (the policy is `app::access`).
 
 use super::Store;
+use super::audit;
 use super::error::{Result, StorageError, classify};
 use super::query::found;
 use super::rows::{Stored, TokenRow, flag};
@@ -41,6 +42,7 @@ impl Store {
             .await
             .map_err(missing_cell)?;
         }
+        audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(row)
     }
@@ -87,12 +89,16 @@ impl Store {
             "UPDATE tokens SET revoked_at = {} WHERE name = $1 AND revoked_at IS NULL",
             self.backend.now()
         );
+        let mut tx = self.pool.begin().await?;
         found(
             sqlx::query(sqlx::AssertSqlSafe(sql))
                 .bind(name)
-                .execute(&self.pool)
+                .execute(&mut *tx)
                 .await?,
-        )
+        )?;
+        audit::record(&mut tx, None).await?;
+        tx.commit().await?;
+        Ok(())
     }
 }
 

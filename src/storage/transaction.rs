@@ -1,5 +1,6 @@
 //! The statements that several writes make inside their own transaction: opening the write on
-//! its cell ([`touch_cell`], always first), storing a waypoint or a prediction, and keeping a
+//! its cell ([`touch_cell`], always first, which also puts the request's audit row in the
+//! transaction), storing a waypoint or a prediction, and keeping a
 //! list's places 1, 2, … when one is put in or taken out ([`make_room`], [`close_gap`]). Each is written once here,
 //! so a table's file says what a write does, not how a row is spelled.
 
@@ -33,6 +34,8 @@ pub(super) async fn touch_cell(
     .fetch_optional(&mut **tx)
     .await?;
     if let Some(state) = state {
+        // The request's audit row, in the transaction of its change.
+        super::audit::record(tx, Some(cell_id)).await?;
         return Ok(state);
     }
     match write.expected {

@@ -2,6 +2,7 @@
 //! a temporary SQLite file per test (see `helpers::spawn_app`).
 
 mod arm;
+mod audit;
 mod backup;
 mod cancellation;
 #[path = "../common/corpus.rs"]

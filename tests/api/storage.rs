@@ -5,7 +5,9 @@
 
 use nextpose::engine::PoseValues;
 use nextpose::server::Database;
-use nextpose::storage::{Append, Durability, NewPrediction, NewWaypoint, StorageError, Store};
+use nextpose::storage::{
+    Append, AuditFilter, Durability, NewPrediction, NewWaypoint, Recorder, StorageError, Store,
+};
 
 use crate::helpers::test_database;
 
@@ -175,4 +177,96 @@ async fn a_failing_append_is_answered_alone_and_the_rest_commit() {
         assert_eq!(store.waypoints(cells[i].1).await.unwrap().len(), 1);
     }
     assert_eq!(store.waypoints(r).await.unwrap().len(), 1);
+}
+
+/// Each append of a batch that commits leaves its request's audit row, on its cell; a stale
+/// one, left out of the batch, leaves none; a request that fails after its change committed
+/// has its answer written into its row.
+#[tokio::test(flavor = "current_thread")]
+async fn each_committed_append_of_a_batch_leaves_its_audit_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let (store, cells) = cells(&test_database(dir.path()).await, 6).await;
+    let tasks: Vec<_> = cells
+        .iter()
+        .enumerate()
+        .map(|(i, &(c, r, rev))| {
+            let store = store.clone();
+            // The third cell's append is made from a revision the cell has left.
+            let rev = if i == 2 { rev - 1 } else { rev };
+            let recorder = Recorder::new("op", &format!("req-{i}"), "POST /test");
+            tokio::spawn(
+                recorder
+                    .scope(async move { store.append_waypoint(append(c, r, rev, 1, true)).await }),
+            )
+        })
+        .collect();
+    let mut done = Vec::new();
+    for t in tasks {
+        done.push(t.await.expect("task"));
+    }
+    assert!(matches!(done[2], Err(StorageError::Stale { .. })));
+    let batch = done[0].as_ref().expect("stored").batch;
+    assert_eq!(batch, 6, "one transaction for all");
+    let rows = store
+        .audit_rows(&AuditFilter {
+            limit: 100,
+            ..AuditFilter::default()
+        })
+        .await
+        .unwrap();
+    let mut got: Vec<(String, Option<i64>, String)> = rows
+        .iter()
+        .map(|r| (r.request_id.clone(), r.cell_id, r.outcome.clone()))
+        .collect();
+    got.sort();
+    let want: Vec<(String, Option<i64>, String)> = cells
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != 2)
+        .map(|(i, &(c, _, _))| (format!("req-{i}"), Some(c), "ok".to_string()))
+        .collect();
+    assert_eq!(got, want);
+    assert!(
+        rows.iter()
+            .all(|r| r.token == "op" && r.operation == "POST /test")
+    );
+
+    // A request of two writes: one row; it failed after the first, so its row says so.
+    let (cell, _, _) = cells[0];
+    let recorder = Recorder::new("eng", "req-two", "PATCH /test");
+    recorder
+        .clone()
+        .scope(async {
+            store
+                .update_cell(cell, Some("renamed"), None)
+                .await
+                .unwrap();
+            store.update_cell(cell, Some("again"), None).await.unwrap();
+        })
+        .await;
+    store.audit_failure(&recorder, "500").await.unwrap();
+    let rows = store
+        .audit_rows(&AuditFilter {
+            cell_id: Some(cell),
+            limit: 100,
+            ..AuditFilter::default()
+        })
+        .await
+        .unwrap();
+    let mine: Vec<_> = rows.iter().filter(|r| r.request_id == "req-two").collect();
+    assert_eq!(mine.len(), 1, "{rows:?}");
+    assert_eq!(
+        (mine[0].token.as_str(), mine[0].outcome.as_str()),
+        ("eng", "500")
+    );
+    // Outside a request, a write leaves no row.
+    store.update_cell(cell, Some("quiet"), None).await.unwrap();
+    let after = store
+        .audit_rows(&AuditFilter {
+            limit: 100,
+            ..AuditFilter::default()
+        })
+        .await
+        .unwrap();
+    assert_eq!(after.len(), 6);
 }

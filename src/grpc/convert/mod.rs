@@ -10,6 +10,7 @@
 //! shape differs from any resource (an id beside the body, a field protobuf cannot leave out).
 
 mod arm;
+mod audit;
 mod backups;
 mod cells;
 mod feedback;

@@ -10,7 +10,7 @@ use crate::helpers::TestApp;
 
 pub(super) type Client = NextposeClient<Channel>;
 
-pub(super) async fn channel(app: &TestApp) -> Channel {
+pub(crate) async fn channel(app: &TestApp) -> Channel {
     Channel::from_shared(app.base.clone())
         .expect("uri")
         .connect()
