@@ -34,7 +34,7 @@ use crate::app::App;
 use crate::app::audit::Recorder;
 use crate::transport::TransportOptions;
 use crate::transport::auth::{BearerToken, identify};
-use crate::transport::request_id::REQUEST_ID;
+use crate::transport::request_id::request_id;
 use crate::transport::request_id::{Protocol, with_request_ids};
 
 use pb::nextpose_server::NextposeServer;
@@ -121,14 +121,8 @@ async fn require_caller(
     // that changes nothing leaves no row), then its answer; a `Teach` stream records each
     // command (`teach`).
     let method = request.uri().path().to_string();
-    let recorder = changes(&method).then(|| {
-        let request_id = request
-            .headers()
-            .get(REQUEST_ID)
-            .and_then(|v| v.to_str().ok())
-            .unwrap_or("-");
-        Recorder::new(&caller.name, request_id, &method)
-    });
+    let recorder = changes(&method)
+        .then(|| Recorder::new(&caller.name, request_id(request.headers()), &method));
     request.extensions_mut().insert(caller);
     let Some(recorder) = recorder else {
         return next.run(request).await;

@@ -15,7 +15,7 @@ use super::error::ApiError;
 use crate::app::audit::Recorder;
 use crate::app::{Action, App, AppError, Scope};
 use crate::transport::auth::{BearerToken, identify};
-use crate::transport::request_id::REQUEST_ID;
+use crate::transport::request_id::request_id;
 
 /// What the middleware needs: the application and the bootstrap token, if any.
 #[derive(Clone)]
@@ -130,17 +130,12 @@ pub async fn authorize(State(gate): State<Gate>, request: Request, next: Next) -
     // A request that may change something is recorded in the audit trail (by its writes,
     // so one that changes nothing leaves no row), then its answer.
     let recorder = (request.method() != Method::GET).then(|| {
-        let request_id = request
-            .headers()
-            .get(REQUEST_ID)
-            .and_then(|v| v.to_str().ok())
-            .unwrap_or("-");
         let operation = format!(
             "{} {}",
             request.method(),
             route.as_deref().unwrap_or(request.uri().path())
         );
-        let recorder = Recorder::new(&caller.name, request_id, &operation);
+        let recorder = Recorder::new(&caller.name, request_id(request.headers()), &operation);
         if scope != Scope::Service {
             recorder.name_target(scope.to_string());
         }

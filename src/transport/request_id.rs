@@ -4,7 +4,7 @@
 
 use axum::Router;
 use axum::extract::Request;
-use axum::http::HeaderName;
+use axum::http::{HeaderMap, HeaderName};
 use tower::ServiceBuilder;
 use tower_http::classify::{GrpcCode, GrpcErrorsAsFailures, SharedClassifier};
 use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
@@ -25,13 +25,17 @@ pub(crate) enum Protocol {
     Grpc,
 }
 
-/// The span a request is traced in: method, path and request id.
-fn request_span(request: &Request) -> Span {
-    let id = request
-        .headers()
+/// A request's id as the outermost layer set it (`-` if it is not text).
+pub(crate) fn request_id(headers: &HeaderMap) -> &str {
+    headers
         .get(&REQUEST_ID)
         .and_then(|v| v.to_str().ok())
-        .unwrap_or("-");
+        .unwrap_or("-")
+}
+
+/// The span a request is traced in: method, path and request id.
+fn request_span(request: &Request) -> Span {
+    let id = request_id(request.headers());
     tracing::info_span!("request", method = %request.method(), uri = %request.uri(), request_id = %id)
 }
 
