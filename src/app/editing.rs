@@ -60,7 +60,7 @@ impl App {
 
     /// After an edit (which advanced the cell's revision): the model is learned again when
     /// the edit changed what it learned, else it checks the database on its next use.
-    fn after_edit(&self, mut locked: Locked, cell_id: i64, rebuild: bool) {
+    pub(super) fn after_edit(&self, mut locked: Locked, cell_id: i64, rebuild: bool) {
         if rebuild {
             self.rebuild_later(locked, cell_id);
         } else {

@@ -5,17 +5,19 @@ use super::Store;
 use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
+use super::history::{self, Change};
 use super::query::found;
 use super::rows::{CellState, ProgramRow, RoutineRow, WaypointValues, flag};
 use super::transaction::{Places, Tx, close_gap, insert_waypoints, make_room, touch_cell};
 
-/// Adds a routine at the end of `program` (`imported`: one that takes no teaching); returns
-/// its id.
+/// Adds a routine at the end of `program` (`imported`: one that takes no teaching) with
+/// `waypoints`, as a revision of the program; returns its id.
 async fn append_to(
     tx: &mut Tx<'_>,
     program: &ProgramRow,
     name: Option<&str>,
     imported: bool,
+    waypoints: &[WaypointValues],
 ) -> Result<i64> {
     let (id,): (i64,) = sqlx::query_as(
         "INSERT INTO routines (program_id, cell_id, position, name, imported) \
@@ -30,6 +32,13 @@ async fn append_to(
     .fetch_one(&mut **tx)
     .await
     .map_err(classify)?;
+    insert_waypoints(tx, id, waypoints).await?;
+    let change = Change::RoutineAdded {
+        routine: id,
+        position: history::routine_place(tx, id).await?,
+        waypoints: waypoints.len() as i64,
+    };
+    history::record(tx, program.id, &[change]).await?;
     Ok(id)
 }
 
@@ -44,7 +53,7 @@ impl Store {
     ) -> Result<(i64, CellState)> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, program.cell_id, CellWrite::following(expected)).await?;
-        let id = append_to(&mut tx, program, name, false).await?;
+        let id = append_to(&mut tx, program, name, false, &[]).await?;
         tx.commit().await?;
         Ok((id, state))
     }
@@ -59,8 +68,7 @@ impl Store {
         waypoints: &[WaypointValues],
     ) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
-        let id = append_to(&mut tx, program, name, true).await?;
-        insert_waypoints(&mut tx, id, waypoints).await?;
+        let id = append_to(&mut tx, program, name, true, waypoints).await?;
         audit::record(&mut tx, Some(program.cell_id)).await?;
         tx.commit().await?;
         Ok(id)
@@ -147,6 +155,11 @@ impl Store {
             .fetch_one(&mut *tx)
             .await
             .map_err(classify)?;
+        let program = history::program_of(&mut tx, routine_id).await?;
+        let change = Change::RoutineFinished {
+            routine: routine_id,
+        };
+        history::record(&mut tx, program, &[change]).await?;
         tx.commit().await?;
         Ok((row.0, state))
     }
@@ -161,14 +174,17 @@ impl Store {
     ) -> Result<CellState> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, CellWrite::following_alone(expected)).await?;
-        found(
-            sqlx::query(
-                "DELETE FROM routines WHERE id = $1 AND finish_seq IS NULL AND imported = 0",
-            )
-            .bind(routine_id)
-            .execute(&mut *tx)
-            .await?,
-        )?;
+        let (program, removed) = history::removal(&mut tx, routine_id).await?;
+        let (position,): (i64,) = sqlx::query_as(
+            "DELETE FROM routines WHERE id = $1 AND finish_seq IS NULL AND imported = 0 \
+             RETURNING position",
+        )
+        .bind(routine_id)
+        .fetch_optional(&mut *tx)
+        .await?
+        .ok_or(StorageError::NotFound)?;
+        close_gap(&mut tx, Places::Routines, program, position).await?;
+        history::record(&mut tx, program, &[removed]).await?;
         tx.commit().await?;
         Ok(state)
     }
@@ -181,6 +197,12 @@ impl Store {
     /// Renames a routine (None: no name).
     pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
         let mut tx = self.pool.begin().await?;
+        let (program, before): (i64, Option<String>) =
+            sqlx::query_as("SELECT program_id, name FROM routines WHERE id = $1")
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await?
+                .ok_or(StorageError::NotFound)?;
         found(
             sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
                 .bind(name)
@@ -189,6 +211,13 @@ impl Store {
                 .await
                 .map_err(classify)?,
         )?;
+        if before.as_deref() != name {
+            let change = Change::RoutineRenamed {
+                routine: id,
+                before,
+            };
+            history::record(&mut tx, program, &[change]).await?;
+        }
         audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())
@@ -210,6 +239,7 @@ impl Store {
                 .fetch_one(&mut *tx)
                 .await?;
         let to = position.clamp(1, count.max(1));
+        let was = history::routine_place(&mut tx, id).await?;
         // Out of the way (place 0), the others closed up, opened at `to`, then back in.
         sqlx::query("UPDATE routines SET position = 0 WHERE id = $1")
             .bind(id)
@@ -222,6 +252,15 @@ impl Store {
             .bind(id)
             .execute(&mut *tx)
             .await?;
+        let now = history::routine_place(&mut tx, id).await?;
+        if now != was {
+            let change = Change::RoutineMoved {
+                routine: id,
+                from: was,
+                to: now,
+            };
+            history::record(&mut tx, program_id, &[change]).await?;
+        }
         audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())
@@ -232,6 +271,7 @@ impl Store {
     pub async fn delete_routine(&self, id: i64, cell_id: i64, write: CellWrite) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, write).await?;
+        let (_, removed) = history::removal(&mut tx, id).await?;
         let (program_id, position): (i64, i64) =
             sqlx::query_as("DELETE FROM routines WHERE id = $1 RETURNING program_id, position")
                 .bind(id)
@@ -239,6 +279,7 @@ impl Store {
                 .await?
                 .ok_or(StorageError::NotFound)?;
         close_gap(&mut tx, Places::Routines, program_id, position).await?;
+        history::record(&mut tx, program_id, &[removed]).await?;
         tx.commit().await?;
         Ok(state.model_version)
     }
