@@ -210,13 +210,14 @@ impl App {
             let r = app.routine_row(id).await?;
             let _locked = app.lock_cell_id(r.cell_id).await?;
             let before = app.routine_row(id).await?;
-            if let Some(name) = &patch.name {
+            if patch.name.is_some() || patch.position.is_some() {
                 app.store
-                    .rename_routine(id, name.as_deref().map(str::trim))
+                    .edit_routine(
+                        id,
+                        patch.name.as_ref().map(|n| n.as_deref().map(str::trim)),
+                        patch.position,
+                    )
                     .await?;
-            }
-            if let Some(p) = patch.position {
-                app.store.move_routine(id, p).await?;
             }
             Ok(RoutineEdit {
                 routine: routine(app.routine_row(id).await?),

@@ -162,7 +162,7 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
             continue;
         }
         let w = &job.append.waypoint;
-        history::record_taught(&mut tx, w.routine_id, w.seq).await?;
+        history::record_taught(&mut tx, w.routine_id, w.seq, job.audit.as_ref()).await?;
         if let Some(r) = &job.audit {
             r.record(&mut tx, Some(job.append.cell_id)).await?;
         }
@@ -593,7 +593,13 @@ async fn insert_prediction_rows(
 async fn alone(pool: &AnyPool, job: &Job) -> Result<Appended> {
     let mut tx = pool.begin().await?;
     let done = store(&mut tx, &job.append).await?;
-    history::record_taught(&mut tx, done.row.routine_id, done.row.seq).await?;
+    history::record_taught(
+        &mut tx,
+        done.row.routine_id,
+        done.row.seq,
+        job.audit.as_ref(),
+    )
+    .await?;
     if let Some(r) = &job.audit {
         r.record(&mut tx, Some(job.append.cell_id)).await?;
     }

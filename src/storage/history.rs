@@ -236,12 +236,24 @@ fn place(n: i64, len: usize) -> Result<usize> {
 /// Writes `changes` to `program` as its next revision, in `tx`; returns the revision's number
 /// (with no changes, nothing is written and the last revision is answered).
 pub(super) async fn record(tx: &mut Tx<'_>, program: i64, changes: &[Change]) -> Result<i64> {
+    record_for(tx, program, changes, Recorder::current().as_ref()).await
+}
+
+/// [`record`] for the request `recorder` (None: no request), which may be another task's (the
+/// append writer's jobs carry theirs).
+async fn record_for(
+    tx: &mut Tx<'_>,
+    program: i64,
+    changes: &[Change],
+    recorder: Option<&Recorder>,
+) -> Result<i64> {
     if changes.is_empty() {
         return last_revision(tx, program).await;
     }
     let json = serde_json::to_string(changes)
         .map_err(|e| inconsistent(format!("a change could not be written: {e}")))?;
-    let [token, request_id, operation, _, _] = who();
+    let [token, request_id, operation, _, _] =
+        recorder.map_or([None, None, None, None, None], Recorder::values);
     let (revision,): (i64,) = sqlx::query_as(
         "INSERT INTO program_history (program_id, revision, token, request_id, operation, \
            changes) \
@@ -260,10 +272,17 @@ pub(super) async fn record(tx: &mut Tx<'_>, program: i64, changes: &[Change]) ->
     Ok(revision)
 }
 
-/// A waypoint taught (appended) to `routine` at `seq`, as the next revision of its program.
-pub(super) async fn record_taught(tx: &mut Tx<'_>, routine: i64, seq: i64) -> Result<()> {
+/// A waypoint taught (appended) to `routine` at `seq` in the request `recorder`, as the next
+/// revision of its program.
+pub(super) async fn record_taught(
+    tx: &mut Tx<'_>,
+    routine: i64,
+    seq: i64,
+    recorder: Option<&Recorder>,
+) -> Result<()> {
     let program = program_of(tx, routine).await?;
-    record(tx, program, &[Change::WaypointAdded { routine, seq }]).await?;
+    let change = Change::WaypointAdded { routine, seq };
+    record_for(tx, program, &[change], recorder).await?;
     Ok(())
 }
 
@@ -295,12 +314,6 @@ pub(super) fn taught_json<'a>(
         })
         .collect();
     serde_json::Value::Array(rows).to_string()
-}
-
-/// The current request's token, request id and operation (and target and key), if a request
-/// is being served.
-pub(super) fn who() -> [Option<String>; 5] {
-    Recorder::current().map_or([None, None, None, None, None], |r| r.values())
 }
 
 /// The program a routine is part of.

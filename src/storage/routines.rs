@@ -6,7 +6,6 @@ use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::history::{self, Change};
-use super::query::found;
 use super::rows::{CellState, ProgramRow, RoutineRow, WaypointValues, flag};
 use super::transaction::{Places, Tx, close_gap, insert_waypoints, make_room, touch_cell};
 
@@ -194,73 +193,67 @@ impl Store {
     // Every edit is one transaction; one that changes a learned routine advances the cell's
     // model version in it (`advance`). Places stay 1, 2, … ([`make_room`], [`close_gap`]).
 
-    /// Renames a routine (None: no name).
-    pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
+    /// Renames a routine (`name`; `Some(None)`: no name) and/or moves it to place `position`
+    /// of its program (1 = first, clamped to the last; the others keep their order), in one
+    /// transaction and one revision of the program.
+    pub async fn edit_routine(
+        &self,
+        id: i64,
+        name: Option<Option<&str>>,
+        position: Option<i64>,
+    ) -> Result<()> {
         let mut tx = self.pool.begin().await?;
-        let (program, before): (i64, Option<String>) =
-            sqlx::query_as("SELECT program_id, name FROM routines WHERE id = $1")
+        let (program_id, from, before): (i64, i64, Option<String>) =
+            sqlx::query_as("SELECT program_id, position, name FROM routines WHERE id = $1")
                 .bind(id)
                 .fetch_optional(&mut *tx)
                 .await?
                 .ok_or(StorageError::NotFound)?;
-        found(
+        let mut changes = Vec::new();
+        if let Some(name) = name {
             sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
                 .bind(name)
                 .bind(id)
                 .execute(&mut *tx)
                 .await
-                .map_err(classify)?,
-        )?;
-        if before.as_deref() != name {
-            let change = Change::RoutineRenamed {
-                routine: id,
-                before,
-            };
-            history::record(&mut tx, program, &[change]).await?;
+                .map_err(classify)?;
+            if before.as_deref() != name {
+                changes.push(Change::RoutineRenamed {
+                    routine: id,
+                    before,
+                });
+            }
         }
-        audit::record(&mut tx, None).await?;
-        tx.commit().await?;
-        Ok(())
-    }
-
-    /// Moves a routine to place `position` of its program (1 = first, clamped to the last);
-    /// the others keep their order.
-    pub async fn move_routine(&self, id: i64, position: i64) -> Result<()> {
-        let mut tx = self.pool.begin().await?;
-        let (program_id, from): (i64, i64) =
-            sqlx::query_as("SELECT program_id, position FROM routines WHERE id = $1")
+        if let Some(position) = position {
+            let (count,): (i64,) =
+                sqlx::query_as("SELECT COUNT(*) FROM routines WHERE program_id = $1")
+                    .bind(program_id)
+                    .fetch_one(&mut *tx)
+                    .await?;
+            let to = position.clamp(1, count.max(1));
+            let was = history::routine_place(&mut tx, id).await?;
+            // Out of the way (place 0), the others closed up, opened at `to`, then back in.
+            sqlx::query("UPDATE routines SET position = 0 WHERE id = $1")
                 .bind(id)
-                .fetch_optional(&mut *tx)
-                .await?
-                .ok_or(StorageError::NotFound)?;
-        let (count,): (i64,) =
-            sqlx::query_as("SELECT COUNT(*) FROM routines WHERE program_id = $1")
-                .bind(program_id)
-                .fetch_one(&mut *tx)
+                .execute(&mut *tx)
                 .await?;
-        let to = position.clamp(1, count.max(1));
-        let was = history::routine_place(&mut tx, id).await?;
-        // Out of the way (place 0), the others closed up, opened at `to`, then back in.
-        sqlx::query("UPDATE routines SET position = 0 WHERE id = $1")
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
-        close_gap(&mut tx, Places::Routines, program_id, from).await?;
-        make_room(&mut tx, Places::Routines, program_id, to).await?;
-        sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
-            .bind(to)
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
-        let now = history::routine_place(&mut tx, id).await?;
-        if now != was {
-            let change = Change::RoutineMoved {
-                routine: id,
-                from: was,
-                to: now,
-            };
-            history::record(&mut tx, program_id, &[change]).await?;
+            close_gap(&mut tx, Places::Routines, program_id, from).await?;
+            make_room(&mut tx, Places::Routines, program_id, to).await?;
+            sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
+                .bind(to)
+                .bind(id)
+                .execute(&mut *tx)
+                .await?;
+            let now = history::routine_place(&mut tx, id).await?;
+            if now != was {
+                changes.push(Change::RoutineMoved {
+                    routine: id,
+                    from: was,
+                    to: now,
+                });
+            }
         }
+        history::record(&mut tx, program_id, &changes).await?;
         audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())

@@ -159,9 +159,11 @@ enum Step {
         routine: usize,
         name: Option<u8>,
     },
+    /// Moves a routine, renaming it in the same request when `rename` (one revision).
     Move {
         routine: usize,
         to: usize,
+        rename: bool,
     },
     DeleteRoutine {
         routine: usize,
@@ -187,7 +189,8 @@ fn step() -> impl Strategy<Value = Step> {
             .prop_map(|((routine, waypoint), after, by)| Step::Insert { routine, waypoint, after, by }),
         2 => at.prop_map(|(routine, waypoint)| Step::Delete { routine, waypoint }),
         1 => (0..8usize, proptest::option::of(0..3u8)).prop_map(|(routine, name)| Step::Rename { routine, name }),
-        1 => (0..8usize, 0..8usize).prop_map(|(routine, to)| Step::Move { routine, to }),
+        1 => (0..8usize, 0..8usize, any::<bool>())
+            .prop_map(|(routine, to, rename)| Step::Move { routine, to, rename }),
         1 => (0..8usize).prop_map(|routine| Step::DeleteRoutine { routine }),
         3 => (0..64usize).prop_map(|pick| Step::Restore { pick }),
     ]
@@ -308,19 +311,24 @@ impl Case<'_> {
                 .await;
                 i64::from(json!(name) != r.name)
             }
-            Step::Move { routine, to } => {
+            Step::Move {
+                routine,
+                to,
+                rename,
+            } => {
                 let Some(r) = pick(routine) else {
                     return 0;
                 };
                 let position = 1 + to % now.len();
+                let mut body = json!({ "position": position });
+                if rename {
+                    body["name"] = json!(format!("m{to}"));
+                }
                 let path = format!("/v1/routines/{}", r.id);
-                expect(
-                    app.patch(&path, &json!({ "position": position })).await,
-                    StatusCode::OK,
-                )
-                .await;
+                expect(app.patch(&path, &body).await, StatusCode::OK).await;
                 let was = 1 + now.iter().position(|x| x.id == r.id).expect("there");
-                i64::from(position != was)
+                let renamed = rename && body["name"] != r.name;
+                i64::from(position != was || renamed)
             }
             Step::DeleteRoutine { routine } => {
                 let Some(r) = pick(routine) else {
@@ -570,4 +578,371 @@ fn any_revision_reads_back_restores_exactly_and_diffs_exactly() {
     if let Err(e) = result {
         panic!("{e}");
     }
+}
+
+/// Sends `method path body` as the token `secret` with the request id `id`.
+async fn send_as(
+    app: &TestApp,
+    method: reqwest::Method,
+    path: &str,
+    body: &Value,
+    secret: &str,
+    id: &str,
+) -> Value {
+    let r = app
+        .client
+        .request(method, app.url(path))
+        .bearer_auth(secret)
+        .header("x-request-id", id)
+        .json(body)
+        .send()
+        .await
+        .expect("request");
+    assert!(r.status().is_success(), "{path}: {}", r.status());
+    r.json().await.expect("json")
+}
+
+/// The history says who changed what, in which request; an export and a read as of a
+/// revision give the program then; a diff measures how far a waypoint moved and turned.
+#[tokio::test]
+async fn the_history_says_who_changed_what_and_reads_as_of_a_revision() {
+    use reqwest::Method;
+    let mut app = spawn_with(nextpose::transport::TransportOptions {
+        token: Some(crate::roles::BOOTSTRAP.into()),
+        ..Default::default()
+    })
+    .await;
+    app.token = Some(crate::roles::BOOTSTRAP.into());
+    let cell = app.create_cell("who").await;
+    let program = app.create_program(cell, "weld").await;
+    let otto = crate::roles::secret(&app, "otto", "operator", Some(vec![cell])).await;
+    let erin = crate::roles::secret(&app, "erin", "engineer", None).await;
+    assert_eq!(
+        last_revision(&app, program).await,
+        0,
+        "a new program has none"
+    );
+
+    let r = send_as(
+        &app,
+        Method::POST,
+        &format!("/v1/programs/{program}/routines"),
+        &json!({ "name": "seam" }),
+        &otto,
+        "start-1",
+    )
+    .await["id"]
+        .as_i64()
+        .expect("id");
+    let seam = u_seam([400.0, 0.0, 300.0], 0.0);
+    let mut ids = Vec::new();
+    for (k, p) in seam.iter().enumerate() {
+        let t = send_as(
+            &app,
+            Method::POST,
+            &format!("/v1/routines/{r}/waypoints"),
+            &json!({ "pose": p }),
+            &otto,
+            &format!("teach-{k}"),
+        )
+        .await;
+        ids.push(t["waypoint"]["id"].as_i64().expect("id"));
+    }
+    send_as(
+        &app,
+        Method::POST,
+        &format!("/v1/routines/{r}/finish"),
+        &json!({}),
+        &otto,
+        "done",
+    )
+    .await;
+    let taught = last_revision(&app, program).await;
+    assert_eq!(taught, 1 + seam.len() as i64 + 1);
+    // Erin moves the third waypoint 30 mm along x and turns it 10° about z.
+    let before = app.get_ok(&format!("/v1/routines/{r}")).await["waypoints"][2].clone();
+    let p = &before["pose"];
+    let turn = nextpose::engine::Pose::new(
+        [0.0; 3],
+        [
+            (5.0f64.to_radians()).cos(),
+            0.0,
+            0.0,
+            (5.0f64.to_radians()).sin(),
+        ],
+    )
+    .expect("turn");
+    let was = pose_of(p);
+    let after = nextpose::engine::Pose::from_isometry(
+        nextpose::engine::Pose::new(
+            [was.position().x + 30.0, was.position().y, was.position().z],
+            {
+                let q = was.rotation() * turn.rotation();
+                [q.w, q.i, q.j, q.k]
+            },
+        )
+        .expect("pose")
+        .isometry()
+        .to_owned(),
+    )
+    .values();
+    send_as(
+        &app,
+        Method::PATCH,
+        &format!("/v1/waypoints/{}", ids[2]),
+        &json!({ "pose": after }),
+        &erin,
+        "modify-1",
+    )
+    .await;
+
+    let history = app.get_ok(&format!("/v1/programs/{program}/history")).await;
+    assert_eq!(history["revision"], taught + 1);
+    let revisions = history["revisions"].as_array().expect("revisions");
+    let newest = &revisions[0];
+    assert_eq!(newest["token"], "erin");
+    assert_eq!(newest["request_id"], "modify-1");
+    assert_eq!(newest["operation"], "PATCH /v1/waypoints/{waypoint_id}");
+    assert_eq!(newest["changes"][0]["change"], "waypoint_modified");
+    assert_eq!(newest["changes"][0]["waypoint_id"], ids[2]);
+    let finish = &revisions[1];
+    assert_eq!(
+        (finish["token"].as_str(), finish["request_id"].as_str()),
+        (Some("otto"), Some("done"))
+    );
+    assert_eq!(finish["changes"][0]["change"], "routine_finished");
+    let third = &revisions[revisions.len() - 4];
+    assert_eq!(third["request_id"], "teach-2");
+    assert_eq!(
+        third["changes"][0],
+        json!({ "change": "waypoint_added", "routine_id": r,
+        "waypoint_id": null, "place": 3, "waypoints": null })
+    );
+    let first = revisions.last().expect("first");
+    assert_eq!(first["revision"], 1);
+    assert_eq!(first["request_id"], "start-1");
+    assert_eq!(first["changes"][0]["change"], "routine_added");
+
+    // As of the revision before the edit: the pose then, in a read and in an export.
+    let then = app
+        .get_ok(&format!("/v1/programs/{program}/history/{taught}"))
+        .await;
+    assert_eq!(then["routines"][0]["waypoints"][2]["pose"], before["pose"]);
+    assert_eq!(then["routines"][0]["name"], "seam");
+    assert_eq!(then["routines"][0]["finished"], true);
+    let x = |v: &Value| format!("{:.2}", v["x"].as_f64().expect("x"));
+    let old = app
+        .get_ok(&format!(
+            "/v1/programs/{program}/export?format=rapid&revision={taught}"
+        ))
+        .await["files"][0]["text"]
+        .as_str()
+        .expect("text")
+        .to_string();
+    let new = app
+        .get_ok(&format!("/v1/programs/{program}/export?format=rapid"))
+        .await["files"][0]["text"]
+        .as_str()
+        .expect("text")
+        .to_string();
+    assert!(
+        old.contains(&x(&before["pose"])) && !old.contains(&x(&json!(after))),
+        "{old}"
+    );
+    assert!(new.contains(&x(&json!(after))), "{new}");
+    // While it was taught: open, and only its first waypoints.
+    let midway = app
+        .get_ok(&format!("/v1/programs/{program}/history/4"))
+        .await;
+    assert_eq!(midway["routines"][0]["finished"], false);
+    assert_eq!(
+        midway["routines"][0]["waypoints"].as_array().map(Vec::len),
+        Some(3)
+    );
+
+    let diff = app
+        .get_ok(&format!("/v1/programs/{program}/diff?from={taught}"))
+        .await;
+    let changed = &diff["waypoints_changed"][0];
+    assert_eq!(diff["waypoints_changed"].as_array().map(Vec::len), Some(1));
+    assert_eq!(changed["id"], ids[2]);
+    assert!(
+        (changed["moved_mm"].as_f64().expect("mm") - 30.0).abs() < 1e-9,
+        "{changed}"
+    );
+    assert!(
+        (changed["turned_degrees"].as_f64().expect("deg") - 10.0).abs() < 1e-6,
+        "{changed}"
+    );
+    assert_eq!(changed["fields"], json!(["pose"]));
+    // Storage is proportional to the change: each revision's row is short, however long the
+    // program (every row of the table as the database writes it as text).
+    let rows: Vec<String> = crate::roles::dump(&app)
+        .await
+        .into_iter()
+        .filter(|l| l.starts_with("program_history"))
+        .collect();
+    assert_eq!(rows.len() as i64, taught + 1);
+    let longest = rows.iter().map(String::len).max().unwrap_or_default();
+    assert!(longest < 700, "{longest} characters: {rows:?}");
+    let whole = app
+        .get_ok(&format!("/v1/programs/{program}/diff?from=0"))
+        .await;
+    assert_eq!(whole["routines_added"][0]["id"], r);
+    assert_eq!(ids_of(&whole["waypoints_added"]), ids);
+}
+
+fn ids_of(list: &Value) -> Vec<i64> {
+    list.as_array()
+        .expect("list")
+        .iter()
+        .map(|w| w["id"].as_i64().expect("id"))
+        .collect()
+}
+
+/// Bad history requests are refused with a 4xx naming the problem and change nothing; a
+/// restore that would bring back a routine being taught while another is taught is a 409; a
+/// deleted program's history goes with it.
+#[tokio::test]
+async fn bad_history_requests_are_refused_and_change_nothing() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("bad-history").await;
+    let program = app.create_program(cell, "p").await;
+    let first = app.create_routine(program).await;
+    for p in &u_seam([400.0, 0.0, 300.0], 0.0)[..3] {
+        app.append(first, p).await;
+    }
+    let with_first_open = last_revision(&app, program).await;
+    let r = app.delete(&format!("/v1/routines/{first}")).await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    app.teach_routine(program, &u_seam([450.0, 0.0, 300.0], 0.0))
+        .await;
+    // The cell's one routine being taught is now in another program.
+    let other = app.create_program(cell, "other").await;
+    let second = app.create_routine(other).await;
+    app.append(second, &u_seam([500.0, 0.0, 300.0], 0.0)[0])
+        .await;
+    let before = (
+        snapshot(&app, program).await,
+        app.get_ok(&format!("/v1/programs/{program}/history")).await,
+    );
+    let p = format!("/v1/programs/{program}");
+    for (path, status, says) in [
+        (
+            format!("{p}/history/99"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision 99",
+        ),
+        (
+            format!("{p}/history/-1"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision -1",
+        ),
+        (
+            format!("{p}/history?limit=0"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "limit",
+        ),
+        (
+            format!("{p}/history?before=0"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "before",
+        ),
+        (
+            format!("{p}/history?colour=red"),
+            StatusCode::BAD_REQUEST,
+            "colour",
+        ),
+        (
+            format!("{p}/diff?from=99"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision 99",
+        ),
+        (format!("{p}/diff"), StatusCode::BAD_REQUEST, "from"),
+        (
+            format!("{p}/export?format=rapid&revision=99"),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision 99",
+        ),
+        (
+            "/v1/programs/9999/history".to_string(),
+            StatusCode::NOT_FOUND,
+            "program 9999",
+        ),
+        (
+            "/v1/programs/9999/history/0".to_string(),
+            StatusCode::NOT_FOUND,
+            "program 9999",
+        ),
+    ] {
+        let r = app.get(&path).await;
+        assert_eq!(r.status(), status, "{path}");
+        let body: Value = r.json().await.expect("json");
+        let text = body.to_string();
+        assert!(text.contains(says), "{path}: {text}");
+    }
+    for (body, status, says) in [
+        (
+            json!({ "revision": 99 }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision 99",
+        ),
+        (
+            json!({ "revision": -3 }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "no revision -3",
+        ),
+        (
+            json!({ "revision": 1, "force": true }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "force",
+        ),
+        (
+            json!({ "revision": with_first_open }),
+            StatusCode::CONFLICT,
+            "being taught",
+        ),
+    ] {
+        let r = app.post(&format!("{p}/restore"), &body).await;
+        assert_eq!(r.status(), status, "{body}");
+        let text = r.text().await.expect("text");
+        assert!(text.contains(says), "{body}: {text}");
+    }
+    let after = (
+        snapshot(&app, program).await,
+        app.get_ok(&format!("/v1/programs/{program}/history")).await,
+    );
+    assert_eq!(before, after);
+    // Once the routine being taught now is finished, the other comes back, still open, and
+    // the routine taught since it was goes.
+    app.finish(second).await;
+    let done = app
+        .post_ok(
+            &format!("{p}/restore"),
+            &json!({ "revision": with_first_open }),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(done["changed"], true);
+    let back = snapshot(&app, program).await;
+    assert_eq!(
+        back.iter().map(|r| (r.id, r.finished)).collect::<Vec<_>>(),
+        vec![(first, false)]
+    );
+    assert_eq!(back[0].waypoints.len(), 3);
+    // Restoring what it is already changes nothing.
+    let same = app
+        .post_ok(
+            &format!("{p}/restore"),
+            &json!({ "revision": with_first_open }),
+            StatusCode::OK,
+        )
+        .await;
+    assert_eq!(same["changed"], false);
+    assert_eq!(same["revision"], done["revision"]);
+
+    let r = app.delete(&p).await;
+    assert_eq!(r.status(), StatusCode::NO_CONTENT);
+    let r = app.get(&format!("{p}/history")).await;
+    assert_eq!(r.status(), StatusCode::NOT_FOUND);
 }
