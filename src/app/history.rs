@@ -36,7 +36,7 @@ impl App {
             return Err(AppError::Invalid("before must be a revision (≥ 1)".into()));
         }
         self.program_row(id).await?;
-        let (_, last) = self.program_state(id, None).await?;
+        let last = self.store.last_revision(id).await?;
         let mut rows = self
             .store
             .revisions(
@@ -73,7 +73,7 @@ impl App {
                     self.program_row(id).await?;
                     Err(AppError::Invalid(format!(
                         "program {id} has no revision {r} (its revisions are 0 to {})",
-                        self.store.program_as_of(id, None).await?.1
+                        self.store.last_revision(id).await?
                     )))
                 }
                 None => Err(AppError::not_found("program", id)),

@@ -271,9 +271,7 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     // when its request has no row already.
     let audit = params.push(audit_json(batch));
     // And the programs' revisions, likewise (each append is one of its program's).
-    let revisions = params.push(history::taught_json(
-        batch.iter().map(|j| (&j.append, j.audit.as_ref())),
-    ));
+    let revisions = params.push(revisions_json(batch));
     let cells: Vec<String> = waypoints
         .iter()
         .map(|w| format!("(id = {} AND revision = {})", w.cell, w.revision))
@@ -374,6 +372,36 @@ fn audit_json(batch: &[Job]) -> String {
                 "target": target,
                 "key": key,
             }))
+        })
+        .collect();
+    serde_json::Value::Array(rows).to_string()
+}
+
+/// The programs' revisions of a batch's appends (each the waypoint added, by whom), as one
+/// JSON array: each entry names its cell and the revision its append was made at (it is
+/// written only while the cell is at it), its routine, who, and its changes (a JSON text).
+fn revisions_json(batch: &[Job]) -> String {
+    let rows: Vec<serde_json::Value> = batch
+        .iter()
+        .map(|job| {
+            let a = &job.append;
+            let [token, request_id, operation, _, _] = job
+                .audit
+                .as_ref()
+                .map_or([None, None, None, None, None], Recorder::values);
+            let added = history::Change::WaypointAdded {
+                routine: a.waypoint.routine_id,
+                seq: a.waypoint.seq,
+            };
+            serde_json::json!({
+                "cell": a.cell_id,
+                "revision": a.expected_revision,
+                "routine": a.waypoint.routine_id,
+                "token": token,
+                "request_id": request_id,
+                "operation": operation,
+                "changes": serde_json::json!([added]).to_string(),
+            })
         })
         .collect();
     serde_json::Value::Array(rows).to_string()

@@ -286,36 +286,6 @@ pub(super) async fn record_taught(
     Ok(())
 }
 
-/// The revisions of a batch of taught waypoints, as one JSON array for a statement that
-/// writes them all (the append writer's SQLite script): each entry names the append's cell
-/// and the revision it was made at (an entry is written only while the cell is at it), its
-/// routine, who, and its changes (a JSON text).
-pub(super) fn taught_json<'a>(
-    appends: impl Iterator<Item = (&'a super::group_commit::Append, Option<&'a Recorder>)>,
-) -> String {
-    let rows: Vec<serde_json::Value> = appends
-        .map(|(a, recorder)| {
-            let [token, request_id, operation, _, _] =
-                recorder.map_or([None, None, None, None, None], Recorder::values);
-            let changes = serde_json::json!([{
-                "change": "waypoint_added",
-                "routine": a.waypoint.routine_id,
-                "seq": a.waypoint.seq,
-            }]);
-            serde_json::json!({
-                "cell": a.cell_id,
-                "revision": a.expected_revision,
-                "routine": a.waypoint.routine_id,
-                "token": token,
-                "request_id": request_id,
-                "operation": operation,
-                "changes": changes.to_string(),
-            })
-        })
-        .collect();
-    serde_json::Value::Array(rows).to_string()
-}
-
 /// The program a routine is part of.
 pub(super) async fn program_of(tx: &mut Tx<'_>, routine: i64) -> Result<i64> {
     let (program,): (i64,) = sqlx::query_as("SELECT program_id FROM routines WHERE id = $1")
@@ -359,12 +329,12 @@ async fn program_state(tx: &mut Tx<'_>, program: i64) -> Result<ProgramState> {
 }
 
 /// The number of a program's last revision (0: none yet).
-async fn last_revision(tx: &mut Tx<'_>, program: i64) -> Result<i64> {
+async fn last_revision(conn: &mut sqlx::AnyConnection, program: i64) -> Result<i64> {
     let (n,): (i64,) = sqlx::query_as(
         "SELECT COALESCE(MAX(revision), 0) FROM program_history WHERE program_id = $1",
     )
     .bind(program)
-    .fetch_one(&mut **tx)
+    .fetch_one(conn)
     .await?;
     Ok(n)
 }
@@ -378,6 +348,11 @@ pub struct RevisionFilter {
 }
 
 impl Store {
+    /// The number of a program's last revision (0: none yet).
+    pub async fn last_revision(&self, program: i64) -> Result<i64> {
+        last_revision(&mut *self.pool.acquire().await?, program).await
+    }
+
     /// A program's revisions, newest first.
     pub async fn revisions(
         &self,
