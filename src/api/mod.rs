@@ -24,6 +24,7 @@ pub mod backups;
 pub mod cells;
 pub mod error;
 pub mod feedback;
+pub mod history;
 pub mod imports;
 pub mod predictions;
 pub mod programs;
@@ -50,6 +51,11 @@ pub use cells::{
 };
 pub use error::{ErrorBody, ErrorDetail};
 pub use feedback::{Feedback, FeedbackRecorded, Verdict};
+pub use history::{
+    ChangeKind, DiffQuery, HistoryQuery, ProgramDiff, ProgramHistory, ProgramRevision,
+    RestoreProgram, Restored, Revision, RevisionChange, RoutineChanged, RoutineRevision,
+    RoutineSummary, WaypointChanged, WaypointRevision, WaypointSummary,
+};
 pub use imports::{ImportRequest, ImportResult, ImportedProgram, Skipped, UploadedFile};
 pub use predictions::{
     JointMargin, PredictQuery, Prediction, PredictionSet, Reachability, Unreachable, Withheld,

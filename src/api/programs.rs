@@ -15,7 +15,7 @@ pub struct CreateProgram {
     pub name: String,
 }
 
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 pub struct Program {
     pub id: i64,
     pub cell_id: i64,
@@ -73,6 +73,9 @@ pub struct ExportQuery {
     /// `rapid` (one `.mod`), `krl` (a `.src` and its `.dat`) or `fanuc` (one `.ls` per
     /// routine).
     pub format: String,
+    /// The program as of this revision (default: as it is now).
+    #[param(minimum = 0)]
+    pub revision: Option<i64>,
 }
 
 /// One file of an exported program.

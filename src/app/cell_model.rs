@@ -59,11 +59,19 @@ pub(crate) fn stored_pose_values(p: &PoseValues) -> Result<Pose, AppError> {
 /// The joints of a stored waypoint (validated when taught: a failure here means the database
 /// was edited behind our back).
 pub(crate) fn stored_joints(w: &WaypointRow) -> Result<Option<Vec<f64>>, AppError> {
-    w.joints
+    stored_joint_values(w.id, &w.joints)
+}
+
+/// The joints of waypoint `id` as stored (a JSON array of radians).
+pub(crate) fn stored_joint_values(
+    id: i64,
+    joints: &Option<String>,
+) -> Result<Option<Vec<f64>>, AppError> {
+    joints
         .as_deref()
         .map(serde_json::from_str)
         .transpose()
-        .map_err(|e| AppError::Internal(format!("stored joints of waypoint {}: {e}", w.id)))
+        .map_err(|e| AppError::Internal(format!("stored joints of waypoint {id}: {e}")))
 }
 
 /// A verdict on a suggestion, as stored.

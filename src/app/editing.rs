@@ -60,7 +60,7 @@ impl App {
 
     /// After an edit (which advanced the cell's revision): the model is learned again when
     /// the edit changed what it learned, else it checks the database on its next use.
-    fn after_edit(&self, mut locked: Locked, cell_id: i64, rebuild: bool) {
+    pub(super) fn after_edit(&self, mut locked: Locked, cell_id: i64, rebuild: bool) {
         if rebuild {
             self.rebuild_later(locked, cell_id);
         } else {
@@ -210,13 +210,14 @@ impl App {
             let r = app.routine_row(id).await?;
             let _locked = app.lock_cell_id(r.cell_id).await?;
             let before = app.routine_row(id).await?;
-            if let Some(name) = &patch.name {
+            if patch.name.is_some() || patch.position.is_some() {
                 app.store
-                    .rename_routine(id, name.as_deref().map(str::trim))
+                    .edit_routine(
+                        id,
+                        patch.name.as_ref().map(|n| n.as_deref().map(str::trim)),
+                        patch.position,
+                    )
                     .await?;
-            }
-            if let Some(p) = patch.position {
-                app.store.move_routine(id, p).await?;
             }
             Ok(RoutineEdit {
                 routine: routine(app.routine_row(id).await?),

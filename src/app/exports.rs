@@ -6,7 +6,7 @@
 
 use std::str::FromStr;
 
-use super::cell_model::{stored_joints, stored_pose};
+use super::cell_model::{stored_joint_values, stored_pose_values};
 use super::error::AppError;
 use super::registry::blocking;
 use super::settings::parse_settings;
@@ -14,6 +14,7 @@ use super::{App, Result};
 use crate::api::{ExportQuery, ExportedFile, MotionType, ProgramExport};
 use crate::export::{self, ExportProgram, ExportRoutine, ExportWaypoint, Format, Motion};
 use crate::kinematics::{self, Joints};
+use crate::storage::WaypointState;
 
 impl App {
     pub async fn export_program(&self, id: i64, query: ExportQuery) -> Result<ProgramExport> {
@@ -22,15 +23,17 @@ impl App {
         let p = self.program_row(id).await?;
         let settings = parse_settings(&self.cell_row(p.cell_id).await?)?;
         let arm = self.cell_arm(&settings)?;
-        let mut routines = Vec::new();
-        for r in self.store.routines(id).await? {
-            let rows = self.store.waypoints(r.id).await?;
-            let name = r
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("routine{}", r.position));
-            routines.push((name, rows));
-        }
+        // As it is now, or as of the revision asked for.
+        let (state, _) = self.program_state(id, query.revision).await?;
+        let routines: Vec<(String, Vec<WaypointState>)> = state
+            .routines
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let name = r.name.unwrap_or_else(|| format!("routine{}", i + 1));
+                (name, r.waypoints)
+            })
+            .collect();
         let program_name = p.name.clone();
         blocking(move || -> Result<ProgramExport> {
             let mut unreachable = Vec::new();
@@ -39,15 +42,15 @@ impl App {
                 let mut previous: Option<Joints> = None;
                 let mut waypoints = Vec::with_capacity(rows.len());
                 for w in &rows {
-                    let pose = stored_pose(w)?;
-                    let taught: Option<Joints> =
-                        stored_joints(w)?.and_then(|j| j.as_slice().try_into().ok());
+                    let pose = stored_pose_values(&w.values.pose)?;
+                    let taught: Option<Joints> = stored_joint_values(w.id, &w.values.joints)?
+                        .and_then(|j| j.as_slice().try_into().ok());
                     let (reachable, joints) = match &arm {
                         Some(arm) => {
                             let reach = arm.check(&pose, previous.as_ref());
                             (Some(reach.is_reachable()), taught.or(reach.chosen))
                         }
-                        None => (w.reachable, taught),
+                        None => (w.values.reachable, taught),
                     };
                     if reachable == Some(false) {
                         unreachable.push(w.id);
@@ -57,10 +60,11 @@ impl App {
                         (Some(arm), Some(q)) => kinematics::configuration(arm.robot(), q).ok(),
                         _ => None,
                     };
+                    let v = &w.values;
                     waypoints.push(ExportWaypoint {
-                        name: w.name.clone(),
+                        name: v.name.clone(),
                         pose,
-                        motion: match w.motion.as_deref().and_then(MotionType::parse) {
+                        motion: match v.motion.as_deref().and_then(MotionType::parse) {
                             Some(MotionType::Joint) => Motion::Joint,
                             Some(MotionType::Circular) => Motion::Circular,
                             // A taught waypoint without a motion type: a straight move.

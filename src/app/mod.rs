@@ -33,6 +33,7 @@ mod editing;
 pub mod error;
 mod exports;
 mod feedback;
+mod history;
 mod imports;
 mod layout;
 mod offer;

@@ -151,7 +151,7 @@ fn changes(path: &str) -> bool {
     };
     !(method.starts_with("Get")
         || method.starts_with("List")
-        || matches!(method, "Predict" | "WhoAmI" | "Teach"))
+        || matches!(method, "Predict" | "WhoAmI" | "Teach" | "DiffProgram"))
 }
 
 /// A status code as the audit trail names it (`OK`, `NOT_FOUND`, …).

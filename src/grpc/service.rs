@@ -7,7 +7,7 @@ use std::sync::Arc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
 
-use crate::api::{CreateProgram, CreateRoutine, ExportQuery, NewToken, Rename};
+use crate::api::{CreateProgram, CreateRoutine, ExportQuery, NewToken, Rename, RestoreProgram};
 use crate::app::audit::Recorder;
 use crate::app::{Action, App, AppError, Caller, Scope};
 
@@ -197,7 +197,10 @@ impl Nextpose for Service {
         let r = self
             .allow(r, Edit, |m| Scope::Program(m.program_id))
             .await?;
-        let query = ExportQuery { format: r.format };
+        let query = ExportQuery {
+            format: r.format,
+            revision: r.revision,
+        };
         reply(self.app.export_program(r.program_id, query).await)
     }
 
@@ -456,6 +459,45 @@ impl Nextpose for Service {
     async fn list_audit(&self, r: Request<pb::ListAuditRequest>) -> Reply<pb::AuditPage> {
         let r = self.allow(r, Inspect, service).await?;
         reply(self.app.audit(r.into()).await)
+    }
+
+    async fn list_program_history(
+        &self,
+        r: Request<pb::ListProgramHistoryRequest>,
+    ) -> Reply<pb::ProgramHistory> {
+        let r = self
+            .allow(r, Read, |m| Scope::Program(m.program_id))
+            .await?;
+        let query = convert::history_query(&r);
+        reply(self.app.program_history(r.program_id, query).await)
+    }
+
+    async fn get_program_revision(
+        &self,
+        r: Request<pb::GetProgramRevisionRequest>,
+    ) -> Reply<pb::ProgramRevision> {
+        let r = self
+            .allow(r, Read, |m| Scope::Program(m.program_id))
+            .await?;
+        reply(self.app.program_revision(r.program_id, r.revision).await)
+    }
+
+    async fn diff_program(&self, r: Request<pb::DiffProgramRequest>) -> Reply<pb::ProgramDiff> {
+        let r = self
+            .allow(r, Read, |m| Scope::Program(m.program_id))
+            .await?;
+        let query = convert::diff_query(&r);
+        reply(self.app.diff_program(r.program_id, query).await)
+    }
+
+    async fn restore_program(&self, r: Request<pb::RestoreProgramRequest>) -> Reply<pb::Restored> {
+        let r = self
+            .allow(r, Edit, |m| Scope::Program(m.program_id))
+            .await?;
+        let input = RestoreProgram {
+            revision: r.revision,
+        };
+        reply(self.app.restore_program(r.program_id, input).await)
     }
 
     async fn who_am_i(&self, r: Request<pb::WhoAmIRequest>) -> Reply<pb::Caller> {

@@ -62,6 +62,14 @@ pub fn operation(method: &Method, route: &str, id: Option<i64>) -> Option<(Actio
         "/v1/programs/{program_id}" if m(Method::PATCH) => (Edit, program),
         "/v1/programs/{program_id}" if m(Method::DELETE) => (Delete, program),
         "/v1/programs/{program_id}/export" if m(Method::GET) => (Edit, program),
+        "/v1/programs/{program_id}/history"
+        | "/v1/programs/{program_id}/history/{revision}"
+        | "/v1/programs/{program_id}/diff"
+            if m(Method::GET) =>
+        {
+            (Read, program)
+        }
+        "/v1/programs/{program_id}/restore" if m(Method::POST) => (Edit, program),
         "/v1/programs/{program_id}/retarget" if m(Method::POST) => (Edit, program),
         "/v1/programs/{program_id}/routines" if m(Method::GET) => (Read, program),
         // Starting a routine is part of teaching.

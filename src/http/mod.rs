@@ -11,6 +11,7 @@ mod audit;
 mod backups;
 mod cells;
 pub mod error;
+mod history;
 mod imports;
 pub(crate) mod middleware;
 pub mod pendant;
@@ -52,6 +53,7 @@ use crate::transport::auth::BearerToken;
     tags(
         (name = "cells", description = "Work cells, each with its own model"),
         (name = "programs", description = "Programs of a cell"),
+        (name = "history", description = "A program's revisions, diffs and restores"),
         (name = "routines", description = "Ordered routines of a program"),
         (name = "teaching", description = "Waypoints, predictions, undo, finish and feedback"),
         (name = "robots", description = "Arm models for reachability checks"),
@@ -82,6 +84,7 @@ fn api() -> OpenApiRouter<Arc<App>> {
         .merge(system::router())
         .merge(cells::router())
         .merge(programs::router())
+        .merge(history::router())
         .merge(routines::router())
         .merge(robots::router())
         .merge(imports::router())

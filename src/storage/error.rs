@@ -18,6 +18,10 @@ pub enum StorageError {
     /// The store cannot take writes (it is shutting down).
     #[error("storage unavailable: {0}")]
     Unavailable(String),
+    /// A program's history does not fit its present state (a fault of the service's, never a
+    /// client's).
+    #[error("program history: {0}")]
+    History(String),
     #[error("database error: {0}")]
     Database(#[from] sqlx::Error),
     #[error("migration failed: {0}")]

@@ -11,7 +11,8 @@
 //! revisions, the waypoints, the predictions). Both are built to the batch's size with named
 //! parameter slots ([`super::slots`]): each value is bound where the SQL names it, so nothing
 //! counts positions; the script's rows say which of its statements returned them (a `returned`
-//! column). Each append's audit row ([`super::audit`]) goes in with it. A failing statement rolls back the whole batch (PostgreSQL aborts the transaction),
+//! column). Each append's audit row ([`super::audit`]) and its program's revision
+//! ([`super::history`]) go in with it. A failing statement rolls back the whole batch (PostgreSQL aborts the transaction),
 //! so the writer then commits the batch's appends one by one, each with its own answer. A stale cell ([`StorageError::Stale`]) is not a failure: that
 //! append is left out and the rest commit.
 
@@ -25,6 +26,7 @@ use super::backend::Backend;
 use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
+use super::history;
 use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow};
 use super::slots::{Params, Run, Slot};
 use super::transaction::{Tx, insert_prediction, insert_waypoint, touch_cell};
@@ -156,9 +158,12 @@ async fn together(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appended>>
         .collect();
     let predictions = insert_prediction_rows(&mut tx, &with_prediction).await?;
     for job in batch {
-        if let Some(r) = &job.audit
-            && states.contains_key(&job.append.cell_id)
-        {
+        if !states.contains_key(&job.append.cell_id) {
+            continue;
+        }
+        let w = &job.append.waypoint;
+        history::record_taught(&mut tx, w.routine_id, w.seq, job.audit.as_ref()).await?;
+        if let Some(r) = &job.audit {
             r.record(&mut tx, Some(job.append.cell_id)).await?;
         }
     }
@@ -265,6 +270,8 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
     // and a batch has many), each kept only while its cell is at the revision expected, and
     // when its request has no row already.
     let audit = params.push(audit_json(batch));
+    // And the programs' revisions, likewise (each append is one of its program's).
+    let revisions = params.push(revisions_json(batch));
     let cells: Vec<String> = waypoints
         .iter()
         .map(|w| format!("(id = {} AND revision = {})", w.cell, w.revision))
@@ -284,6 +291,16 @@ async fn in_one_trip(pool: &AnyPool, batch: &[Job]) -> Result<Vec<Result<Appende
              json_extract(a.value, '$.key') \
            FROM json_each({audit}) a JOIN cells c ON c.id = json_extract(a.value, '$.cell') \
              AND c.revision = json_extract(a.value, '$.revision'); \
+         INSERT INTO program_history (program_id, revision, token, request_id, operation, \
+           changes) \
+           SELECT r.program_id, \
+             (SELECT COALESCE(MAX(h.revision), 0) + 1 FROM program_history h \
+              WHERE h.program_id = r.program_id), \
+             json_extract(a.value, '$.token'), json_extract(a.value, '$.request_id'), \
+             json_extract(a.value, '$.operation'), json_extract(a.value, '$.changes') \
+           FROM json_each({revisions}) a JOIN cells c ON c.id = json_extract(a.value, '$.cell') \
+             AND c.revision = json_extract(a.value, '$.revision') \
+             JOIN routines r ON r.id = json_extract(a.value, '$.routine'); \
          UPDATE cells SET revision = revision + 1 WHERE {cells} \
            RETURNING '{CELL}' AS returned, {state}; \
          COMMIT;",
@@ -355,6 +372,36 @@ fn audit_json(batch: &[Job]) -> String {
                 "target": target,
                 "key": key,
             }))
+        })
+        .collect();
+    serde_json::Value::Array(rows).to_string()
+}
+
+/// The programs' revisions of a batch's appends (each the waypoint added, by whom), as one
+/// JSON array: each entry names its cell and the revision its append was made at (it is
+/// written only while the cell is at it), its routine, who, and its changes (a JSON text).
+fn revisions_json(batch: &[Job]) -> String {
+    let rows: Vec<serde_json::Value> = batch
+        .iter()
+        .map(|job| {
+            let a = &job.append;
+            let [token, request_id, operation, _, _] = job
+                .audit
+                .as_ref()
+                .map_or([None, None, None, None, None], Recorder::values);
+            let added = history::Change::WaypointAdded {
+                routine: a.waypoint.routine_id,
+                seq: a.waypoint.seq,
+            };
+            serde_json::json!({
+                "cell": a.cell_id,
+                "revision": a.expected_revision,
+                "routine": a.waypoint.routine_id,
+                "token": token,
+                "request_id": request_id,
+                "operation": operation,
+                "changes": serde_json::json!([added]).to_string(),
+            })
         })
         .collect();
     serde_json::Value::Array(rows).to_string()
@@ -574,6 +621,13 @@ async fn insert_prediction_rows(
 async fn alone(pool: &AnyPool, job: &Job) -> Result<Appended> {
     let mut tx = pool.begin().await?;
     let done = store(&mut tx, &job.append).await?;
+    history::record_taught(
+        &mut tx,
+        done.row.routine_id,
+        done.row.seq,
+        job.audit.as_ref(),
+    )
+    .await?;
     if let Some(r) = &job.audit {
         r.record(&mut tx, Some(job.append.cell_id)).await?;
     }

@@ -15,7 +15,8 @@
 //! Backups of an SQLite file while it serves are [`backup`]'s.
 //!
 //! [`Store`]'s methods are spread by table: [`cells`], [`programs`], [`routines`],
-//! [`waypoints`], [`predictions`], [`feedback`], [`robots`], [`tokens`]. What they share is written once:
+//! [`waypoints`], [`predictions`], [`feedback`], [`robots`], [`tokens`]; a program's revisions
+//! are [`history`]'s. What they share is written once:
 //! the reads by id ([`query`]), the statements a write makes in its transaction
 //! ([`transaction`]), the rows and their columns ([`rows`]), the order values are bound in
 //! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
@@ -29,6 +30,7 @@ mod cells;
 mod error;
 mod feedback;
 mod group_commit;
+mod history;
 mod predictions;
 mod programs;
 mod query;
@@ -52,6 +54,7 @@ pub use backup::{BackupError, BackupFile, backup_database};
 pub use cell_write::CellWrite;
 pub use error::StorageError;
 pub use group_commit::{Append, Appended};
+pub use history::{Change, ProgramState, RevisionFilter, RevisionRow, RoutineState, WaypointState};
 pub use rows::{
     AuditRow, CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
     NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, TokenRow,

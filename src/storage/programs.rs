@@ -8,6 +8,7 @@ use super::Store;
 use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
+use super::history::{self, Change};
 use super::query::found;
 use super::rows::{CellState, NewImportedRoutine, ProgramRow, Stored, flag};
 use super::transaction::{insert_waypoints, touch_cell};
@@ -116,6 +117,7 @@ impl Store {
                 .await
                 .map_err(classify)?;
             let mut ids = Vec::with_capacity(routines.len());
+            let mut changes = Vec::with_capacity(routines.len());
             for (position, r) in routines.iter().enumerate() {
                 let (id, finish_seq): (i64, Option<i64>) =
                     sqlx::query_as(sqlx::AssertSqlSafe(insert_routine.clone()))
@@ -130,7 +132,13 @@ impl Store {
                 insert_waypoints(&mut tx, id, &r.waypoints).await?;
                 last_finish = finish_seq.or(last_finish);
                 ids.push(id);
+                changes.push(Change::RoutineAdded {
+                    routine: id,
+                    position: position as i64 + 1,
+                    waypoints: r.waypoints.len() as i64,
+                });
             }
+            history::record(&mut tx, program.id, &changes).await?;
             out.push((program, ids));
         }
         tx.commit().await?;

@@ -5,17 +5,18 @@ use super::Store;
 use super::audit;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
-use super::query::found;
+use super::history::{self, Change};
 use super::rows::{CellState, ProgramRow, RoutineRow, WaypointValues, flag};
 use super::transaction::{Places, Tx, close_gap, insert_waypoints, make_room, touch_cell};
 
-/// Adds a routine at the end of `program` (`imported`: one that takes no teaching); returns
-/// its id.
+/// Adds a routine at the end of `program` (`imported`: one that takes no teaching) with
+/// `waypoints`, as a revision of the program; returns its id.
 async fn append_to(
     tx: &mut Tx<'_>,
     program: &ProgramRow,
     name: Option<&str>,
     imported: bool,
+    waypoints: &[WaypointValues],
 ) -> Result<i64> {
     let (id,): (i64,) = sqlx::query_as(
         "INSERT INTO routines (program_id, cell_id, position, name, imported) \
@@ -30,6 +31,13 @@ async fn append_to(
     .fetch_one(&mut **tx)
     .await
     .map_err(classify)?;
+    insert_waypoints(tx, id, waypoints).await?;
+    let change = Change::RoutineAdded {
+        routine: id,
+        position: history::routine_place(tx, id).await?,
+        waypoints: waypoints.len() as i64,
+    };
+    history::record(tx, program.id, &[change]).await?;
     Ok(id)
 }
 
@@ -44,7 +52,7 @@ impl Store {
     ) -> Result<(i64, CellState)> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, program.cell_id, CellWrite::following(expected)).await?;
-        let id = append_to(&mut tx, program, name, false).await?;
+        let id = append_to(&mut tx, program, name, false, &[]).await?;
         tx.commit().await?;
         Ok((id, state))
     }
@@ -59,8 +67,7 @@ impl Store {
         waypoints: &[WaypointValues],
     ) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
-        let id = append_to(&mut tx, program, name, true).await?;
-        insert_waypoints(&mut tx, id, waypoints).await?;
+        let id = append_to(&mut tx, program, name, true, waypoints).await?;
         audit::record(&mut tx, Some(program.cell_id)).await?;
         tx.commit().await?;
         Ok(id)
@@ -147,6 +154,11 @@ impl Store {
             .fetch_one(&mut *tx)
             .await
             .map_err(classify)?;
+        let program = history::program_of(&mut tx, routine_id).await?;
+        let change = Change::RoutineFinished {
+            routine: routine_id,
+        };
+        history::record(&mut tx, program, &[change]).await?;
         tx.commit().await?;
         Ok((row.0, state))
     }
@@ -161,14 +173,17 @@ impl Store {
     ) -> Result<CellState> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, CellWrite::following_alone(expected)).await?;
-        found(
-            sqlx::query(
-                "DELETE FROM routines WHERE id = $1 AND finish_seq IS NULL AND imported = 0",
-            )
-            .bind(routine_id)
-            .execute(&mut *tx)
-            .await?,
-        )?;
+        let (program, removed) = history::removal(&mut tx, routine_id).await?;
+        let (position,): (i64,) = sqlx::query_as(
+            "DELETE FROM routines WHERE id = $1 AND finish_seq IS NULL AND imported = 0 \
+             RETURNING position",
+        )
+        .bind(routine_id)
+        .fetch_optional(&mut *tx)
+        .await?
+        .ok_or(StorageError::NotFound)?;
+        close_gap(&mut tx, Places::Routines, program, position).await?;
+        history::record(&mut tx, program, &[removed]).await?;
         tx.commit().await?;
         Ok(state)
     }
@@ -178,50 +193,67 @@ impl Store {
     // Every edit is one transaction; one that changes a learned routine advances the cell's
     // model version in it (`advance`). Places stay 1, 2, … ([`make_room`], [`close_gap`]).
 
-    /// Renames a routine (None: no name).
-    pub async fn rename_routine(&self, id: i64, name: Option<&str>) -> Result<()> {
+    /// Renames a routine (`name`; `Some(None)`: no name) and/or moves it to place `position`
+    /// of its program (1 = first, clamped to the last; the others keep their order), in one
+    /// transaction and one revision of the program.
+    pub async fn edit_routine(
+        &self,
+        id: i64,
+        name: Option<Option<&str>>,
+        position: Option<i64>,
+    ) -> Result<()> {
         let mut tx = self.pool.begin().await?;
-        found(
+        let (program_id, from, before): (i64, i64, Option<String>) =
+            sqlx::query_as("SELECT program_id, position, name FROM routines WHERE id = $1")
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await?
+                .ok_or(StorageError::NotFound)?;
+        let mut changes = Vec::new();
+        if let Some(name) = name {
             sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
                 .bind(name)
                 .bind(id)
                 .execute(&mut *tx)
                 .await
-                .map_err(classify)?,
-        )?;
-        audit::record(&mut tx, None).await?;
-        tx.commit().await?;
-        Ok(())
-    }
-
-    /// Moves a routine to place `position` of its program (1 = first, clamped to the last);
-    /// the others keep their order.
-    pub async fn move_routine(&self, id: i64, position: i64) -> Result<()> {
-        let mut tx = self.pool.begin().await?;
-        let (program_id, from): (i64, i64) =
-            sqlx::query_as("SELECT program_id, position FROM routines WHERE id = $1")
+                .map_err(classify)?;
+            if before.as_deref() != name {
+                changes.push(Change::RoutineRenamed {
+                    routine: id,
+                    before,
+                });
+            }
+        }
+        if let Some(position) = position {
+            let (count,): (i64,) =
+                sqlx::query_as("SELECT COUNT(*) FROM routines WHERE program_id = $1")
+                    .bind(program_id)
+                    .fetch_one(&mut *tx)
+                    .await?;
+            let to = position.clamp(1, count.max(1));
+            let was = history::routine_place(&mut tx, id).await?;
+            // Out of the way (place 0), the others closed up, opened at `to`, then back in.
+            sqlx::query("UPDATE routines SET position = 0 WHERE id = $1")
                 .bind(id)
-                .fetch_optional(&mut *tx)
-                .await?
-                .ok_or(StorageError::NotFound)?;
-        let (count,): (i64,) =
-            sqlx::query_as("SELECT COUNT(*) FROM routines WHERE program_id = $1")
-                .bind(program_id)
-                .fetch_one(&mut *tx)
+                .execute(&mut *tx)
                 .await?;
-        let to = position.clamp(1, count.max(1));
-        // Out of the way (place 0), the others closed up, opened at `to`, then back in.
-        sqlx::query("UPDATE routines SET position = 0 WHERE id = $1")
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
-        close_gap(&mut tx, Places::Routines, program_id, from).await?;
-        make_room(&mut tx, Places::Routines, program_id, to).await?;
-        sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
-            .bind(to)
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
+            close_gap(&mut tx, Places::Routines, program_id, from).await?;
+            make_room(&mut tx, Places::Routines, program_id, to).await?;
+            sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
+                .bind(to)
+                .bind(id)
+                .execute(&mut *tx)
+                .await?;
+            let now = history::routine_place(&mut tx, id).await?;
+            if now != was {
+                changes.push(Change::RoutineMoved {
+                    routine: id,
+                    from: was,
+                    to: now,
+                });
+            }
+        }
+        history::record(&mut tx, program_id, &changes).await?;
         audit::record(&mut tx, None).await?;
         tx.commit().await?;
         Ok(())
@@ -232,6 +264,7 @@ impl Store {
     pub async fn delete_routine(&self, id: i64, cell_id: i64, write: CellWrite) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, write).await?;
+        let (_, removed) = history::removal(&mut tx, id).await?;
         let (program_id, position): (i64, i64) =
             sqlx::query_as("DELETE FROM routines WHERE id = $1 RETURNING program_id, position")
                 .bind(id)
@@ -239,6 +272,7 @@ impl Store {
                 .await?
                 .ok_or(StorageError::NotFound)?;
         close_gap(&mut tx, Places::Routines, program_id, position).await?;
+        history::record(&mut tx, program_id, &[removed]).await?;
         tx.commit().await?;
         Ok(state.model_version)
     }

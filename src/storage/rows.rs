@@ -297,7 +297,7 @@ impl Stored for WaypointRow {
 }
 
 /// A waypoint's values as an edit sets them (its routine and place stay).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WaypointValues {
     pub pose: PoseValues,
     pub joints: Option<String>,
@@ -307,6 +307,17 @@ pub struct WaypointValues {
 }
 
 impl WaypointValues {
+    /// A stored waypoint's values.
+    pub fn of(row: &WaypointRow) -> WaypointValues {
+        WaypointValues {
+            pose: row.pose,
+            joints: row.joints.clone(),
+            motion: row.motion.clone(),
+            name: row.name.clone(),
+            reachable: row.reachable,
+        }
+    }
+
     /// These values at place `seq` of a routine, ready to insert.
     pub(super) fn at(&self, routine_id: i64, seq: i64) -> NewWaypoint {
         NewWaypoint {

@@ -6,6 +6,7 @@ use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::group_commit::{Append, Appended};
+use super::history::{self, Change};
 use super::query::select;
 use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues};
 use super::transaction::{self, Places, close_gap, insert_prediction, make_room, touch_cell};
@@ -62,8 +63,19 @@ impl Store {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
         let mut out = Vec::with_capacity(appends.len());
+        // The program's revision: one per program (a trajectory is taught into one routine).
+        let mut revisions: Vec<(i64, Vec<Change>)> = Vec::new();
         for (waypoint, prediction) in appends {
             let row = transaction::insert_waypoint(&mut tx, waypoint).await?;
+            let program = history::program_of(&mut tx, row.routine_id).await?;
+            let added = Change::WaypointAdded {
+                routine: row.routine_id,
+                seq: row.seq,
+            };
+            match revisions.iter_mut().find(|(p, _)| *p == program) {
+                Some((_, changes)) => changes.push(added),
+                None => revisions.push((program, vec![added])),
+            }
             let prediction_id = match prediction {
                 Some(p) => Some(insert_prediction(&mut tx, p, Some(row.id)).await?),
                 None => None,
@@ -74,6 +86,9 @@ impl Store {
                 revision: state.revision,
                 batch: 1,
             });
+        }
+        for (program, changes) in &revisions {
+            history::record(&mut tx, *program, changes).await?;
         }
         tx.commit().await?;
         Ok(out)
@@ -98,10 +113,11 @@ impl Store {
             .bind(routine_id)
             .fetch_optional(&mut *tx)
             .await?;
-        if row.is_none() {
+        let Some(undone) = &row else {
             // Nothing to undo: nothing changed (the revision stays).
             return Ok((None, state));
-        }
+        };
+        record_removal(&mut tx, undone).await?;
         tx.commit().await?;
         Ok((row, state))
     }
@@ -136,6 +152,16 @@ impl Store {
             .fetch_one(&mut *tx)
             .await
             .map_err(classify)?;
+        let was = WaypointValues::of(&before);
+        if was != WaypointValues::of(&after) {
+            let program = history::program_of(&mut tx, after.routine_id).await?;
+            let change = Change::WaypointModified {
+                routine: after.routine_id,
+                waypoint: id,
+                before: was,
+            };
+            history::record(&mut tx, program, &[change]).await?;
+        }
         tx.commit().await?;
         Ok((before, after, state.model_version))
     }
@@ -154,6 +180,12 @@ impl Store {
         let state = touch_cell(&mut tx, cell_id, write).await?;
         make_room(&mut tx, Places::Waypoints, routine_id, seq).await?;
         let row = transaction::insert_waypoint(&mut tx, &v.at(routine_id, seq)).await?;
+        let program = history::program_of(&mut tx, routine_id).await?;
+        let change = Change::WaypointAdded {
+            routine: routine_id,
+            seq: row.seq,
+        };
+        history::record(&mut tx, program, &[change]).await?;
         tx.commit().await?;
         Ok((row, state.model_version))
     }
@@ -178,7 +210,23 @@ impl Store {
             .await?
             .ok_or(StorageError::NotFound)?;
         close_gap(&mut tx, Places::Waypoints, row.routine_id, row.seq).await?;
+        record_removal(&mut tx, &row).await?;
         tx.commit().await?;
         Ok((row, state.model_version))
     }
+}
+
+/// The revision of a waypoint taken out of its routine (undone or deleted).
+async fn record_removal(tx: &mut transaction::Tx<'_>, row: &WaypointRow) -> Result<()> {
+    let program = history::program_of(tx, row.routine_id).await?;
+    let change = Change::WaypointRemoved {
+        routine: row.routine_id,
+        seq: row.seq,
+        waypoint: history::WaypointState {
+            id: row.id,
+            values: WaypointValues::of(row),
+        },
+    };
+    history::record(tx, program, &[change]).await?;
+    Ok(())
 }

@@ -14,6 +14,7 @@ mod export;
 mod feedback;
 mod grpc;
 mod helpers;
+mod history;
 mod import;
 mod instances;
 mod openapi;

@@ -91,7 +91,7 @@ fn the_spec_states_the_enforced_limits() {
             );
         }
     }
-    assert_eq!(json_posts, 17, "POST routes taking JSON");
+    assert_eq!(json_posts, 18, "POST routes taking JSON");
 
     let schemas = &spec["components"]["schemas"];
     let prop = |schema: &str, field: &str| schemas[schema]["properties"][field].clone();

@@ -249,6 +249,30 @@ fn routes(f: &Fixture, n: usize) -> Vec<(Method, String, Value, Need)> {
             Engineer,
         ),
         (
+            Method::GET,
+            format!("/v1/programs/{p}/history"),
+            json!(null),
+            Operator,
+        ),
+        (
+            Method::GET,
+            format!("/v1/programs/{p}/history/1"),
+            json!(null),
+            Operator,
+        ),
+        (
+            Method::GET,
+            format!("/v1/programs/{p}/diff?from=0"),
+            json!(null),
+            Operator,
+        ),
+        (
+            Method::POST,
+            format!("/v1/programs/{p}/restore"),
+            json!({ "revision": 1 }),
+            Engineer,
+        ),
+        (
             Method::POST,
             format!("/v1/programs/{p}/retarget"),
             json!({ "frame": pose, "name": format!("moved-{n}") }),
@@ -589,4 +613,49 @@ async fn a_token_limited_to_some_cells_lists_only_those() {
     assert_eq!(me["cells"], json!([mine]));
     app.token = Some(engineer);
     assert_eq!(ids(app.get_ok("/v1/cells").await).len(), 2);
+}
+
+/// The matrix is every route: each operation of the service's OpenAPI document has an entry
+/// (its template's `{…}` segments matching the entry's ids).
+#[tokio::test]
+async fn the_matrix_has_every_route_of_the_openapi_document() {
+    let app = spawn_app().await;
+    let f = fixture(&app, 0).await;
+    let entries: Vec<(Method, String)> = routes(&f, 0)
+        .into_iter()
+        .map(|(m, p, _, _)| (m, p.split('?').next().unwrap_or_default().to_string()))
+        .collect();
+    let matches = |template: &str, path: &str| {
+        let (t, p): (Vec<&str>, Vec<&str>) =
+            (template.split('/').collect(), path.split('/').collect());
+        t.len() == p.len() && t.iter().zip(&p).all(|(a, b)| a == b || a.starts_with('{'))
+    };
+    let doc = nextpose::http::openapi();
+    let mut missing = Vec::new();
+    for (template, item) in &doc.paths.paths {
+        if template == "/healthz" {
+            // Open to anyone, token or not: a load balancer's liveness probe.
+            continue;
+        }
+        let methods = [
+            (Method::GET, item.get.is_some()),
+            (Method::POST, item.post.is_some()),
+            (Method::PATCH, item.patch.is_some()),
+            (Method::PUT, item.put.is_some()),
+            (Method::DELETE, item.delete.is_some()),
+        ];
+        for (method, present) in methods {
+            if present
+                && !entries
+                    .iter()
+                    .any(|(m, p)| *m == method && matches(template, p))
+            {
+                missing.push(format!("{method} {template}"));
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "routes missing from the matrix: {missing:?}"
+    );
 }

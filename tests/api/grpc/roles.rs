@@ -98,6 +98,10 @@ const METHODS: &[(&str, Need, bool)] = &[
     ("RevokeToken", Need::Admin, false),
     ("WhoAmI", Need::Operator, false),
     ("ListAudit", Need::Engineer, false),
+    ("ListProgramHistory", Need::Operator, true),
+    ("GetProgramRevision", Need::Operator, true),
+    ("DiffProgram", Need::Operator, true),
+    ("RestoreProgram", Need::Engineer, true),
 ];
 
 /// Sets up, as the admin, what `method` needs beyond the fixture to succeed (before the
@@ -211,6 +215,37 @@ async fn call(c: &mut Client, method: &str, f: &Fixture, n: usize) -> Result<(),
             .export_program(pb::ExportProgramRequest {
                 program_id: f.program,
                 format: "rapid".into(),
+                revision: None,
+            })
+            .await
+            .map(drop),
+        "ListProgramHistory" => c
+            .list_program_history(pb::ListProgramHistoryRequest {
+                program_id: f.program,
+                before: None,
+                limit: None,
+            })
+            .await
+            .map(drop),
+        "GetProgramRevision" => c
+            .get_program_revision(pb::GetProgramRevisionRequest {
+                program_id: f.program,
+                revision: 1,
+            })
+            .await
+            .map(drop),
+        "DiffProgram" => c
+            .diff_program(pb::DiffProgramRequest {
+                program_id: f.program,
+                from: 0,
+                to: None,
+            })
+            .await
+            .map(drop),
+        "RestoreProgram" => c
+            .restore_program(pb::RestoreProgramRequest {
+                program_id: f.program,
+                revision: 1,
             })
             .await
             .map(drop),

@@ -368,6 +368,7 @@ async fn export_over_grpc_gives_the_files_rest_gives() {
             .export_program(pb::ExportProgramRequest {
                 program_id: program,
                 format: format.into(),
+                revision: None,
             })
             .await
             .expect("export")
@@ -390,6 +391,7 @@ async fn export_over_grpc_gives_the_files_rest_gives() {
         .export_program(pb::ExportProgramRequest {
             program_id: program,
             format: "basic".into(),
+            revision: None,
         })
         .await
         .expect_err("unknown format");
@@ -474,4 +476,96 @@ async fn a_calibration_routine_over_grpc_sets_what_rest_sets() {
         .await
         .expect_err("two poses");
     assert_eq!(e.code(), Code::InvalidArgument, "{e:?}");
+}
+
+/// A program's history over gRPC is REST's: the revisions, the program as of one, a diff and a
+/// restore answer the same, and a revision the program does not have is INVALID_ARGUMENT.
+#[tokio::test]
+async fn history_over_grpc_matches_rest() {
+    use nextpose::api::{ProgramDiff, ProgramHistory, ProgramRevision, Restored};
+
+    let app = spawn_app().await;
+    let cell = app.create_cell("history-grpc").await;
+    let program = app.create_program(cell, "p").await;
+    let (routine, _) = app
+        .teach_routine(program, &u_seam([400.0, 0.0, 300.0], 0.0))
+        .await;
+    let detail = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    let w = detail["waypoints"][2]["id"].as_i64().expect("id");
+    let moved = pose([420.0, 10.0, 300.0], [3.1, 0.0, 0.3]);
+    app.patch(
+        &format!("/v1/waypoints/{w}"),
+        &serde_json::json!({ "pose": moved }),
+    )
+    .await;
+    let mut c = client(&app).await;
+
+    let rest: ProgramHistory =
+        serde_json::from_value(app.get_ok(&format!("/v1/programs/{program}/history")).await)
+            .expect("history");
+    let grpc = c
+        .list_program_history(pb::ListProgramHistoryRequest {
+            program_id: program,
+            before: None,
+            limit: None,
+        })
+        .await
+        .expect("history")
+        .into_inner();
+    assert_eq!(ProgramHistory::try_from(grpc).expect("converts"), rest);
+
+    let rest: ProgramRevision = serde_json::from_value(
+        app.get_ok(&format!("/v1/programs/{program}/history/3"))
+            .await,
+    )
+    .expect("revision");
+    let grpc = c
+        .get_program_revision(pb::GetProgramRevisionRequest {
+            program_id: program,
+            revision: 3,
+        })
+        .await
+        .expect("revision")
+        .into_inner();
+    assert_eq!(ProgramRevision::try_from(grpc).expect("converts"), rest);
+
+    let rest: ProgramDiff = serde_json::from_value(
+        app.get_ok(&format!("/v1/programs/{program}/diff?from=2"))
+            .await,
+    )
+    .expect("diff");
+    let grpc = c
+        .diff_program(pb::DiffProgramRequest {
+            program_id: program,
+            from: 2,
+            to: None,
+        })
+        .await
+        .expect("diff")
+        .into_inner();
+    assert_eq!(ProgramDiff::try_from(grpc).expect("converts"), rest);
+
+    let missing = c
+        .get_program_revision(pb::GetProgramRevisionRequest {
+            program_id: program,
+            revision: 99,
+        })
+        .await
+        .expect_err("no revision 99");
+    assert_eq!(missing.code(), Code::InvalidArgument);
+
+    let last = rest.to;
+    let restored = c
+        .restore_program(pb::RestoreProgramRequest {
+            program_id: program,
+            revision: last - 1,
+        })
+        .await
+        .expect("restore")
+        .into_inner();
+    let restored = Restored::try_from(restored).expect("converts");
+    assert!(restored.changed);
+    assert_eq!(restored.revision, last + 1);
+    let now = app.get_ok(&format!("/v1/routines/{routine}")).await;
+    assert_eq!(now["waypoints"][2]["pose"], detail["waypoints"][2]["pose"]);
 }

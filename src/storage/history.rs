@@ -1,0 +1,650 @@
+//! Program history: every change to a program's routines or waypoints is a revision (1, 2, …
+//! per program), written by the change's own transaction ([`record`]), with who made it (the
+//! request's token, request id and operation, as in the audit trail).
+//!
+//! A revision stores its [`Change`]s, not a copy of the program: each holds what it takes to
+//! take the change back (the values a waypoint had before an edit, a deleted routine with its
+//! waypoints) and nothing more (a taught or imported waypoint is where the program now has it).
+//! The program as of revision `n` is its present state with the revisions after `n` taken back
+//! in reverse order ([`ProgramState::take_back`]); revision 0 is the program when its history
+//! began. A restore ([`Store::restore_program`]) writes the changes that make the program
+//! equal to an earlier state as one more revision, keeping the ids of what it brings back.
+
+use serde::{Deserialize, Serialize};
+
+use super::Store;
+use super::audit::Recorder;
+use super::binds::Binds;
+use super::cell_write::CellWrite;
+use super::error::{Result, StorageError, classify};
+use super::query::select;
+use super::rows::{CellState, RoutineRow, Stored, WaypointRow, WaypointValues, flag};
+use super::slots::Params;
+use super::transaction::{Places, Tx, close_gap, make_room, touch_cell};
+
+/// One change to a program, as its revision stores it. Places (`seq`, `position`) are
+/// 1-based and as they were at the moment of the change.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "change", rename_all = "snake_case")]
+pub enum Change {
+    /// A waypoint was put in at place `seq` (taught, inserted, brought back by a restore).
+    WaypointAdded { routine: i64, seq: i64 },
+    /// A waypoint was taken out of place `seq` (undone or deleted).
+    WaypointRemoved {
+        routine: i64,
+        seq: i64,
+        waypoint: WaypointState,
+    },
+    /// A waypoint's values were changed; `before` is what they were.
+    WaypointModified {
+        routine: i64,
+        waypoint: i64,
+        before: WaypointValues,
+    },
+    /// A routine was put in at place `position` with `waypoints` waypoints (a new routine to
+    /// teach, an import, a re-targeted copy, a routine brought back by a restore).
+    RoutineAdded {
+        routine: i64,
+        position: i64,
+        waypoints: i64,
+    },
+    /// A routine was deleted from place `position`, with everything it held.
+    RoutineRemoved {
+        position: i64,
+        routine: RoutineState,
+    },
+    /// A routine was renamed; `before` is its name then.
+    RoutineRenamed {
+        routine: i64,
+        before: Option<String>,
+    },
+    /// A routine was moved from place `from` to place `to`.
+    RoutineMoved { routine: i64, from: i64, to: i64 },
+    /// A routine being taught was finished (the cell's model learned it).
+    RoutineFinished { routine: i64 },
+    /// The routines were put in another order (a restore); `before` is the order then.
+    RoutinesReordered { before: Vec<i64> },
+}
+
+/// A program's routines and waypoints, now or as of a revision.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ProgramState {
+    /// In program order.
+    pub routines: Vec<RoutineState>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RoutineState {
+    pub id: i64,
+    pub name: Option<String>,
+    /// Imported from an offline program.
+    pub imported: bool,
+    /// Learned by the cell's model (finished, or imported to be learned).
+    pub learned: bool,
+    /// In order.
+    pub waypoints: Vec<WaypointState>,
+}
+
+impl RoutineState {
+    /// Being taught (neither finished nor imported).
+    pub fn open(&self) -> bool {
+        !self.imported && !self.learned
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WaypointState {
+    pub id: i64,
+    #[serde(flatten)]
+    pub values: WaypointValues,
+}
+
+/// A revision as listed.
+#[derive(Debug, Clone, sqlx::FromRow)]
+pub struct RevisionRow {
+    pub program_id: i64,
+    pub revision: i64,
+    pub at: String,
+    pub token: Option<String>,
+    pub request_id: Option<String>,
+    pub operation: Option<String>,
+    /// JSON array of [`Change`]s.
+    pub changes: String,
+}
+
+impl Stored for RevisionRow {
+    const COLUMNS: &'static str = "program_id, revision, at, token, request_id, operation, changes";
+    const FROM: &'static str = "program_history";
+}
+
+impl RevisionRow {
+    pub fn changes(&self) -> Result<Vec<Change>> {
+        serde_json::from_str(&self.changes).map_err(|e| {
+            StorageError::History(format!(
+                "revision {} of program {}: {e}",
+                self.revision, self.program_id
+            ))
+        })
+    }
+}
+
+fn inconsistent(what: String) -> StorageError {
+    StorageError::History(what)
+}
+
+impl ProgramState {
+    fn routine_mut(&mut self, id: i64) -> Result<&mut RoutineState> {
+        self.routines
+            .iter_mut()
+            .find(|r| r.id == id)
+            .ok_or_else(|| inconsistent(format!("routine {id} is not in the program")))
+    }
+
+    fn index_of(&self, id: i64) -> Result<usize> {
+        self.routines
+            .iter()
+            .position(|r| r.id == id)
+            .ok_or_else(|| inconsistent(format!("routine {id} is not in the program")))
+    }
+
+    /// The state before `change`, from the state after it.
+    pub fn take_back(&mut self, change: &Change) -> Result<()> {
+        match change {
+            Change::WaypointAdded { routine, seq } => {
+                let r = self.routine_mut(*routine)?;
+                let at = place(*seq, r.waypoints.len())?;
+                r.waypoints.remove(at);
+            }
+            Change::WaypointRemoved {
+                routine,
+                seq,
+                waypoint,
+            } => {
+                let r = self.routine_mut(*routine)?;
+                let at = place(*seq, r.waypoints.len() + 1)?;
+                r.waypoints.insert(at, waypoint.clone());
+            }
+            Change::WaypointModified {
+                routine,
+                waypoint,
+                before,
+            } => {
+                let r = self.routine_mut(*routine)?;
+                let w = r
+                    .waypoints
+                    .iter_mut()
+                    .find(|w| w.id == *waypoint)
+                    .ok_or_else(|| inconsistent(format!("waypoint {waypoint} is not there")))?;
+                w.values = before.clone();
+            }
+            Change::RoutineAdded { routine, .. } => {
+                let at = self.index_of(*routine)?;
+                self.routines.remove(at);
+            }
+            Change::RoutineRemoved { position, routine } => {
+                let at = place(*position, self.routines.len() + 1)?;
+                self.routines.insert(at, routine.clone());
+            }
+            Change::RoutineRenamed { routine, before } => {
+                self.routine_mut(*routine)?.name = before.clone();
+            }
+            Change::RoutineMoved { routine, from, to } => {
+                let at = self.index_of(*routine)?;
+                if at + 1 != *to as usize {
+                    return Err(inconsistent(format!(
+                        "routine {routine} is at place {}, not {to}",
+                        at + 1
+                    )));
+                }
+                let r = self.routines.remove(at);
+                let back = place(*from, self.routines.len() + 1)?;
+                self.routines.insert(back, r);
+            }
+            Change::RoutineFinished { routine } => {
+                self.routine_mut(*routine)?.learned = false;
+            }
+            Change::RoutinesReordered { before } => {
+                let mut by_id: Vec<Option<RoutineState>> = std::mem::take(&mut self.routines)
+                    .into_iter()
+                    .map(Some)
+                    .collect();
+                for id in before {
+                    let r = by_id
+                        .iter_mut()
+                        .find(|r| r.as_ref().is_some_and(|r| r.id == *id))
+                        .and_then(Option::take)
+                        .ok_or_else(|| inconsistent(format!("routine {id} is not there")))?;
+                    self.routines.push(r);
+                }
+                if by_id.iter().any(Option::is_some) {
+                    return Err(inconsistent("a reordering lost a routine".into()));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The index of 1-based place `n` in a list that has `len` places.
+fn place(n: i64, len: usize) -> Result<usize> {
+    match usize::try_from(n) {
+        Ok(n) if (1..=len).contains(&n) => Ok(n - 1),
+        _ => Err(inconsistent(format!("place {n} of {len}"))),
+    }
+}
+
+/// Writes `changes` to `program` as its next revision, in `tx`; returns the revision's number
+/// (with no changes, nothing is written and the last revision is answered).
+pub(super) async fn record(tx: &mut Tx<'_>, program: i64, changes: &[Change]) -> Result<i64> {
+    record_for(tx, program, changes, Recorder::current().as_ref()).await
+}
+
+/// [`record`] for the request `recorder` (None: no request), which may be another task's (the
+/// append writer's jobs carry theirs).
+async fn record_for(
+    tx: &mut Tx<'_>,
+    program: i64,
+    changes: &[Change],
+    recorder: Option<&Recorder>,
+) -> Result<i64> {
+    if changes.is_empty() {
+        return last_revision(tx, program).await;
+    }
+    let json = serde_json::to_string(changes)
+        .map_err(|e| inconsistent(format!("a change could not be written: {e}")))?;
+    let [token, request_id, operation, _, _] =
+        recorder.map_or([None, None, None, None, None], Recorder::values);
+    let (revision,): (i64,) = sqlx::query_as(
+        "INSERT INTO program_history (program_id, revision, token, request_id, operation, \
+           changes) \
+         VALUES ($1, (SELECT COALESCE(MAX(revision), 0) + 1 FROM program_history \
+                      WHERE program_id = $1), $2, $3, $4, $5) \
+         RETURNING revision",
+    )
+    .bind(program)
+    .bind(token)
+    .bind(request_id)
+    .bind(operation)
+    .bind(json)
+    .fetch_one(&mut **tx)
+    .await
+    .map_err(classify)?;
+    Ok(revision)
+}
+
+/// A waypoint taught (appended) to `routine` at `seq` in the request `recorder`, as the next
+/// revision of its program.
+pub(super) async fn record_taught(
+    tx: &mut Tx<'_>,
+    routine: i64,
+    seq: i64,
+    recorder: Option<&Recorder>,
+) -> Result<()> {
+    let program = program_of(tx, routine).await?;
+    let change = Change::WaypointAdded { routine, seq };
+    record_for(tx, program, &[change], recorder).await?;
+    Ok(())
+}
+
+/// The program a routine is part of.
+pub(super) async fn program_of(tx: &mut Tx<'_>, routine: i64) -> Result<i64> {
+    let (program,): (i64,) = sqlx::query_as("SELECT program_id FROM routines WHERE id = $1")
+        .bind(routine)
+        .fetch_optional(&mut **tx)
+        .await?
+        .ok_or(StorageError::NotFound)?;
+    Ok(program)
+}
+
+/// A routine as it is in `tx`, with its waypoints.
+pub(super) async fn routine_state(tx: &mut Tx<'_>, routine: &RoutineRow) -> Result<RoutineState> {
+    let rows = select::<WaypointRow>("WHERE routine_id = $1 ORDER BY seq", &[routine.id])
+        .fetch_all(&mut **tx)
+        .await?;
+    Ok(RoutineState {
+        id: routine.id,
+        name: routine.name.clone(),
+        imported: routine.imported,
+        learned: routine.learned(),
+        waypoints: rows
+            .iter()
+            .map(|w| WaypointState {
+                id: w.id,
+                values: WaypointValues::of(w),
+            })
+            .collect(),
+    })
+}
+
+/// A program as it is in `tx`.
+async fn program_state(tx: &mut Tx<'_>, program: i64) -> Result<ProgramState> {
+    let routines = select::<RoutineRow>("WHERE r.program_id = $1 ORDER BY r.position", &[program])
+        .fetch_all(&mut **tx)
+        .await?;
+    let mut state = ProgramState::default();
+    for r in &routines {
+        state.routines.push(routine_state(tx, r).await?);
+    }
+    Ok(state)
+}
+
+/// The number of a program's last revision (0: none yet).
+async fn last_revision(conn: &mut sqlx::AnyConnection, program: i64) -> Result<i64> {
+    let (n,): (i64,) = sqlx::query_as(
+        "SELECT COALESCE(MAX(revision), 0) FROM program_history WHERE program_id = $1",
+    )
+    .bind(program)
+    .fetch_one(conn)
+    .await?;
+    Ok(n)
+}
+
+/// Which revisions [`Store::revisions`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RevisionFilter {
+    /// Only revisions before this one (the next page of a newest-first listing).
+    pub before: Option<i64>,
+    pub limit: i64,
+}
+
+impl Store {
+    /// The number of a program's last revision (0: none yet).
+    pub async fn last_revision(&self, program: i64) -> Result<i64> {
+        last_revision(&mut *self.pool.acquire().await?, program).await
+    }
+
+    /// A program's revisions, newest first.
+    pub async fn revisions(
+        &self,
+        program: i64,
+        filter: RevisionFilter,
+    ) -> Result<Vec<RevisionRow>> {
+        let sql = format!(
+            "SELECT {} FROM {} WHERE program_id = $1 AND ($2 IS NULL OR revision < $2) \
+             ORDER BY revision DESC LIMIT $3",
+            RevisionRow::COLUMNS,
+            RevisionRow::FROM
+        );
+        Ok(sqlx::query_as::<_, RevisionRow>(sqlx::AssertSqlSafe(sql))
+            .bind(program)
+            .bind(filter.before)
+            .bind(filter.limit)
+            .fetch_all(&self.pool)
+            .await?)
+    }
+
+    /// A program as of `revision` (None: as it is now), and its last revision. NotFound when
+    /// the program has no such revision.
+    pub async fn program_as_of(
+        &self,
+        program: i64,
+        revision: Option<i64>,
+    ) -> Result<(ProgramState, i64)> {
+        // One transaction: the state and the revisions to take back are read at one moment.
+        let mut tx = self.pool.begin().await?;
+        let last = last_revision(&mut tx, program).await?;
+        let mut state = program_state(&mut tx, program).await?;
+        let revision = revision.unwrap_or(last);
+        if !(0..=last).contains(&revision) {
+            return Err(StorageError::NotFound);
+        }
+        let later = format!(
+            "SELECT {} FROM {} WHERE program_id = $1 AND revision > $2 ORDER BY revision DESC",
+            RevisionRow::COLUMNS,
+            RevisionRow::FROM
+        );
+        let rows = sqlx::query_as::<_, RevisionRow>(sqlx::AssertSqlSafe(later))
+            .bind(program)
+            .bind(revision)
+            .fetch_all(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        for row in &rows {
+            for change in row.changes()?.iter().rev() {
+                state.take_back(change)?;
+            }
+        }
+        Ok((state, last))
+    }
+
+    /// Makes the program `program` of cell `cell_id` equal to `target` (its routines, their
+    /// names, order and waypoints; a routine there now keeps whether it is finished), as one
+    /// revision, in one transaction; what comes back keeps its ids. `last` is the program's
+    /// last revision when `target` was read: refused with `Stale` when it has moved on.
+    /// Returns the new revision (None: nothing differed, nothing written) and the cell's
+    /// state.
+    pub async fn restore_program(
+        &self,
+        program: i64,
+        cell_id: i64,
+        last: i64,
+        target: &ProgramState,
+        write: CellWrite,
+    ) -> Result<(Option<i64>, CellState)> {
+        let mut tx = self.pool.begin().await?;
+        let state = touch_cell(&mut tx, cell_id, write).await?;
+        if last_revision(&mut tx, program).await? != last {
+            return Err(StorageError::Stale {
+                cell: cell_id,
+                expected: last,
+            });
+        }
+        let mut work = program_state(&mut tx, program).await?;
+        let mut changes = Vec::new();
+        // Routines not in the target go, with their waypoints.
+        while let Some(at) = work
+            .routines
+            .iter()
+            .position(|r| !target.routines.iter().any(|t| t.id == r.id))
+        {
+            let r = work.routines.remove(at);
+            sqlx::query("DELETE FROM routines WHERE id = $1")
+                .bind(r.id)
+                .execute(&mut *tx)
+                .await?;
+            close_gap(&mut tx, Places::Routines, program, at as i64 + 1).await?;
+            changes.push(Change::RoutineRemoved {
+                position: at as i64 + 1,
+                routine: r,
+            });
+        }
+        // Routines in both: their names and waypoints.
+        for t in &target.routines {
+            let Some(r) = work.routines.iter_mut().find(|r| r.id == t.id) else {
+                continue;
+            };
+            if r.name != t.name {
+                sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
+                    .bind(t.name.clone())
+                    .bind(r.id)
+                    .execute(&mut *tx)
+                    .await?;
+                changes.push(Change::RoutineRenamed {
+                    routine: r.id,
+                    before: std::mem::replace(&mut r.name, t.name.clone()),
+                });
+            }
+            restore_waypoints(&mut tx, r, t, &mut changes).await?;
+        }
+        // Routines only in the target come back at the end, with their waypoints.
+        for t in &target.routines {
+            if work.routines.iter().any(|r| r.id == t.id) {
+                continue;
+            }
+            let position = work.routines.len() as i64 + 1;
+            bring_back(&mut tx, program, cell_id, position, t, self.backend.now()).await?;
+            work.routines.push(t.clone());
+            changes.push(Change::RoutineAdded {
+                routine: t.id,
+                position,
+                waypoints: t.waypoints.len() as i64,
+            });
+        }
+        // And the target's order.
+        let order: Vec<i64> = target.routines.iter().map(|r| r.id).collect();
+        let now: Vec<i64> = work.routines.iter().map(|r| r.id).collect();
+        if now != order {
+            for (i, id) in order.iter().enumerate() {
+                sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
+                    .bind(-(i as i64 + 1))
+                    .bind(id)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            sqlx::query("UPDATE routines SET position = -position WHERE program_id = $1")
+                .bind(program)
+                .execute(&mut *tx)
+                .await?;
+            changes.push(Change::RoutinesReordered { before: now });
+        }
+        if changes.is_empty() {
+            // Nothing differed: nothing is written (the cell's revision stays).
+            return Ok((None, state));
+        }
+        let revision = record(&mut tx, program, &changes).await?;
+        tx.commit().await?;
+        Ok((Some(revision), state))
+    }
+}
+
+/// Makes routine `r`'s waypoints (now in the database and in `r`) those of `t`.
+async fn restore_waypoints(
+    tx: &mut Tx<'_>,
+    r: &mut RoutineState,
+    t: &RoutineState,
+    changes: &mut Vec<Change>,
+) -> Result<()> {
+    while let Some(at) = r
+        .waypoints
+        .iter()
+        .position(|w| !t.waypoints.iter().any(|x| x.id == w.id))
+    {
+        let w = r.waypoints.remove(at);
+        sqlx::query("DELETE FROM waypoints WHERE id = $1")
+            .bind(w.id)
+            .execute(&mut **tx)
+            .await?;
+        close_gap(tx, Places::Waypoints, r.id, at as i64 + 1).await?;
+        changes.push(Change::WaypointRemoved {
+            routine: r.id,
+            seq: at as i64 + 1,
+            waypoint: w,
+        });
+    }
+    for (at, x) in t.waypoints.iter().enumerate() {
+        let seq = at as i64 + 1;
+        match r.waypoints.iter_mut().find(|w| w.id == x.id) {
+            Some(w) => {
+                if w.values != x.values {
+                    let v = &x.values;
+                    sqlx::query(
+                        "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, qx = $5, qy = $6, \
+                         qz = $7, joints = $8, motion = $9, name = $10, reachable = $11 \
+                         WHERE id = $12",
+                    )
+                    .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
+                    .bind(x.id)
+                    .execute(&mut **tx)
+                    .await?;
+                    changes.push(Change::WaypointModified {
+                        routine: r.id,
+                        waypoint: x.id,
+                        before: std::mem::replace(&mut w.values, x.values.clone()),
+                    });
+                }
+            }
+            None => {
+                // The waypoints kept are in the target's order: this one's place is free.
+                make_room(tx, Places::Waypoints, r.id, seq).await?;
+                insert_with_id(tx, r.id, seq, x).await?;
+                r.waypoints.insert(at, x.clone());
+                changes.push(Change::WaypointAdded { routine: r.id, seq });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Puts a routine of the target back at `position`, with its id, status and waypoints.
+async fn bring_back(
+    tx: &mut Tx<'_>,
+    program: i64,
+    cell_id: i64,
+    position: i64,
+    t: &RoutineState,
+    now: &str,
+) -> Result<()> {
+    let sql = format!(
+        "INSERT INTO routines (id, program_id, cell_id, position, name, imported, finish_seq, \
+           finished_at) \
+         VALUES ($1, $2, $3, $4, $5, $6, \
+           CASE WHEN $7 = 1 THEN (SELECT COALESCE(MAX(finish_seq), 0) + 1 FROM routines \
+                                  WHERE cell_id = $3) END, \
+           CASE WHEN $7 = 1 THEN {now} END)"
+    );
+    sqlx::query(sqlx::AssertSqlSafe(sql))
+        .bind(t.id)
+        .bind(program)
+        .bind(cell_id)
+        .bind(position)
+        .bind(t.name.clone())
+        .bind(flag(t.imported))
+        .bind(flag(t.learned))
+        .execute(&mut **tx)
+        .await
+        .map_err(classify)?;
+    for (at, w) in t.waypoints.iter().enumerate() {
+        insert_with_id(tx, t.id, at as i64 + 1, w).await?;
+    }
+    Ok(())
+}
+
+/// Inserts a waypoint with the id it had.
+async fn insert_with_id(tx: &mut Tx<'_>, routine: i64, seq: i64, w: &WaypointState) -> Result<()> {
+    let mut params = Params::default();
+    let values = params.run(|p| {
+        p.value(w.id).new_waypoint(&w.values.at(routine, seq));
+    });
+    let sql = format!(
+        "INSERT INTO waypoints (id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
+         name, reachable) VALUES ({values})"
+    );
+    params
+        .query(sql)?
+        .execute(&mut **tx)
+        .await
+        .map_err(classify)?;
+    Ok(())
+}
+
+/// The place (1, 2, …) of a routine in its program's order.
+pub(super) async fn routine_place(tx: &mut Tx<'_>, routine: i64) -> Result<i64> {
+    let (n,): (i64,) = sqlx::query_as(
+        "SELECT COUNT(*) FROM routines o, routines r \
+         WHERE r.id = $1 AND o.program_id = r.program_id AND o.position <= r.position",
+    )
+    .bind(routine)
+    .fetch_one(&mut **tx)
+    .await?;
+    if n == 0 {
+        return Err(StorageError::NotFound);
+    }
+    Ok(n)
+}
+
+/// What deleting a routine takes away, read before it goes: its program and the change.
+pub(super) async fn removal(tx: &mut Tx<'_>, routine: i64) -> Result<(i64, Change)> {
+    let row = select::<RoutineRow>("WHERE r.id = $1", &[routine])
+        .fetch_optional(&mut **tx)
+        .await?
+        .ok_or(StorageError::NotFound)?;
+    let position = routine_place(tx, routine).await?;
+    let state = routine_state(tx, &row).await?;
+    Ok((
+        row.program_id,
+        Change::RoutineRemoved {
+            position,
+            routine: state,
+        },
+    ))
+}
