@@ -7,10 +7,10 @@ use std::collections::HashMap;
 use super::cell_model::{stored_joint_values, stored_pose_values};
 use super::error::AppError;
 use super::registry::lock_map;
-use super::rows::program;
+use super::rows::{program, stored_motion};
 use super::{App, Result};
 use crate::api::{
-    ChangeKind, DiffQuery, HistoryQuery, MotionType, ProgramDiff, ProgramHistory, ProgramRevision,
+    ChangeKind, DiffQuery, HistoryQuery, ProgramDiff, ProgramHistory, ProgramRevision,
     RestoreProgram, Restored, Revision, RevisionChange, RoutineChanged, RoutineRevision,
     RoutineSummary, WaypointChanged, WaypointRevision, WaypointSummary,
 };
@@ -268,18 +268,12 @@ fn change(c: &Change) -> RevisionChange {
 
 fn waypoint_revision(w: &WaypointState, seq: i64) -> Result<WaypointRevision> {
     let v = &w.values;
-    let motion = match v.motion.as_deref() {
-        None => None,
-        Some(m) => Some(MotionType::parse(m).ok_or_else(|| {
-            AppError::Internal(format!("stored motion {m:?} of waypoint {}", w.id))
-        })?),
-    };
     Ok(WaypointRevision {
         id: w.id,
         seq,
         pose: v.pose,
         joints: stored_joint_values(w.id, &v.joints)?,
-        motion,
+        motion: stored_motion(w.id, &v.motion)?,
         name: v.name.clone(),
         reachable: v.reachable,
     })

@@ -10,12 +10,7 @@ use crate::storage::{ProgramRow, RoutineRow, WaypointRow};
 /// one that does not read back is an internal error, like a bad stored pose.
 pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
     let joints = cell_model::stored_joints(&w)?;
-    let motion = match w.motion.as_deref() {
-        None => None,
-        Some(m) => Some(MotionType::parse(m).ok_or_else(|| {
-            AppError::Internal(format!("stored motion {m:?} of waypoint {}", w.id))
-        })?),
-    };
+    let motion = stored_motion(w.id, &w.motion)?;
     Ok(Waypoint {
         id: w.id,
         routine_id: w.routine_id,
@@ -27,6 +22,17 @@ pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
         reachable: w.reachable,
         created_at: w.created_at,
     })
+}
+
+/// The motion type of waypoint `id` as stored.
+pub(super) fn stored_motion(id: i64, motion: &Option<String>) -> Result<Option<MotionType>> {
+    motion
+        .as_deref()
+        .map(|m| {
+            MotionType::parse(m)
+                .ok_or_else(|| AppError::Internal(format!("stored motion {m:?} of waypoint {id}")))
+        })
+        .transpose()
 }
 
 pub(super) fn routine(r: RoutineRow) -> Routine {

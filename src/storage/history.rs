@@ -20,7 +20,7 @@ use super::error::{Result, StorageError, classify};
 use super::query::select;
 use super::rows::{CellState, RoutineRow, Stored, WaypointRow, WaypointValues, flag};
 use super::slots::Params;
-use super::transaction::{Places, Tx, close_gap, make_room, touch_cell};
+use super::transaction::{Places, Tx, UPDATE_WAYPOINT, close_gap, make_room, touch_cell};
 
 /// One change to a program, as its revision stores it. Places (`seq`, `position`) are
 /// 1-based and as they were at the moment of the change.
@@ -537,15 +537,11 @@ async fn restore_waypoints(
             Some(w) => {
                 if w.values != x.values {
                     let v = &x.values;
-                    sqlx::query(
-                        "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, qx = $5, qy = $6, \
-                         qz = $7, joints = $8, motion = $9, name = $10, reachable = $11 \
-                         WHERE id = $12",
-                    )
-                    .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
-                    .bind(x.id)
-                    .execute(&mut **tx)
-                    .await?;
+                    sqlx::query(UPDATE_WAYPOINT)
+                        .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
+                        .bind(x.id)
+                        .execute(&mut **tx)
+                        .await?;
                     changes.push(Change::WaypointModified {
                         routine: r.id,
                         waypoint: x.id,

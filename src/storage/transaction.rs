@@ -56,6 +56,10 @@ pub(super) async fn touch_cell(
     }
 }
 
+/// Sets a waypoint's values (bound as [`Binds::waypoint_values`], then its id).
+pub(super) const UPDATE_WAYPOINT: &str = "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, \
+    qx = $5, qy = $6, qz = $7, joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12";
+
 /// Inserts a waypoint at its place; returns it as stored.
 pub(super) async fn insert_waypoint(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<WaypointRow> {
     let mut params = Params::default();

@@ -9,7 +9,9 @@ use super::group_commit::{Append, Appended};
 use super::history::{self, Change};
 use super::query::select;
 use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues};
-use super::transaction::{self, Places, close_gap, insert_prediction, make_room, touch_cell};
+use super::transaction::{
+    self, Places, UPDATE_WAYPOINT, close_gap, insert_prediction, make_room, touch_cell,
+};
 
 impl Store {
     pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
@@ -141,11 +143,7 @@ impl Store {
             .fetch_optional(&mut *tx)
             .await?
             .ok_or(StorageError::NotFound)?;
-        let sql = format!(
-            "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, qx = $5, qy = $6, qz = $7, \
-             joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12 RETURNING {}",
-            WaypointRow::COLUMNS
-        );
+        let sql = format!("{UPDATE_WAYPOINT} RETURNING {}", WaypointRow::COLUMNS);
         let after = sqlx::query_as::<_, WaypointRow>(sqlx::AssertSqlSafe(sql))
             .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
             .bind(id)

@@ -106,14 +106,6 @@ fn edit() -> impl Strategy<Value = Edit> {
     ]
 }
 
-fn moved(p: &Value, by: [f64; 3]) -> Value {
-    let mut q = p.clone();
-    for (k, d) in ["x", "y", "z"].into_iter().zip(by) {
-        q[k] = json!(q[k].as_f64().expect("coordinate") + d);
-    }
-    q
-}
-
 /// Applies one edit through the API and checks its answer; returns whether it advanced the
 /// model version (an edit of a learned routine does; of the open one, or a move, not), or
 /// `None` when the edit did not apply to the program as it is.

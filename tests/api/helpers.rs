@@ -371,6 +371,15 @@ pub fn u_seam(origin: [f64; 3], yaw: f64) -> Vec<Value> {
 }
 
 /// A pose as the API writes it (`{x, y, z, qw, qx, qy, qz}`), as the engine's type.
+/// A pose (JSON) moved by `by` (mm).
+pub fn moved(p: &Value, by: [f64; 3]) -> Value {
+    let mut q = p.clone();
+    for (k, d) in ["x", "y", "z"].into_iter().zip(by) {
+        q[k] = json!(q[k].as_f64().expect("coordinate") + d);
+    }
+    q
+}
+
 pub fn pose_of(v: &Value) -> nextpose::engine::Pose {
     let f = |k: &str| v[k].as_f64().expect(k);
     nextpose::engine::Pose::new(

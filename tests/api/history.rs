@@ -196,14 +196,6 @@ fn step() -> impl Strategy<Value = Step> {
     ]
 }
 
-fn moved(p: &Value, by: [f64; 3]) -> Value {
-    let mut q = p.clone();
-    for (k, d) in ["x", "y", "z"].into_iter().zip(by) {
-        q[k] = json!(q[k].as_f64().expect("coordinate") + d);
-    }
-    q
-}
-
 /// What a case knows: the program, its cell, and the snapshot of every revision made.
 struct Case<'a> {
     app: &'a TestApp,
