@@ -168,6 +168,11 @@ enum Step {
     DeleteRoutine {
         routine: usize,
     },
+    /// Re-targets a routine: its moved copy is added at the end of the program.
+    Retarget {
+        routine: usize,
+        by: [f64; 3],
+    },
     /// Restores one of the revisions made so far.
     Restore {
         pick: usize,
@@ -192,6 +197,7 @@ fn step() -> impl Strategy<Value = Step> {
         1 => (0..8usize, 0..8usize, any::<bool>())
             .prop_map(|(routine, to, rename)| Step::Move { routine, to, rename }),
         1 => (0..8usize).prop_map(|routine| Step::DeleteRoutine { routine }),
+        1 => (0..8usize, offset()).prop_map(|(routine, by)| Step::Retarget { routine, by }),
         3 => (0..64usize).prop_map(|pick| Step::Restore { pick }),
     ]
 }
@@ -328,6 +334,19 @@ impl Case<'_> {
                 };
                 let answer = app.delete(&format!("/v1/routines/{}", r.id)).await;
                 assert_eq!(answer.status(), StatusCode::NO_CONTENT);
+                1
+            }
+            Step::Retarget { routine, by } => {
+                let Some(r) = pick(routine) else {
+                    return 0;
+                };
+                let frame = moved(&pose([0.0; 3], [0.0; 3]), by);
+                app.post_ok(
+                    &format!("/v1/routines/{}/retarget", r.id),
+                    &json!({ "frame": frame, "name": "moved" }),
+                    StatusCode::CREATED,
+                )
+                .await;
                 1
             }
             Step::Restore { pick } => {
