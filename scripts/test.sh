@@ -31,6 +31,7 @@ cargo test --locked --test engine -- --ignored --exact \
 # teaches a corpus program also needs ../shared.
 instances="instances::concurrent_appends_on_two_instances_are_serialised"
 instances+=" backup::pg_dump_and_pg_restore_give_the_same_models_and_predictions"
+instances+=" instances::a_program_changed_on_two_instances_keeps_one_history"
 if [ -d ../shared/corpus/json ]; then
   instances+=" instances::two_instances_alternating_with_a_kill_match_one_instance"
 else

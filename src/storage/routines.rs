@@ -7,7 +7,9 @@ use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
 use super::history::{self, Change};
 use super::rows::{CellState, ProgramRow, RoutineRow, WaypointValues, flag};
-use super::transaction::{Places, Tx, close_gap, insert_waypoints, make_room, touch_cell};
+use super::transaction::{
+    Places, Tx, close_gap, hold_cell, insert_waypoints, make_room, touch_cell,
+};
 
 /// Adds a routine at the end of `program` (`imported`: one that takes no teaching) with
 /// `waypoints`, as a revision of the program; returns its id.
@@ -67,6 +69,7 @@ impl Store {
         waypoints: &[WaypointValues],
     ) -> Result<i64> {
         let mut tx = self.pool.begin().await?;
+        hold_cell(&mut tx, program.cell_id).await?;
         let id = append_to(&mut tx, program, name, true, waypoints).await?;
         audit::record(&mut tx, Some(program.cell_id)).await?;
         tx.commit().await?;
@@ -203,12 +206,14 @@ impl Store {
         position: Option<i64>,
     ) -> Result<()> {
         let mut tx = self.pool.begin().await?;
-        let (program_id, from, before): (i64, i64, Option<String>) =
-            sqlx::query_as("SELECT program_id, position, name FROM routines WHERE id = $1")
-                .bind(id)
-                .fetch_optional(&mut *tx)
-                .await?
-                .ok_or(StorageError::NotFound)?;
+        let (cell_id, program_id, from, before): (i64, i64, i64, Option<String>) = sqlx::query_as(
+            "SELECT cell_id, program_id, position, name FROM routines WHERE id = $1",
+        )
+        .bind(id)
+        .fetch_optional(&mut *tx)
+        .await?
+        .ok_or(StorageError::NotFound)?;
+        hold_cell(&mut tx, cell_id).await?;
         let mut changes = Vec::new();
         if let Some(name) = name {
             sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")

@@ -56,6 +56,18 @@ pub(super) async fn touch_cell(
     }
 }
 
+/// Holds a cell's row until the transaction commits, without advancing its revision: for a
+/// change to one of its programs that no model follows (a routine renamed or moved, an
+/// unlearned copy added), so that it is serialised with the cell's other writes, as
+/// [`touch_cell`] serialises those (a program's revisions are numbered in turn).
+pub(super) async fn hold_cell(tx: &mut Tx<'_>, cell_id: i64) -> Result<()> {
+    sqlx::query("UPDATE cells SET revision = revision WHERE id = $1")
+        .bind(cell_id)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}
+
 /// Sets a waypoint's values (bound as [`Binds::waypoint_values`], then its id).
 pub(super) const UPDATE_WAYPOINT: &str = "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, \
     qx = $5, qy = $6, qz = $7, joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12";
