@@ -318,22 +318,23 @@ fn diff(
         waypoints_removed: Vec::new(),
         waypoints_changed: Vec::new(),
     };
+    // A place that differs only because routines before it came or went is not a change of
+    // a routine: its place is compared among the routines in both.
+    let kept = |s: &ProgramState, other: &ProgramState| -> Vec<i64> {
+        s.routines
+            .iter()
+            .filter(|x| index(other, x.id).is_some())
+            .map(|x| x.id)
+            .collect()
+    };
+    let (kept_old, kept_new) = (kept(old, new), kept(new, old));
     for (i, r) in new.routines.iter().enumerate() {
         match index(old, r.id) {
             None => out.routines_added.push(summary(r, i)),
             Some(j) => {
                 let before = &old.routines[j];
-                // A place that differs only because routines before it came or went is not a
-                // change of this routine: compare its place among the routines in both.
-                let kept = |s: &ProgramState, other: &ProgramState| -> Vec<i64> {
-                    s.routines
-                        .iter()
-                        .filter(|x| index(other, x.id).is_some())
-                        .map(|x| x.id)
-                        .collect()
-                };
                 let rank = |ids: &[i64]| ids.iter().position(|x| *x == r.id);
-                let moved = rank(&kept(old, new)) != rank(&kept(new, old));
+                let moved = rank(&kept_old) != rank(&kept_new);
                 if before.name != r.name || moved {
                     out.routines_changed.push(RoutineChanged {
                         id: r.id,

@@ -113,6 +113,14 @@ impl Recorder {
         ]
     }
 
+    /// Who made a change: the token, request id and operation of `recorder`'s request (none
+    /// for a change made without a request).
+    pub(super) fn who(recorder: Option<&Recorder>) -> [Option<String>; 3] {
+        let [token, request_id, operation, _, _] =
+            recorder.map_or([None, None, None, None, None], Recorder::values);
+        [token, request_id, operation]
+    }
+
     pub(super) fn mark_recorded(&self) {
         self.state().recorded = true;
     }

@@ -385,10 +385,7 @@ fn revisions_json(batch: &[Job]) -> String {
         .iter()
         .map(|job| {
             let a = &job.append;
-            let [token, request_id, operation, _, _] = job
-                .audit
-                .as_ref()
-                .map_or([None, None, None, None, None], Recorder::values);
+            let [token, request_id, operation] = Recorder::who(job.audit.as_ref());
             let added = history::Change::WaypointAdded {
                 routine: a.waypoint.routine_id,
                 seq: a.waypoint.seq,

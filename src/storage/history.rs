@@ -252,8 +252,7 @@ async fn record_for(
     }
     let json = serde_json::to_string(changes)
         .map_err(|e| inconsistent(format!("a change could not be written: {e}")))?;
-    let [token, request_id, operation, _, _] =
-        recorder.map_or([None, None, None, None, None], Recorder::values);
+    let [token, request_id, operation] = Recorder::who(recorder);
     let (revision,): (i64,) = sqlx::query_as(
         "INSERT INTO program_history (program_id, revision, token, request_id, operation, \
            changes) \

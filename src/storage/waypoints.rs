@@ -65,18 +65,20 @@ impl Store {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
         let mut out = Vec::with_capacity(appends.len());
-        // The program's revision: one per program (a trajectory is taught into one routine).
-        let mut revisions: Vec<(i64, Vec<Change>)> = Vec::new();
+        // The trajectory's revision of its routine's program: (routine, program, changes).
+        let mut revisions: Vec<(i64, i64, Vec<Change>)> = Vec::new();
         for (waypoint, prediction) in appends {
             let row = transaction::insert_waypoint(&mut tx, waypoint).await?;
-            let program = history::program_of(&mut tx, row.routine_id).await?;
             let added = Change::WaypointAdded {
                 routine: row.routine_id,
                 seq: row.seq,
             };
-            match revisions.iter_mut().find(|(p, _)| *p == program) {
-                Some((_, changes)) => changes.push(added),
-                None => revisions.push((program, vec![added])),
+            match revisions.iter_mut().find(|(r, _, _)| *r == row.routine_id) {
+                Some((_, _, changes)) => changes.push(added),
+                None => {
+                    let program = history::program_of(&mut tx, row.routine_id).await?;
+                    revisions.push((row.routine_id, program, vec![added]));
+                }
             }
             let prediction_id = match prediction {
                 Some(p) => Some(insert_prediction(&mut tx, p, Some(row.id)).await?),
@@ -89,7 +91,7 @@ impl Store {
                 batch: 1,
             });
         }
-        for (program, changes) in &revisions {
+        for (_, program, changes) in &revisions {
             history::record(&mut tx, *program, changes).await?;
         }
         tx.commit().await?;

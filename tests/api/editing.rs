@@ -219,20 +219,9 @@ async fn apply(app: &TestApp, program: i64, edit: &Edit) -> Option<bool> {
 fn any_edits_leave_the_model_of_a_fresh_cell_taught_the_edited_routines() {
     let rt = tokio::runtime::Runtime::new().expect("runtime");
     let app = rt.block_on(spawn_app());
-    let case = std::sync::atomic::AtomicUsize::new(0);
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
-        cases: 48,
-        failure_persistence: None,
-        ..ProptestConfig::default()
+    each_case(48, proptest::collection::vec(edit(), 1..10), |n, edits| {
+        rt.block_on(edits_equal_a_fresh_cell(&app, n, &edits))
     });
-    let result = runner.run(&proptest::collection::vec(edit(), 1..10), |edits| {
-        let n = case.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        rt.block_on(edits_equal_a_fresh_cell(&app, n, &edits));
-        Ok(())
-    });
-    if let Err(e) = result {
-        panic!("{e}");
-    }
     let metrics = rt.block_on(async { app.get("/metrics").await.text().await.expect("metrics") });
     assert_eq!(
         sample(&metrics, "nextpose_model_divergences_total"),

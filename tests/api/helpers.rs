@@ -371,6 +371,28 @@ pub fn u_seam(origin: [f64; 3], yaw: f64) -> Vec<Value> {
 }
 
 /// A pose as the API writes it (`{x, y, z, qw, qx, qy, qz}`), as the engine's type.
+/// Runs `cases` cases of `strategy` (no failure file; proptest shrinks a failing one), each
+/// with its number: `case(n, value)` panics on a failure.
+pub fn each_case<S: proptest::strategy::Strategy>(
+    cases: u32,
+    strategy: S,
+    case: impl Fn(usize, S::Value),
+) {
+    let n = std::sync::atomic::AtomicUsize::new(0);
+    let mut runner = proptest::test_runner::TestRunner::new(proptest::test_runner::Config {
+        cases,
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    });
+    let result = runner.run(&strategy, |value| {
+        case(n.fetch_add(1, std::sync::atomic::Ordering::Relaxed), value);
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+}
+
 /// A pose (JSON) moved by `by` (mm).
 pub fn moved(p: &Value, by: [f64; 3]) -> Value {
     let mut q = p.clone();

@@ -575,20 +575,9 @@ async fn run_case(app: &TestApp, n: usize, steps: &[Step]) {
 fn any_revision_reads_back_restores_exactly_and_diffs_exactly() {
     let rt = tokio::runtime::Runtime::new().expect("runtime");
     let app = rt.block_on(spawn_app());
-    let case = std::sync::atomic::AtomicUsize::new(0);
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
-        cases: 24,
-        failure_persistence: None,
-        ..ProptestConfig::default()
+    each_case(24, proptest::collection::vec(step(), 1..16), |n, steps| {
+        rt.block_on(run_case(&app, n, &steps))
     });
-    let result = runner.run(&proptest::collection::vec(step(), 1..16), |steps| {
-        let n = case.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        rt.block_on(run_case(&app, n, &steps));
-        Ok(())
-    });
-    if let Err(e) = result {
-        panic!("{e}");
-    }
 }
 
 /// Sends `method path body` as the token `secret` with the request id `id`.
