@@ -22,6 +22,45 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR")?);
     corpus(&manifest.join("../shared"));
     placement_code(&manifest)?;
+    bundled_robots(&manifest, &out)?;
+    Ok(())
+}
+
+/// Writes `bundled_robots.rs`: every `robots/*.urdf` (by name) and `robots/catalog.json`,
+/// included in the binary as text (`kinematics::bundled`), so the service needs no checkout
+/// beside it, in every profile.
+fn bundled_robots(manifest: &Path, out: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    let dir = manifest.join("robots");
+    println!("cargo::rerun-if-changed={}", dir.display());
+    let mut urdfs = Vec::new();
+    for entry in std::fs::read_dir(&dir)? {
+        let path = entry?.path();
+        if path.extension().is_some_and(|e| e == "urdf") {
+            urdfs.push(path);
+        }
+    }
+    urdfs.sort();
+    let mut code = String::from(
+        "/// Every bundled model: its name (the file stem) and its URDF text, by name.\n\
+         pub const URDFS: &[(&str, &str)] = &[\n",
+    );
+    for path in &urdfs {
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        code.push_str(&format!(
+            "    ({stem:?}, include_str!({:?})),\n",
+            path.display().to_string()
+        ));
+    }
+    code.push_str("];\n");
+    code.push_str(&format!(
+        "/// The data sheets of the bundled models (`robots/catalog.json`).\n\
+         pub const CATALOG: &str = include_str!({:?});\n",
+        dir.join("catalog.json").display().to_string()
+    ));
+    std::fs::write(out.join("bundled_robots.rs"), code)?;
     Ok(())
 }
 

@@ -31,8 +31,9 @@ pub struct ServerSettings {
     /// `HOST:PORT`; port 0 picks a free one.
     pub addr: String,
     pub http: TransportOptions,
-    /// Directory of robot models (`*.urdf`).
-    pub robots: PathBuf,
+    /// A directory of robot models (`*.urdf`, and a `catalog.json`) added to the bundled ones
+    /// the binary carries, or overriding them by name; `None`: the bundled ones only.
+    pub robots: Option<PathBuf>,
     /// Where `POST /v1/backups` writes; `None`: `backups/` beside the SQLite file.
     pub backup_dir: Option<PathBuf>,
 }
@@ -44,7 +45,7 @@ impl Default for ServerSettings {
             durability: Durability::default(),
             addr: "127.0.0.1:8080".into(),
             http: TransportOptions::default(),
-            robots: crate::kinematics::bundled_robots_dir(),
+            robots: None,
             backup_dir: None,
         }
     }
@@ -66,8 +67,11 @@ impl Application {
         let store = Store::connect(&settings.database, settings.durability)
             .await
             .with_context(|| format!("opening database {}", settings.database.describe()))?;
-        let robots = Robots::load(&settings.robots)
-            .with_context(|| format!("loading robot models from {}", settings.robots.display()))?;
+        let robots =
+            Robots::load(settings.robots.as_deref()).with_context(|| match &settings.robots {
+                Some(dir) => format!("loading robot models from {}", dir.display()),
+                None => "loading the bundled robot models".to_string(),
+            })?;
         robots.add_stored(
             &store
                 .robots()

@@ -25,8 +25,8 @@ use crate::client::Client;
 use crate::engine::Noise;
 use crate::engine::Tolerance;
 use crate::engine::{Pose, Profile};
+use crate::kinematics::ReachPolicy;
 use crate::kinematics::placement::{PlacedArm, ProgramArm};
-use crate::kinematics::{ReachPolicy, bundled_robots_dir};
 use crate::replay::Program;
 pub use crate::sim::plan::placements;
 use crate::sim::plan::{RoutineResult, repository, waypoint_rng};
@@ -507,7 +507,7 @@ impl LocalServer {
             durability: crate::storage::Durability::Process,
             addr: "127.0.0.1:0".into(),
             http: crate::transport::TransportOptions::default(),
-            robots: bundled_robots_dir(),
+            robots: None,
             backup_dir: None,
         };
         let server = Application::build(settings).await?.spawn()?;

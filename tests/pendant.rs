@@ -98,7 +98,7 @@ async fn start_server(dir: &tempfile::TempDir) -> Running {
             token: Some(TOKEN.into()),
             ..TransportOptions::default()
         },
-        robots: nextpose::kinematics::bundled_robots_dir(),
+        robots: None,
         backup_dir: None,
     };
     Application::build(settings)

@@ -12,6 +12,7 @@ pub struct AuditQuery {
     /// Only changes to this cell.
     pub cell_id: Option<i64>,
     /// Only entries at or after this UTC time (RFC 3339, e.g. `2026-12-06T08:00:00Z`).
+    #[param(format = DateTime)]
     pub since: Option<String>,
     /// Only entries older than this id: the `next` of the page before.
     #[param(minimum = 1)]

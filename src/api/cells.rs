@@ -12,7 +12,11 @@ use crate::engine::{Noise, Tolerance};
 #[serde(deny_unknown_fields)]
 pub struct CreateCell {
     /// Unique name of the work cell (not blank; at most 200 characters).
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: String,
     /// Engine, robot and frame settings; anything left out takes the profile's default.
     #[serde(default)]
@@ -37,7 +41,11 @@ pub struct Cell {
 #[serde(deny_unknown_fields)]
 pub struct CellPatch {
     /// Not blank; at most 200 characters; unique.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: Option<String>,
     pub settings: Option<CellSettingsInput>,
 }

@@ -14,7 +14,11 @@ pub struct UploadedFile {
     /// File name with its extension (`.mod`, `.modx`, `.prg`, `.sys`, `.src`, `.dat`, `.ls`);
     /// keep the folder (`job/main.ls`) where programs span several files. Not blank; at most
     /// 200 characters. Also read as `file_name`.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*\.([mM][oO][dD][xX]?|[pP][rR][gG]|[sS][yY][sS]|[sS][rR][cC]|[dD][aA][tT]|[lL][sS])$"
+    )]
     #[serde(alias = "file_name")]
     pub name: String,
     /// The file's text. Also read as `text`.

@@ -11,7 +11,11 @@ use super::routines::RoutineDetail;
 #[serde(deny_unknown_fields)]
 pub struct CreateProgram {
     /// Name, unique within the cell (not blank; at most 200 characters).
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: String,
 }
 
@@ -28,7 +32,11 @@ pub struct Program {
 #[serde(deny_unknown_fields)]
 pub struct Rename {
     /// Not blank; at most 200 characters; unique among its siblings.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: String,
 }
 
@@ -52,7 +60,11 @@ pub struct Retarget {
     pub frame: Option<PoseValues>,
     pub points: Option<FixturePoints>,
     /// Not blank; at most 200 characters.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: Option<String>,
 }
 
@@ -72,6 +84,7 @@ pub struct Retargeted {
 pub struct ExportQuery {
     /// `rapid` (one `.mod`), `krl` (a `.src` and its `.dat`) or `fanuc` (one `.ls` per
     /// routine).
+    #[param(pattern = "^(rapid|krl|fanuc)$")]
     pub format: String,
     /// The program as of this revision (default: as it is now).
     #[param(minimum = 0)]

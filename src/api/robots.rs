@@ -28,6 +28,7 @@ impl RobotSource {
 pub struct RobotUpload {
     /// The name cells will use: letters, digits, `_` and `-`, at most 64 characters, not one
     /// the service already has.
+    #[schema(pattern = "^[A-Za-z0-9_-]{1,64}$")]
     pub name: String,
     /// The URDF text: a serial chain of six revolute joints from the root link to `tool0`
     /// (or the only leaf), each with `<limit lower upper velocity>`; lengths in metres.

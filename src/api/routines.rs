@@ -12,7 +12,11 @@ use super::waypoints::Waypoint;
 #[serde(deny_unknown_fields)]
 pub struct CreateRoutine {
     /// Not blank; at most 200 characters.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: Option<String>,
 }
 
@@ -54,7 +58,7 @@ pub struct RoutinePatch {
         deserialize_with = "present",
         skip_serializing_if = "Option::is_none"
     )]
-    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200)]
+    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200, pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$")]
     pub name: Option<Option<String>>,
     #[schema(minimum = 1)]
     pub position: Option<i64>,

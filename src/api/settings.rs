@@ -84,6 +84,8 @@ pub struct CellSettingsInput {
     pub profile: Option<Profile>,
     pub delta: Option<f64>,
     pub phi_min: Option<f64>,
+    /// Moves a prediction conditions on, 1 to 50.
+    #[schema(minimum = 1, maximum = 50)]
     pub horizon: Option<usize>,
     pub sigma_t_mm: Option<f64>,
     pub sigma_q: Option<f64>,

@@ -42,7 +42,11 @@ impl Role {
 #[serde(deny_unknown_fields)]
 pub struct NewToken {
     /// Who or what holds it (unique among unrevoked tokens; 1 to 200 characters).
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: String,
     pub role: Role,
     /// The cells it is limited to (at least one); absent or null: every cell.

@@ -45,8 +45,22 @@ pub struct NewWaypoint {
     pub joints: Option<Vec<f64>>,
     pub motion: Option<MotionType>,
     /// Not blank; at most 200 characters.
-    #[schema(min_length = 1, max_length = 200)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub name: Option<String>,
+    /// The `seq` this waypoint is to have. An append's is the routine's waypoint count + 1,
+    /// which makes the append safe to retry (an insert's must be the place its `side` gives,
+    /// else 409). When the routine's last waypoint already has this
+    /// seq and the same pose, joints, motion and name, nothing is stored and the answer (200,
+    /// `repeat: true`) is that waypoint with the prediction after it. Another waypoint at this
+    /// seq, or a seq that is neither the next nor the last, is a 409 with nothing changed. Left
+    /// out, the waypoint is appended whatever the count.
+    #[schema(minimum = 1)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seq: Option<i64>,
 }
 
 impl NewWaypoint {
@@ -57,6 +71,7 @@ impl NewWaypoint {
             joints: None,
             motion: None,
             name: None,
+            seq: None,
         }
     }
 }
@@ -82,6 +97,10 @@ pub struct Waypoint {
 pub struct Taught {
     pub waypoint: Waypoint,
     pub prediction: Prediction,
+    /// True when the request repeated an append already stored (the same `seq` and values, a
+    /// retry): nothing was stored, and this is the stored waypoint with the prediction after it.
+    #[serde(default)]
+    pub repeat: bool,
 }
 
 /// The waypoint an undo removed and the prediction for the routine as it is now.
@@ -118,7 +137,7 @@ pub struct WaypointPatch {
         deserialize_with = "present",
         skip_serializing_if = "Option::is_none"
     )]
-    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200)]
+    #[schema(value_type = Option<String>, nullable, min_length = 1, max_length = 200, pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$")]
     pub name: Option<Option<String>>,
 }
 

@@ -16,7 +16,11 @@
 //!   would for anyone allowed the action.
 //!
 //! Without a bootstrap token and without any stored token, the service does not authenticate
-//! and every caller is an unscoped admin (`anonymous`), as before tokens existed.
+//! and every caller is an unscoped admin (`anonymous`), as before tokens existed, with one
+//! exception: an anonymous caller may not manage tokens ([`Action::ManageTokens`]). Creating
+//! the first token turns authentication on, so on an open server it would let whoever reaches
+//! the port first own the service and lock every pendant out; the first token is made on the
+//! host (`nextpose token create`) or given at start-up (`--token`), by whoever runs the service.
 
 use crate::api::{Cell, Role};
 
@@ -62,6 +66,13 @@ impl Caller {
     }
 }
 
+/// Why an anonymous caller may not manage tokens, and how the first one is made.
+pub const ANONYMOUS_TOKENS: &str = "this server does not authenticate (it has no token), and an \
+    anonymous request may not create or manage tokens: the first token would turn authentication \
+    on and lock out every pendant without it. Create the first admin token on the server's host \
+    with `nextpose token create --db <database> --name <name> --role admin`, or start the server \
+    with --token (NEXTPOSE_TOKEN), then call this with that token";
+
 /// What an operation does, by the least role that may do it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Action {
@@ -75,8 +86,11 @@ pub enum Action {
     Edit,
     /// Deleting cells and programs.
     Delete,
-    /// Tokens and backups.
+    /// Backups.
     Administer,
+    /// Creating, listing and revoking tokens: an admin's, and never an anonymous caller's (on
+    /// a server that does not authenticate, the first token would turn authentication on).
+    ManageTokens,
     /// Reading the audit trail.
     Inspect,
 }
@@ -87,7 +101,7 @@ impl Action {
         match self {
             Action::Read | Action::Teach => Role::Operator,
             Action::Edit | Action::Inspect => Role::Engineer,
-            Action::Delete | Action::Administer => Role::Admin,
+            Action::Delete | Action::Administer | Action::ManageTokens => Role::Admin,
         }
     }
 }
@@ -128,6 +142,9 @@ impl App {
                 caller.role.as_str()
             )))
         };
+        if action == Action::ManageTokens && !caller.authenticated {
+            return Err(AppError::PermissionDenied(ANONYMOUS_TOKENS.to_string()));
+        }
         if caller.role < action.role() {
             return denied(format!(
                 "may not do this: it needs the {} role",

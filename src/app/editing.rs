@@ -121,6 +121,7 @@ impl App {
             joints: patch.joints.clone().unwrap_or(old.joints.clone()),
             motion: patch.motion.unwrap_or(old.motion),
             name: patch.name.clone().unwrap_or(old.name.clone()),
+            seq: None,
         };
         let mut values = Self::waypoint_values(&mut locked, &input)?;
         let moved = values.pose != before.pose;
@@ -156,6 +157,18 @@ impl App {
             Side::Before => next_to.seq,
             Side::After => next_to.seq + 1,
         };
+        // A `seq` given with an inserted waypoint must be the place `side` gives it.
+        if let Some(given) = input.waypoint.seq
+            && given != seq
+        {
+            return Err(AppError::Conflict(format!(
+                "the waypoint inserted {} waypoint {id} takes seq {seq}, not {given}",
+                match input.side {
+                    Side::Before => "before",
+                    Side::After => "after",
+                }
+            )));
+        }
         let effect = Effect::of(&r, true);
         let (row, version) = self
             .store

@@ -15,6 +15,9 @@ pub enum AppError {
     /// A named resource that does not exist.
     #[error("{what} {name:?} does not exist")]
     NotFoundName { what: &'static str, name: String },
+    /// A part of a resource that does not exist, described (a program's revision).
+    #[error("{0}")]
+    NoSuch(String),
     /// The request conflicts with the resource's state (a finished routine, a second open
     /// routine in a cell, nothing to undo).
     #[error("{0}")]
@@ -101,7 +104,9 @@ impl AppError {
     /// What kind of failure this is, for the adapters' status codes.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            AppError::NotFound { .. } | AppError::NotFoundName { .. } => ErrorKind::NotFound,
+            AppError::NotFound { .. } | AppError::NotFoundName { .. } | AppError::NoSuch(_) => {
+                ErrorKind::NotFound
+            }
             AppError::Exists(_) => ErrorKind::Exists,
             AppError::Conflict(_) => ErrorKind::Conflict,
             AppError::Unauthenticated => ErrorKind::Unauthenticated,
@@ -130,7 +135,9 @@ impl AppError {
     /// A short stable code for API clients.
     pub fn code(&self) -> &'static str {
         match self {
-            AppError::NotFound { .. } | AppError::NotFoundName { .. } => "not_found",
+            AppError::NotFound { .. } | AppError::NotFoundName { .. } | AppError::NoSuch(_) => {
+                "not_found"
+            }
             AppError::Conflict(_) | AppError::Exists(_) => "conflict",
             AppError::Stale(_) => "busy",
             AppError::Unauthenticated => "unauthorized",

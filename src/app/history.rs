@@ -69,9 +69,12 @@ impl App {
         match self.store.program_as_of(id, revision).await {
             Ok(found) => Ok(found),
             Err(StorageError::NotFound) => match revision {
+                Some(r) if r < 0 => Err(AppError::Invalid(format!(
+                    "there is no revision {r}: revisions are numbered from 0"
+                ))),
                 Some(r) => {
                     self.program_row(id).await?;
-                    Err(AppError::Invalid(format!(
+                    Err(AppError::NoSuch(format!(
                         "program {id} has no revision {r} (its revisions are 0 to {})",
                         self.store.last_revision(id).await?
                     )))

@@ -1,4 +1,5 @@
-//! The arm models cells can name: the bundled ones (`robots/*.urdf`) and those uploaded through
+//! The arm models cells can name: the bundled ones (`robots/*.urdf`, carried by the binary), those
+//! of `serve --robots DIR`, and those uploaded through
 //! the API, which are stored in the database and loaded again at start-up. Every model is
 //! loaded through the same path (`kinematics::Robot::from_urdf_str`): six revolute joints with
 //! limits and velocities, a closed-form solver derived from the chain and checked against it.
@@ -13,7 +14,7 @@ use super::error::AppError;
 use super::settings::parse_settings;
 use super::{App, Result, check_name};
 use crate::api::{self, RobotSource, RobotUpload};
-use crate::kinematics::catalog::{computed_reach_mm, load_catalog};
+use crate::kinematics::catalog::{ArmFacts, computed_reach_mm, load_catalog};
 use crate::kinematics::{self, KinematicsError, Robot, SolverKind};
 use crate::storage::RobotRow;
 
@@ -46,6 +47,24 @@ struct Entry {
 }
 
 impl Entry {
+    /// A model the service starts with, with its data sheet from `catalog` where it has one.
+    fn bundled(robot: Robot, catalog: &[ArmFacts]) -> Entry {
+        let facts = catalog.iter().find(|f| f.name == robot.name());
+        let datasheet = Datasheet {
+            maker: facts.map(|f| f.maker.clone()),
+            product: facts.map(|f| f.model.clone()),
+            payload_kg: facts.map(|f| f.payload_kg),
+            reach_mm: facts.map(|f| f.reach_mm),
+            computed_reach_mm: computed_reach_mm(&robot),
+            languages: facts.map(|f| f.languages.clone()).unwrap_or_default(),
+        };
+        Entry {
+            robot: Arc::new(robot),
+            source: RobotSource::Bundled,
+            datasheet,
+        }
+    }
+
     /// The model as the service lists it.
     fn resource(&self) -> api::Robot {
         let model = self.robot.model();
@@ -90,30 +109,23 @@ pub struct Robots {
 }
 
 impl Robots {
-    /// Loads every `*.urdf` of `dir` as a bundled model, with its data sheet from the
-    /// directory's `catalog.json` where it has one.
-    pub fn load(dir: &Path) -> std::result::Result<Robots, KinematicsError> {
-        let catalog = load_catalog(dir)?;
-        let by_name = kinematics::load_robots(dir)?
-            .into_iter()
-            .map(|r| {
-                let facts = catalog.iter().find(|f| f.name == r.name());
-                let datasheet = Datasheet {
-                    maker: facts.map(|f| f.maker.clone()),
-                    product: facts.map(|f| f.model.clone()),
-                    payload_kg: facts.map(|f| f.payload_kg),
-                    reach_mm: facts.map(|f| f.reach_mm),
-                    computed_reach_mm: computed_reach_mm(&r),
-                    languages: facts.map(|f| f.languages.clone()).unwrap_or_default(),
-                };
-                let entry = Entry {
-                    robot: Arc::new(r),
-                    source: RobotSource::Bundled,
-                    datasheet,
-                };
-                (entry.robot.name().to_string(), entry)
-            })
-            .collect();
+    /// The bundled models (carried by the binary, `kinematics::bundled`), with the models of
+    /// `extra` (`serve --robots DIR`: every `*.urdf` there, data sheets from its
+    /// `catalog.json`) added or overriding a bundled one of the same name.
+    pub fn load(extra: Option<&Path>) -> std::result::Result<Robots, KinematicsError> {
+        let mut by_name = BTreeMap::new();
+        let catalog = kinematics::bundled_catalog()?;
+        for robot in kinematics::bundled_robots()? {
+            let entry = Entry::bundled(robot, &catalog);
+            by_name.insert(entry.robot.name().to_string(), entry);
+        }
+        if let Some(dir) = extra {
+            let catalog = load_catalog(dir)?;
+            for robot in kinematics::load_robots(dir)? {
+                let entry = Entry::bundled(robot, &catalog);
+                by_name.insert(entry.robot.name().to_string(), entry);
+            }
+        }
         Ok(Robots {
             by_name: RwLock::new(by_name),
             changes: AsyncMutex::new(()),

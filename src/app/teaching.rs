@@ -4,7 +4,7 @@
 use super::cell_model::Verdicts;
 use super::error::AppError;
 use super::offer;
-use super::registry::{blocking, stale_check};
+use super::registry::{Locked, OpenRoutine, blocking, stale_check};
 use super::rows::waypoint;
 use super::settings::MAX_HORIZON;
 use super::{App, MAX_COMPLETION, Result, check_name};
@@ -16,6 +16,13 @@ impl App {
     pub(super) fn validate_waypoint(input: &api::NewWaypoint) -> Result<Option<String>> {
         if let Some(n) = &input.name {
             check_name("waypoint name", n)?;
+        }
+        if let Some(seq) = input.seq
+            && seq < 1
+        {
+            return Err(AppError::Invalid(format!(
+                "seq must be 1 or more (the seq the waypoint is to have), not {seq}"
+            )));
         }
         match &input.joints {
             None => Ok(None),
@@ -65,19 +72,38 @@ impl App {
         if let (Some(arm), Some(j)) = (&model.arm, &input.joints) {
             arm.check_joints(j)?;
         }
+        let count = model.teacher.routine().len() as i64;
+        let wp = NewWaypoint {
+            routine_id,
+            seq: count + 1,
+            pose: stored,
+            joints,
+            motion: input.motion.map(|m| m.as_str().to_string()),
+            name: input.name.map(|n| n.trim().to_string()),
+            reachable: None,
+        };
+        match input.seq {
+            None => {}
+            Some(seq) if seq == count + 1 => {}
+            Some(seq) if seq == count && count > 0 => {
+                return self.repeated(locked, &r, wp).await;
+            }
+            Some(seq) => {
+                return Err(AppError::Conflict(format!(
+                    "routine {routine_id} holds {count} waypoints: an append with seq {seq} \
+                     is neither the next ({}) nor a retry of the last; reload the routine",
+                    count + 1
+                )));
+            }
+        }
         let taught_reach = model.teach(pose, input.joints.as_deref());
         model.judged(&verdicts);
         let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
         let after = model.teacher.routine().len() as i64;
         let record = offer::record(&r, after, model.version, &checked);
         let wp = NewWaypoint {
-            routine_id,
-            seq: after,
-            pose: stored,
-            joints,
-            motion: input.motion.map(|m| m.as_str().to_string()),
-            name: input.name.map(|n| n.trim().to_string()),
             reachable: taught_reach.as_ref().map(Reachability::is_reachable),
+            ..wp
         };
         let append = Append {
             cell_id: r.cell_id,
@@ -102,6 +128,50 @@ impl App {
         Ok(Taught {
             waypoint: waypoint(row)?,
             prediction,
+            repeat: false,
+        })
+    }
+
+    /// The answer to a retried append (`seq` of the routine's last waypoint): that waypoint and
+    /// the prediction after it, when the retry carries the same values; nothing is stored.
+    async fn repeated(
+        &self,
+        mut locked: Locked,
+        r: &OpenRoutine,
+        retry: NewWaypoint,
+    ) -> Result<Taught> {
+        let model = locked.model()?;
+        let last = model.open_ids.last().copied().ok_or_else(|| {
+            AppError::Internal(format!("routine {} has no waypoint id to repeat", r.id))
+        })?;
+        let row = self
+            .store
+            .waypoint(last)
+            .await?
+            .ok_or_else(|| AppError::Internal(format!("waypoint {last} is not stored")))?;
+        let same = row.seq == retry.seq - 1
+            && row.pose == retry.pose
+            && row.joints == retry.joints
+            && row.motion == retry.motion
+            && row.name == retry.name;
+        if !same {
+            return Err(AppError::Conflict(format!(
+                "routine {} already holds waypoint {} (id {last}) with other values: an append \
+                 with seq {} repeats only the same waypoint; reload the routine",
+                r.id, row.seq, row.seq
+            )));
+        }
+        let (opts, checked) = offer::next(&model.teacher, model.arm.as_ref());
+        let after = model.teacher.routine().len() as i64;
+        let version = model.version;
+        let id = match offer::record(r, after, version, &checked) {
+            Some(np) => Some(self.store.record_prediction(&np).await?),
+            None => None,
+        };
+        Ok(Taught {
+            waypoint: waypoint(row)?,
+            prediction: offer::dto(model.arm.as_ref(), &checked, &opts, id, after, version),
+            repeat: true,
         })
     }
 

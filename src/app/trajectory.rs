@@ -219,6 +219,7 @@ impl App {
             waypoints.push(Taught {
                 waypoint: waypoint(done.row)?,
                 prediction,
+                repeat: false,
             });
         }
         drop(locked);

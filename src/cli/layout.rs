@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 
 use crate::engine::Pose;
 use crate::kinematics::layout::{BaseMounting, LayoutOptions, search_layout};
-use crate::kinematics::{bundled_robots_dir, load_robot};
+use crate::kinematics::{bundled_robot, load_robot};
 use crate::replay::corpus::load_paths;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -27,7 +27,7 @@ pub struct LayoutArgs {
     /// The arm (a model of `robots/`, e.g. `abb_irb2600`).
     #[arg(long)]
     pub robot: String,
-    /// Directory of robot models; default: the bundled `robots/`.
+    /// Directory of robot models; default: the bundled ones the binary carries.
     #[arg(long)]
     pub robots: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "floor")]
@@ -44,9 +44,12 @@ pub struct LayoutArgs {
 }
 
 pub(super) fn run_layout(args: &LayoutArgs) -> Result<()> {
-    let dir = args.robots.clone().unwrap_or_else(bundled_robots_dir);
-    let robot = load_robot(&dir, &args.robot)
-        .with_context(|| format!("loading robot {} from {}", args.robot, dir.display()))?;
+    let robot = match &args.robots {
+        Some(dir) => load_robot(dir, &args.robot)
+            .with_context(|| format!("loading robot {} from {}", args.robot, dir.display()))?,
+        None => bundled_robot(&args.robot)
+            .with_context(|| format!("loading the bundled robot {}", args.robot))?,
+    };
     let programs = load_paths(&args.files).context("reading the program files")?;
     let targets: Vec<Pose> = programs.iter().flat_map(|p| p.poses().copied()).collect();
     let options = LayoutOptions {

@@ -27,7 +27,8 @@ pub struct ServeArgs {
     /// Requests taking longer than this many seconds are answered 408.
     #[arg(long, default_value_t = 30)]
     pub request_timeout_s: u64,
-    /// Directory of robot models (*.urdf); default: the bundled robots/.
+    /// A directory of robot models (*.urdf, and its catalog.json) to add to the bundled ones the
+    /// binary carries, or to override them by name.
     #[arg(long, env = "NEXTPOSE_ROBOTS")]
     pub robots: Option<PathBuf>,
     /// Directory POST /v1/backups writes into (created when missing); default: backups/
@@ -61,10 +62,7 @@ pub(super) fn run_serve(args: ServeArgs) -> Result<()> {
             request_timeout: std::time::Duration::from_secs(args.request_timeout_s.max(1)),
             token: args.token.clone(),
         },
-        robots: args
-            .robots
-            .clone()
-            .unwrap_or_else(crate::kinematics::bundled_robots_dir),
+        robots: args.robots.clone(),
         backup_dir: args.backup_dir.clone(),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()

@@ -61,7 +61,7 @@ fn caller<T>(r: &Request<T>) -> Result<Caller, Status> {
         .ok_or_else(|| Status::unauthenticated("no caller was found for this call"))
 }
 
-use Action::{Administer, Delete, Edit, Inspect, Read, Teach};
+use Action::{Administer, Delete, Edit, Inspect, ManageTokens, Read, Teach};
 
 fn service<T>(_: &T) -> Scope {
     Scope::Service
@@ -432,7 +432,7 @@ impl Nextpose for Service {
     }
 
     async fn create_token(&self, r: Request<pb::CreateTokenRequest>) -> Reply<pb::CreatedToken> {
-        let r = self.allow(r, Administer, service).await?;
+        let r = self.allow(r, ManageTokens, service).await?;
         let input = NewToken::try_from(r)?;
         reply(self.app.create_token(input).await)
     }
@@ -441,7 +441,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::ListTokensRequest>,
     ) -> Reply<pb::ListTokensResponse> {
-        self.allow(r, Administer, service).await?;
+        self.allow(r, ManageTokens, service).await?;
         let tokens = self.app.tokens().await;
         reply(tokens.map(|tokens| pb::ListTokensResponse {
             tokens: each(tokens),
@@ -452,7 +452,7 @@ impl Nextpose for Service {
         &self,
         r: Request<pb::RevokeTokenRequest>,
     ) -> Reply<pb::RevokeTokenResponse> {
-        let r = self.allow(r, Administer, service).await?;
+        let r = self.allow(r, ManageTokens, service).await?;
         done(self.app.revoke_token(&r.name).await)
     }
 

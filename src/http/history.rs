@@ -52,8 +52,8 @@ async fn program_history(
     responses(
         (status = 200, description = "The program as of the revision", body = ProgramRevision),
         (status = 400, description = "Malformed id", body = ErrorBody),
-        (status = 404, description = "No such program", body = ErrorBody),
-        (status = 422, description = "The program has no such revision", body = ErrorBody),
+        (status = 404, description = "No such program, or the program has no such revision", body = ErrorBody),
+        (status = 422, description = "A negative revision", body = ErrorBody),
     ))]
 async fn program_revision(
     State(app): State<Arc<App>>,
@@ -72,8 +72,8 @@ async fn program_revision(
     responses(
         (status = 200, description = "The differences", body = ProgramDiff),
         (status = 400, description = "Malformed id or query", body = ErrorBody),
-        (status = 404, description = "No such program", body = ErrorBody),
-        (status = 422, description = "The program has no such revision", body = ErrorBody),
+        (status = 404, description = "No such program, or the program has no such revision", body = ErrorBody),
+        (status = 422, description = "A negative revision", body = ErrorBody),
     ))]
 async fn diff_program(
     State(app): State<Arc<App>>,
@@ -93,11 +93,11 @@ async fn diff_program(
     responses(
         (status = 200, description = "Restored (or already equal)", body = Restored),
         (status = 400, description = "Malformed request", body = ErrorBody),
-        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 404, description = "No such program, or the program has no such revision", body = ErrorBody),
         (status = 409, description = "A routine being taught would come back while another is being taught, or the program changed meanwhile", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
-        (status = 422, description = "The program has no such revision, or unknown fields", body = ErrorBody),
+        (status = 422, description = "A negative revision, or unknown fields", body = ErrorBody),
     ))]
 async fn restore_program(
     State(app): State<Arc<App>>,

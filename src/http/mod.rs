@@ -49,7 +49,6 @@ use crate::transport::auth::BearerToken;
                        operator teaches an industrial robot arm. Poses are in mm with unit \
                        quaternions (w, x, y, z). Errors are `{\"error\": {\"code\", \"message\"}}`."
     ),
-    modifiers(&BearerAuth),
     tags(
         (name = "cells", description = "Work cells, each with its own model"),
         (name = "programs", description = "Programs of a cell"),
@@ -62,20 +61,71 @@ use crate::transport::auth::BearerToken;
 )]
 struct ApiDoc;
 
-/// Declares the optional bearer token.
+/// Declares the bearer token on every operation but `/healthz`, with the answers it brings:
+/// a server with a token (the bootstrap one or any stored one) answers 401 to a request
+/// without a known token and 403 to a token whose role or cells do not allow the operation
+/// (and, on a server with none, 403 to an anonymous call of a token route). The token is
+/// optional in the spec (`{}` beside `bearer`): a server started without one asks for none.
 struct BearerAuth;
+
+/// The only operation that never asks for the token.
+const OPEN_PATH: &str = "/healthz";
 
 impl Modify for BearerAuth {
     fn modify(&self, openapi: &mut OpenApiDoc) {
+        use utoipa::openapi::{RefOr, ResponseBuilder, content::ContentBuilder};
         let components = openapi.components.get_or_insert_with(Default::default);
         components.add_security_scheme(
             "bearer",
             SecurityScheme::Http(Http::new(HttpAuthScheme::Bearer)),
         );
-        openapi.security = Some(vec![
-            SecurityRequirement::default(),
-            SecurityRequirement::new("bearer", Vec::<String>::new()),
-        ]);
+        let optional_bearer = || {
+            vec![
+                SecurityRequirement::default(),
+                SecurityRequirement::new("bearer", Vec::<String>::new()),
+            ]
+        };
+        openapi.security = Some(optional_bearer());
+        let error = |description: &str| {
+            RefOr::T(
+                ResponseBuilder::new()
+                    .description(description)
+                    .content(
+                        "application/json",
+                        ContentBuilder::new()
+                            .schema(Some(RefOr::Ref(
+                                utoipa::openapi::schema::Ref::from_schema_name("ErrorBody"),
+                            )))
+                            .build(),
+                    )
+                    .build(),
+            )
+        };
+        for (path, item) in openapi.paths.paths.iter_mut() {
+            if path == OPEN_PATH {
+                continue;
+            }
+            let operations = [
+                &mut item.get,
+                &mut item.post,
+                &mut item.put,
+                &mut item.patch,
+                &mut item.delete,
+            ];
+            for operation in operations.into_iter().flatten() {
+                operation.security = Some(optional_bearer());
+                let responses = &mut operation.responses.responses;
+                responses.entry("401".to_string()).or_insert_with(|| {
+                    error(
+                        "No known token: the server asks for one (it has a bootstrap token or \
+                         a stored one) and the request has none, an unknown or a revoked one",
+                    )
+                });
+                responses.entry("403".to_string()).or_insert_with(|| {
+                    error("The token's role or cells do not allow this operation")
+                });
+            }
+        }
     }
 }
 
@@ -96,7 +146,10 @@ fn api() -> OpenApiRouter<Arc<App>> {
 
 /// The OpenAPI description of every route.
 pub fn openapi() -> OpenApiDoc {
-    api().split_for_parts().1
+    let mut doc = api().split_for_parts().1;
+    // After the routes are merged in: it declares the token on each of them.
+    BearerAuth.modify(&mut doc);
+    doc
 }
 
 /// The service's router with all its layers; every route but `/healthz` and the pendant

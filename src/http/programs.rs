@@ -124,7 +124,7 @@ async fn delete_program(
     responses(
         (status = 200, description = "The files and what the export had to say", body = ProgramExport),
         (status = 400, description = "Malformed id or query", body = ErrorBody),
-        (status = 404, description = "No such program", body = ErrorBody),
+        (status = 404, description = "No such program, or it has no such revision", body = ErrorBody),
         (status = 422, description = "Unknown format, or a setting the format cannot write", body = ErrorBody),
     ))]
 async fn export_program(

@@ -105,15 +105,17 @@ async fn delete_routine(
 }
 
 /// Append a taught waypoint; the response carries the prediction for the next one (or why
-/// there is none).
+/// there is none). With `seq` (the routine's waypoint count + 1) the append is safe to retry:
+/// a repeat of the last one stores nothing and answers it again.
 #[utoipa::path(post, path = "/v1/routines/{routine_id}/waypoints", tag = "teaching",
     params(("routine_id" = i64, Path, description = "Routine id")),
     request_body = NewWaypoint,
     responses(
+        (status = 200, description = "A retry (`seq` of the last waypoint, same values): nothing stored; the stored waypoint and the prediction after it (`repeat: true`)", body = Taught),
         (status = 201, description = "Stored; the prediction for the next waypoint", body = Taught),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 404, description = "No such routine", body = ErrorBody),
-        (status = 409, description = "The routine is finished", body = ErrorBody),
+        (status = 409, description = "The routine is finished, or `seq` is neither the next nor a retry of the last waypoint", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid pose (non-finite, quaternion far from unit), joints or unknown fields", body = ErrorBody),
@@ -123,10 +125,13 @@ async fn append_waypoint(
     Path(Id(routine_id)): Path<Id>,
     Json(body): Json<NewWaypoint>,
 ) -> Result<(StatusCode, axum::Json<Taught>), ApiError> {
-    Ok((
-        StatusCode::CREATED,
-        axum::Json(app.append_waypoint(routine_id, body).await?),
-    ))
+    let taught = app.append_waypoint(routine_id, body).await?;
+    let status = if taught.repeat {
+        StatusCode::OK
+    } else {
+        StatusCode::CREATED
+    };
+    Ok((status, axum::Json(taught)))
 }
 
 /// Teach a hand-guided (lead-through) trajectory: its attractors become taught waypoints.
@@ -311,6 +316,7 @@ async fn delete_waypoint(
         (status = 201, description = "Inserted; deleting it reverts the insert", body = WaypointEdit),
         (status = 400, description = "Malformed request", body = ErrorBody),
         (status = 404, description = "No such waypoint", body = ErrorBody),
+        (status = 409, description = "A `seq` that is not the place `side` gives", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Invalid side, pose, joints, name or unknown fields", body = ErrorBody),

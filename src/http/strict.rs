@@ -72,6 +72,33 @@ impl<'de> IntoDeserializer<'de, Error> for Strict<'de> {
     }
 }
 
+/// The largest magnitude below which every integer is exactly an `f64` (2⁵³).
+const EXACT_F64_INTEGER: f64 = 9_007_199_254_740_992.0;
+
+/// Integer targets also take a number written with a zero fraction (`5.0`): JSON Schema counts
+/// it an integer, so a schema-valid body must not be refused for it. Within ±2⁵³, where it is
+/// exact; anything else goes to the target as parsed (and is refused there, with its path).
+macro_rules! integers {
+    ($($method:ident)*) => {
+        $(
+            fn $method<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Error> {
+                if let Value::Number(n) = self.0
+                    && let Some(f) = n.as_f64().filter(|_| n.is_f64())
+                    && f.fract() == 0.0
+                    && f.abs() <= EXACT_F64_INTEGER
+                {
+                    return if f >= 0.0 {
+                        visitor.visit_u64(f as u64)
+                    } else {
+                        visitor.visit_i64(f as i64)
+                    };
+                }
+                de::Deserializer::deserialize_any(self, visitor)
+            }
+        )*
+    };
+}
+
 impl<'de> de::Deserializer<'de> for Strict<'de> {
     type Error = Error;
 
@@ -139,8 +166,13 @@ impl<'de> de::Deserializer<'de> for Strict<'de> {
         }
     }
 
+    integers! {
+        deserialize_i8 deserialize_i16 deserialize_i32 deserialize_i64 deserialize_i128
+        deserialize_u8 deserialize_u16 deserialize_u32 deserialize_u64 deserialize_u128
+    }
+
     forward_to_deserialize_any! {
-        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf
+        bool f32 f64 char str string bytes byte_buf
         unit unit_struct seq tuple tuple_struct map identifier ignored_any
     }
 }
@@ -197,6 +229,33 @@ mod tests {
     use serde_json::json;
 
     use super::*;
+
+    #[test]
+    fn integers_written_with_a_zero_fraction_are_integers() {
+        #[derive(Debug, Deserialize, PartialEq)]
+        struct Ints {
+            a: i64,
+            b: u32,
+            c: Option<Vec<i64>>,
+        }
+        let v = json!({ "a": -1577279.0, "b": 7.0, "c": [3.0, 4] });
+        let ints: Ints = from_value(&v).unwrap();
+        assert_eq!(
+            ints,
+            Ints {
+                a: -1577279,
+                b: 7,
+                c: Some(vec![3, 4])
+            }
+        );
+        for bad in [
+            json!({ "a": 1.5, "b": 1 }),
+            json!({ "a": 1, "b": -1.0 }),
+            json!({ "a": 1e300, "b": 1 }),
+        ] {
+            assert!(from_value::<Ints>(&bad).is_err(), "{bad}");
+        }
+    }
 
     #[derive(Debug, Deserialize, PartialEq)]
     #[serde(deny_unknown_fields)]

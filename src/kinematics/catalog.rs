@@ -54,11 +54,17 @@ pub fn load_catalog(dir: &Path) -> Result<Vec<ArmFacts>, KinematicsError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(KinematicsError::io(&path, &e)),
     };
+    parse_catalog(&text, &path.display().to_string())
+}
+
+/// Parses a catalogue's text; `origin` names it in errors. Text that is not a JSON array of
+/// [`ArmFacts`], or that names an arm twice, is an error.
+pub fn parse_catalog(text: &str, origin: &str) -> Result<Vec<ArmFacts>, KinematicsError> {
     let malformed = |message: String| KinematicsError::Catalog {
-        path: path.display().to_string(),
+        path: origin.to_string(),
         message,
     };
-    let facts: Vec<ArmFacts> = serde_json::from_str(&text).map_err(|e| malformed(e.to_string()))?;
+    let facts: Vec<ArmFacts> = serde_json::from_str(text).map_err(|e| malformed(e.to_string()))?;
     let mut seen = HashSet::new();
     for f in &facts {
         if !seen.insert(f.name.as_str()) {

@@ -31,6 +31,7 @@
 //! robot.ik(&flange) / robot.fk(&q)                 all solutions / tool0 pose, base frame, mm
 //! ```
 
+pub mod bundled;
 pub mod catalog;
 pub mod configuration;
 pub mod designation;
@@ -52,7 +53,8 @@ use serde::Serialize;
 
 use crate::engine::Pose;
 
-pub use catalog::{ArmFacts, computed_reach_mm, load_catalog};
+pub use bundled::{bundled_catalog, bundled_files, bundled_robot, bundled_robots};
+pub use catalog::{ArmFacts, computed_reach_mm, load_catalog, parse_catalog};
 pub use configuration::{
     ArmConfiguration, ConfigurationError, Elbow, KrlStatusTurn, RapidConfdata, Shoulder, Wrist,
     configuration, pick_solution,
@@ -430,7 +432,9 @@ impl Robot {
     }
 }
 
-/// The directory of the robot models shipped with the crate (`robots/`).
+/// The folder the bundled models are built from, in the checkout the crate was compiled in
+/// (`robots/`): for tests and benches that read the files themselves. The service never reads
+/// it: it carries the models ([`bundled`]), so a binary copied elsewhere works alone.
 pub fn bundled_robots_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("robots")
 }

@@ -24,7 +24,7 @@ use sha2::{Digest, Sha256};
 
 use crate::engine::Pose;
 use crate::kinematics::LayoutError;
-use crate::kinematics::bundled_robots_dir;
+use crate::kinematics::bundled_files;
 use crate::kinematics::placement::{PlacedArm, ProgramArm, ReachCheck};
 
 /// Changes when the entries' format or meaning does.
@@ -56,28 +56,24 @@ pub struct CacheUse {
 }
 
 impl PlacementCache {
-    /// The cache in `dir` (created on the first write), for the bundled arm library.
-    pub fn new(dir: impl Into<PathBuf>) -> std::io::Result<PlacementCache> {
+    /// The cache in `dir` (created on the first write), for the bundled arm library the
+    /// binary carries.
+    pub fn new(dir: impl Into<PathBuf>) -> PlacementCache {
         let mut origin = Sha256::new();
         origin.update(FORMAT.as_bytes());
         origin.update([0]);
         origin.update(env!("NEXTPOSE_PLACEMENT_CODE").as_bytes());
         origin.update([0]);
-        let library = bundled_robots_dir();
-        let mut files: Vec<PathBuf> = std::fs::read_dir(&library)?
-            .map(|e| e.map(|e| e.path()))
-            .collect::<Result<_, _>>()?;
-        files.sort();
-        for file in files.iter().filter(|f| f.is_file()) {
-            origin.update(file.file_name().unwrap_or_default().as_encoded_bytes());
+        for (name, text) in bundled_files() {
+            origin.update(name.as_bytes());
             origin.update([0]);
-            origin.update(std::fs::read(file)?);
+            origin.update(text.as_bytes());
             origin.update([0]);
         }
-        Ok(PlacementCache {
+        PlacementCache {
             dir: dir.into(),
             origin: origin.finalize().into(),
-        })
+        }
     }
 
     /// `$XDG_CACHE_HOME/nextpose/placements`, else `$HOME/.cache/nextpose/placements`; `None`
@@ -202,7 +198,7 @@ mod tests {
     #[test]
     fn a_placement_is_searched_once_and_read_back_equal() {
         let dir = tempfile::tempdir().unwrap();
-        let cache = PlacementCache::new(dir.path().join("placements")).unwrap();
+        let cache = PlacementCache::new(dir.path().join("placements"));
         let check = ReachCheck::new(ReachSetup::Fitted(FitSetup {
             seed: 0,
             evaluations: 300,
@@ -289,7 +285,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let blocker = dir.path().join("a file");
         std::fs::write(&blocker, b"").unwrap();
-        let cache = PlacementCache::new(blocker.join("placements")).unwrap();
+        let cache = PlacementCache::new(blocker.join("placements"));
         let check = ReachCheck::new(ReachSetup::Fitted(FitSetup {
             seed: 0,
             evaluations: 300,

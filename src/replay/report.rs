@@ -261,12 +261,7 @@ pub fn replay_all(
         .clone()
         .map(ReachCheck::new)
         .transpose()?;
-    // A cache that cannot start (the arm library does not read) is no cache: placements are
-    // searched, and the report says none came from a cache.
-    let cache = config
-        .placement_cache
-        .as_ref()
-        .and_then(|dir| PlacementCache::new(dir).ok());
+    let cache = config.placement_cache.as_ref().map(PlacementCache::new);
     let mut used = CacheUse::default();
     let arms: Vec<Option<PlacedArm>> = match &check {
         None => vec![None; programs.len()],

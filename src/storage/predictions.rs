@@ -34,10 +34,15 @@ impl Store {
         .fetch_optional(&mut *tx)
         .await?;
         let id = match existing {
+            // Found: nothing changes, and the request leaves no audit row for it (a retried
+            // append, a prediction asked for again).
             Some((id,)) => id,
-            None => insert_prediction(&mut tx, pr, last).await?,
+            None => {
+                let id = insert_prediction(&mut tx, pr, last).await?;
+                audit::record(&mut tx, Some(pr.cell_id)).await?;
+                id
+            }
         };
-        audit::record(&mut tx, Some(pr.cell_id)).await?;
         tx.commit().await?;
         Ok(id)
     }

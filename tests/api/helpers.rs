@@ -97,7 +97,7 @@ async fn start(db: Database, http: TransportOptions) -> TestApp {
         durability: Durability::Process,
         addr: "127.0.0.1:0".into(),
         http,
-        robots: nextpose::kinematics::bundled_robots_dir(),
+        robots: None,
         backup_dir: None,
     };
     let server = Application::build(settings)

@@ -830,7 +830,7 @@ async fn bad_history_requests_are_refused_and_change_nothing() {
     for (path, status, says) in [
         (
             format!("{p}/history/99"),
-            StatusCode::UNPROCESSABLE_ENTITY,
+            StatusCode::NOT_FOUND,
             "no revision 99",
         ),
         (
@@ -855,13 +855,13 @@ async fn bad_history_requests_are_refused_and_change_nothing() {
         ),
         (
             format!("{p}/diff?from=99"),
-            StatusCode::UNPROCESSABLE_ENTITY,
+            StatusCode::NOT_FOUND,
             "no revision 99",
         ),
         (format!("{p}/diff"), StatusCode::BAD_REQUEST, "from"),
         (
             format!("{p}/export?format=rapid&revision=99"),
-            StatusCode::UNPROCESSABLE_ENTITY,
+            StatusCode::NOT_FOUND,
             "no revision 99",
         ),
         (
@@ -884,7 +884,7 @@ async fn bad_history_requests_are_refused_and_change_nothing() {
     for (body, status, says) in [
         (
             json!({ "revision": 99 }),
-            StatusCode::UNPROCESSABLE_ENTITY,
+            StatusCode::NOT_FOUND,
             "no revision 99",
         ),
         (

@@ -16,52 +16,159 @@ fn committed_openapi_yaml_is_up_to_date() {
     );
 }
 
-#[tokio::test]
-async fn every_described_route_is_served() {
-    let app = spawn_app().await;
+/// Every operation of the spec, by path with ids that do not exist, and whether it is
+/// described for each method (the ones it is not must not be served).
+fn operations() -> Vec<(Method, String, String, bool)> {
     let spec = nextpose::http::openapi();
-    let mut seen = 0;
+    let mut out = Vec::new();
     for (path, item) in &spec.paths.paths {
         let concrete = path
             .replace("{cell_id}", "999")
             .replace("{program_id}", "999")
             .replace("{routine_id}", "999")
-            .replace("{prediction_id}", "999");
-        let methods = [
+            .replace("{prediction_id}", "999")
+            .replace("{waypoint_id}", "999")
+            .replace("{revision}", "1")
+            .replace("{name}", "nobody");
+        for (method, described) in [
             (Method::GET, item.get.is_some()),
             (Method::POST, item.post.is_some()),
             (Method::DELETE, item.delete.is_some()),
             (Method::PUT, item.put.is_some()),
             (Method::PATCH, item.patch.is_some()),
-        ];
-        for (method, described) in methods {
-            let r = app
-                .client
-                .request(method.clone(), app.url(&concrete))
-                .header("content-type", "application/json")
-                .body("{}")
-                .send()
-                .await
-                .unwrap();
-            let status = r.status();
-            let body: serde_json::Value = r.json().await.unwrap_or_default();
-            let code = body["error"]["code"].as_str().unwrap_or("");
-            if described {
-                seen += 1;
-                assert!(
-                    code != "route_not_found" && status != StatusCode::METHOD_NOT_ALLOWED,
-                    "{method} {path} is described but not served ({status} {code})"
-                );
-                assert!(!status.is_server_error(), "{method} {path}: {status}");
-            } else {
-                assert!(
-                    status == StatusCode::METHOD_NOT_ALLOWED || code == "route_not_found",
-                    "{method} {path} is served ({status}) but not described"
+        ] {
+            out.push((method, path.clone(), concrete.clone(), described));
+        }
+    }
+    out
+}
+
+/// The statuses the spec lists for an operation.
+fn listed(path: &str, method: &Method) -> Vec<String> {
+    let spec: serde_json::Value = serde_json::to_value(nextpose::http::openapi()).unwrap();
+    let op = &spec["paths"][path][method.as_str().to_lowercase()];
+    op["responses"]
+        .as_object()
+        .map(|r| r.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
+async fn call(app: &TestApp, method: &Method, path: &str) -> (StatusCode, String) {
+    let mut rb = app
+        .client
+        .request(method.clone(), app.url(path))
+        .header("content-type", "application/json")
+        .body("{}");
+    if let Some(token) = &app.token {
+        rb = rb.bearer_auth(token);
+    }
+    let r = rb.send().await.unwrap();
+    let status = r.status();
+    let body: serde_json::Value = r.json().await.unwrap_or_default();
+    (
+        status,
+        body["error"]["code"].as_str().unwrap_or("").to_string(),
+    )
+}
+
+/// Every operation of the spec is served, and what it answers to a request it cannot satisfy
+/// (ids that do not exist, an empty body), on an open server and on one with a token asked
+/// without one, with a wrong one and with an operator's, is a status the spec lists for it.
+#[tokio::test]
+async fn every_described_route_is_served_and_answers_only_what_the_spec_lists() {
+    let open = spawn_app().await;
+    let mut guarded = spawn_with(nextpose::transport::TransportOptions {
+        token: Some("bootstrap-secret".into()),
+        ..Default::default()
+    })
+    .await;
+    guarded.token = Some("bootstrap-secret".into());
+    let cell = guarded.create_cell("c").await;
+    let operator = guarded
+        .post_ok(
+            "/v1/tokens",
+            &serde_json::json!({ "name": "op", "role": "operator", "cells": [cell] }),
+            StatusCode::CREATED,
+        )
+        .await["secret"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let mut seen = 0;
+    for (method, path, concrete, described) in operations() {
+        let (status, code) = call(&open, &method, &concrete).await;
+        if !described {
+            assert!(
+                status == StatusCode::METHOD_NOT_ALLOWED || code == "route_not_found",
+                "{method} {path} is served ({status}) but not described"
+            );
+            continue;
+        }
+        seen += 1;
+        assert!(
+            code != "route_not_found" && status != StatusCode::METHOD_NOT_ALLOWED,
+            "{method} {path} is described but not served ({status} {code})"
+        );
+        assert!(!status.is_server_error(), "{method} {path}: {status}");
+        let statuses = listed(&path, &method);
+        let mut answers = vec![("open server", status)];
+        for token in [None, Some("npt_wrong"), Some(operator.as_str())] {
+            guarded.token = token.map(str::to_string);
+            answers.push(("guarded server", call(&guarded, &method, &concrete).await.0));
+        }
+        if path != "/healthz" {
+            assert_eq!(
+                answers[1].1,
+                StatusCode::UNAUTHORIZED,
+                "{method} {path}: no token"
+            );
+            assert_eq!(
+                answers[2].1,
+                StatusCode::UNAUTHORIZED,
+                "{method} {path}: wrong token"
+            );
+        }
+        for (server, status) in answers {
+            assert!(
+                statuses.contains(&status.as_u16().to_string()),
+                "{method} {path} answered {status} on the {server}, but the spec lists only \
+                 {statuses:?}"
+            );
+        }
+    }
+    assert!(seen >= 50, "only {seen} operations described");
+}
+
+/// Every operation but `/healthz` declares the bearer token (optional: a server without a
+/// token asks for none) and documents 401 and 403 with the error body.
+#[test]
+fn every_operation_but_health_declares_the_token_and_its_refusals() {
+    let spec: serde_json::Value = serde_json::to_value(nextpose::http::openapi()).unwrap();
+    let mut checked = 0;
+    for (path, item) in spec["paths"].as_object().unwrap() {
+        for (method, op) in item.as_object().unwrap() {
+            if path == "/healthz" {
+                assert!(op["responses"].get("401").is_none(), "{method} {path}");
+                continue;
+            }
+            checked += 1;
+            let security = op["security"]
+                .as_array()
+                .unwrap_or_else(|| panic!("{method} {path} declares no security"));
+            assert!(
+                security.iter().any(|s| s.get("bearer").is_some()),
+                "{method} {path}: {security:?}"
+            );
+            for status in ["401", "403"] {
+                let schema = &op["responses"][status]["content"]["application/json"]["schema"];
+                assert_eq!(
+                    schema["$ref"], "#/components/schemas/ErrorBody",
+                    "{method} {path} {status}"
                 );
             }
         }
     }
-    assert!(seen >= 17, "only {seen} operations described");
+    assert!(checked >= 50, "{checked}");
 }
 
 /// The spec states what the server enforces: every POST that takes JSON can answer 413 and 415,

@@ -619,7 +619,12 @@ async fn a_token_limited_to_some_cells_lists_only_those() {
 /// (its template's `{…}` segments matching the entry's ids).
 #[tokio::test]
 async fn the_matrix_has_every_route_of_the_openapi_document() {
-    let app = spawn_app().await;
+    let mut app = spawn_with(TransportOptions {
+        token: Some(BOOTSTRAP.into()),
+        ..TransportOptions::default()
+    })
+    .await;
+    app.token = Some(BOOTSTRAP.into());
     let f = fixture(&app, 0).await;
     let entries: Vec<(Method, String)> = routes(&f, 0)
         .into_iter()

@@ -15,7 +15,7 @@ use nextpose::telemetry::Metrics;
 
 async fn app_on(path: &Path) -> App {
     let store = Store::open(path, Durability::Process).await.expect("store");
-    let robots = Robots::load(&nextpose::kinematics::bundled_robots_dir()).expect("robots");
+    let robots = Robots::load(None).expect("robots");
     App::new(store, Arc::new(Metrics::new()), Arc::new(robots))
 }
 
@@ -174,11 +174,14 @@ async fn the_cli_creates_lists_and_revokes_tokens_and_keeps_only_their_hashes() 
     app.store().close().await;
 }
 
-/// Over REST, without `NEXTPOSE_TOKEN`: the first stored token turns authentication on
-/// (`/healthz` says so, an anonymous call becomes 401); a token limited to no cells, a
-/// duplicate name or an unknown cell is refused and stores nothing; a revoked token is 401.
+/// Over REST, without `NEXTPOSE_TOKEN`: an anonymous client cannot create, list or revoke
+/// tokens (403 naming how the first token is made), so it cannot turn authentication on or
+/// lock anyone out; the host's operator does, with `nextpose token create`. Then the first
+/// stored token turns authentication on (`/healthz` says so, an anonymous call becomes 401); a
+/// token limited to no cells, a duplicate name or an unknown cell is refused and stores
+/// nothing; a revoked token is 401.
 #[tokio::test]
-async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_refused() {
+async fn an_anonymous_client_cannot_turn_authentication_on_and_the_host_can() {
     use crate::helpers::*;
     use reqwest::StatusCode;
     use serde_json::json;
@@ -188,6 +191,53 @@ async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_ref
     assert_eq!(health["token_required"], false);
     let cell = app.create_cell("weld-1").await;
 
+    // The take-over of an open server: refused, whatever the request carries.
+    for bearer in [None, Some("npt_made_up")] {
+        app.token = bearer.map(str::to_string);
+        for r in [
+            app.post("/v1/tokens", &json!({ "name": "x", "role": "admin" }))
+                .await,
+            app.get("/v1/tokens").await,
+            app.delete("/v1/tokens/x").await,
+        ] {
+            let message = expect_error(r, StatusCode::FORBIDDEN, "forbidden").await;
+            assert!(
+                message.contains("nextpose token create") && message.contains("--token"),
+                "{message}"
+            );
+        }
+    }
+    app.token = None;
+    // Nothing changed: the server still asks no one for a token and serves everyone.
+    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
+    assert_eq!(app.get_ok("/v1/whoami").await["name"], "anonymous");
+    app.create_cell("weld-2").await;
+
+    // The host's operator makes the first token, on the server's database, while it serves.
+    let out = Command::new(env!("CARGO_BIN_EXE_nextpose"))
+        .args([
+            "token", "create", "--name", "admin", "--role", "admin", "--db",
+        ])
+        .arg(db_setting(&app.db))
+        .env_remove("NEXTPOSE_DB")
+        .output()
+        .expect("run nextpose token");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let admin = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    assert_eq!(app.get_ok("/healthz").await["token_required"], true);
+    let r = app.get("/v1/cells").await;
+    assert_eq!(r.status(), StatusCode::UNAUTHORIZED);
+    assert_eq!(r.headers()["www-authenticate"], "Bearer");
+    let r = app
+        .post("/v1/tokens", &json!({ "name": "x", "role": "admin" }))
+        .await;
+    assert_eq!(r.status(), StatusCode::UNAUTHORIZED, "no token, no role");
+
+    app.token = Some(admin.clone());
     for (body, status, code) in [
         (
             json!({ "name": "none", "role": "operator", "cells": [] }),
@@ -204,39 +254,27 @@ async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_ref
             StatusCode::UNPROCESSABLE_ENTITY,
             "unprocessable",
         ),
+        (
+            json!({ "name": "admin", "role": "operator" }),
+            StatusCode::CONFLICT,
+            "conflict",
+        ),
     ] {
         let r = app.post("/v1/tokens", &body).await;
         assert_eq!(r.status(), status, "{body}");
         let error: serde_json::Value = r.json().await.unwrap();
         assert_eq!(error["error"]["code"], code, "{body}: {error}");
     }
-    // Nothing was stored: the service still asks no one for a token.
-    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
-    assert_eq!(app.get_ok("/v1/tokens").await, json!([]));
-
-    let admin = app
-        .post_ok(
-            "/v1/tokens",
-            &json!({ "name": "admin", "role": "admin" }),
-            StatusCode::CREATED,
-        )
-        .await["secret"]
-        .as_str()
-        .unwrap()
-        .to_string();
-    assert_eq!(app.get_ok("/healthz").await["token_required"], true);
-    let r = app.get("/v1/cells").await;
-    assert_eq!(r.status(), StatusCode::UNAUTHORIZED);
-    assert_eq!(r.headers()["www-authenticate"], "Bearer");
-
-    app.token = Some(admin.clone());
-    let r = app
-        .post(
-            "/v1/tokens",
-            &json!({ "name": "admin", "role": "operator" }),
-        )
-        .await;
-    assert_eq!(r.status(), StatusCode::CONFLICT, "a name is taken");
+    // Nothing was stored by the refusals.
+    let names = |tokens: serde_json::Value| -> Vec<String> {
+        tokens
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["name"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(names(app.get_ok("/v1/tokens").await), ["admin"]);
     let op = app
         .post_ok(
             "/v1/tokens",
@@ -246,15 +284,7 @@ async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_ref
         .await;
     assert_eq!(op["token"]["cells"], json!([cell]));
     let op = op["secret"].as_str().unwrap().to_string();
-    let names: Vec<String> = app
-        .get_ok("/v1/tokens")
-        .await
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t["name"].as_str().unwrap().to_string())
-        .collect();
-    assert_eq!(names, ["admin", "op"]);
+    assert_eq!(names(app.get_ok("/v1/tokens").await), ["admin", "op"]);
 
     app.token = Some(op.clone());
     assert_eq!(app.get_ok("/v1/whoami").await["name"], "op");
@@ -270,4 +300,38 @@ async fn the_first_stored_token_turns_authentication_on_and_a_revoked_one_is_ref
         StatusCode::UNAUTHORIZED,
         "a revoked token is unknown"
     );
+}
+
+/// Over gRPC too: on a server with no token, `CreateToken`, `ListTokens` and `RevokeToken`
+/// refuse an anonymous caller (`PERMISSION_DENIED`, saying how the first token is made), and
+/// nothing changes.
+#[tokio::test]
+async fn over_grpc_an_anonymous_client_cannot_turn_authentication_on() {
+    use crate::helpers::*;
+    use nextpose::grpc::pb;
+    use nextpose::grpc::pb::nextpose_client::NextposeClient;
+    use tonic::Code;
+
+    let app = spawn_app().await;
+    let mut c = NextposeClient::new(crate::grpc::client::channel(&app).await);
+    let refusals = [
+        c.create_token(pb::CreateTokenRequest {
+            name: "x".into(),
+            role: pb::Role::Admin.into(),
+            cells: vec![],
+        })
+        .await
+        .map(drop),
+        c.list_tokens(pb::ListTokensRequest {}).await.map(drop),
+        c.revoke_token(pb::RevokeTokenRequest { name: "x".into() })
+            .await
+            .map(drop),
+    ];
+    for r in refusals {
+        let e = r.expect_err("refused");
+        assert_eq!(e.code(), Code::PermissionDenied, "{e:?}");
+        assert!(e.message().contains("nextpose token create"), "{e:?}");
+    }
+    assert_eq!(app.get_ok("/healthz").await["token_required"], false);
+    app.create_cell("still-open").await;
 }

@@ -13,11 +13,11 @@ use super::wire::{In, Wire, both_ways, enum_both_ways, required};
 
 enum_both_ways!(MotionType => Motion as "motion" { Joint, Linear, Circular });
 
-both_ways!(NewWaypoint => NewWaypoint { pose, joints, motion, name });
+both_ways!(NewWaypoint => NewWaypoint { pose, joints, motion, name, seq });
 both_ways!(Waypoint => Waypoint {
     id, routine_id, seq, pose, joints, motion, name, reachable, created_at,
 });
-both_ways!(Taught => Taught { waypoint, prediction });
+both_ways!(Taught => Taught { waypoint, prediction, repeat });
 both_ways!(Undone => Undone { removed, prediction });
 both_ways!(WaypointEdit => WaypointEdit { waypoint, previous, model_version });
 

@@ -103,6 +103,7 @@ async fn two_seams_taught(c: &mut Client, program: &pb::Program) -> Option<i64> 
                         joints: vec![],
                         motion: pb::Motion::Linear.into(),
                         name: Some(format!("p{j}")),
+                        seq: None,
                     }),
                 })
                 .await
@@ -552,7 +553,7 @@ async fn history_over_grpc_matches_rest() {
         })
         .await
         .expect_err("no revision 99");
-    assert_eq!(missing.code(), Code::InvalidArgument);
+    assert_eq!(missing.code(), Code::NotFound);
 
     let last = rest.to;
     let restored = c
