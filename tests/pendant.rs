@@ -2032,7 +2032,8 @@ async fn an_engineer_sees_a_revision_and_its_diff_and_restores_it() {
     };
     let operator = token("op-1", "operator").await;
     let engineer = token("eng-1", "engineer").await;
-    let history = |api: &Api| {
+    let history = || {
+        let api = &api;
         let path = format!("/v1/programs/{}/history", t.program);
         async move { api.get(&path).await }
     };
@@ -2057,7 +2058,7 @@ async fn an_engineer_sees_a_revision_and_its_diff_and_restores_it() {
     page.wait_for("#signed-in[data-role=engineer]").await;
     page.wait_for("#record:not([disabled])").await;
     let before = api.waypoints(t.routine).await;
-    let was = history(&api).await["revision"].as_i64().expect("revision");
+    let was = history().await["revision"].as_i64().expect("revision");
     page.select("#jog-frame", "work").await;
     page.fill("#jog-step", "20").await;
     page.jog("x+", 1).await;
@@ -2073,8 +2074,9 @@ async fn an_engineer_sees_a_revision_and_its_diff_and_restores_it() {
     let from = position(&before[0]["pose"]);
     assert!(close(moved, [from[0] + 20.0, from[1], from[2]]), "{moved:?}");
 
-    // The revision: who, and what changed.
-    page.click("#history summary").await;
+    // The revision: who, and what changed (the history is still open: the page loaded again
+    // for the new token without a reload).
+    page.wait_for("#history[open]").await;
     let newest = page
         .wait_for(&format!("#revisions li[data-revision='{}']", was + 1))
         .await
@@ -2122,7 +2124,7 @@ async fn an_engineer_sees_a_revision_and_its_diff_and_restores_it() {
         assert_eq!(a["pose"], b["pose"]);
         assert_eq!(a["id"], b["id"]);
     }
-    let h = history(&api).await;
+    let h = history().await;
     assert_eq!(h["revision"], was + 2, "{h}");
     assert_eq!(h["revisions"][0]["token"], "eng-1");
     page.wait_for(&format!("#revisions li[data-revision='{}']", was + 2))

@@ -162,13 +162,14 @@ function renderMe() {
   $('sign-in').hidden = Boolean(me) || starting || asking !== null;
 }
 
-// Sign in, or Change token: the dialog; a token the service knows is kept and the page starts
-// again as its caller. Closed without one, nothing changes (Change token keeps the old token).
+// Sign in, or Change token: the dialog; a token the service knows is kept and the page loads
+// again as its caller (who it is, then its cells). Closed without one, nothing changes (Change
+// token keeps the old token).
 function signIn() {
   tokenDialog()
     .then((secret) => {
       api.use(secret);
-      window.location.reload();
+      return run(start);
     })
     .catch((e) => {
       if (!me) report(e);
@@ -358,6 +359,7 @@ async function loadCells(select) {
   options($('cell-select'), cells, select, (c) => c.name);
   const id = select ?? (cells.length ? cells[cells.length - 1].id : null);
   if (id != null) await chooseCell(id);
+  else session.leaveCell();
 }
 
 async function chooseCell(id) {

@@ -96,6 +96,17 @@ export class Session {
     await this.moveTo(null);
   }
 
+  /** No cell (the caller sees none): nothing to teach. */
+  leaveCell() {
+    this.cell = null;
+    this.language = null;
+    this.routine = null;
+    this.others = [];
+    this.frames = null;
+    this.clearSuggestion();
+    this.view.drawPaths([], []);
+  }
+
   async setRoutine(detail, others) {
     this.routine = detail;
     this.others = others;
