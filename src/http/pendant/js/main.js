@@ -312,6 +312,9 @@ function renderButtons() {
   able($('accept-n'), idle && session.reachableSuggestion);
   able($('adjust'), idle && session.reachableSuggestion);
   able($('reject'), idle && session.offered && session.verdict === undefined);
+  if (session.verdict !== undefined && !$('reject').title) {
+    $('reject').title = `this suggestion already has feedback (${session.verdict}): the service takes one`;
+  }
   able($('create-routine'), idle && $('program-select').value);
   able($('create-program'), idle && session.cell);
   able($('calib-apply'), idle && calibrationReady());
