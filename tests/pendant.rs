@@ -1288,6 +1288,35 @@ async fn a_double_press_accepts_once_and_only_what_was_on_screen() {
         .clone();
     assert_eq!(offered["id"].to_string(), shown);
 
+    // Accept pressed just after the finished routine was picked (both in one script): the
+    // press carries the suggestion on screen, which is gone when its turn comes, so nothing is
+    // sent and the header says why.
+    let routines = routines_of(&api, t.program).await;
+    page.js(&format!(
+        "const s = document.getElementById('routine-select'); s.value = '{}'; \
+         s.dispatchEvent(new Event('change')); document.getElementById('accept').click();",
+        routines[0]
+    ))
+    .await;
+    let said = page
+        .wait_until(
+            Locator::XPath("//*[@id='status' and @data-level='error']"),
+            "the refused Accept",
+        )
+        .await
+        .text()
+        .await
+        .expect("status");
+    assert!(said.contains("suggestion on screen changed"), "{said:?}");
+    assert_eq!(api.waypoints(t.routine).await.len(), 1);
+    assert_eq!(api.waypoints(routines[0]).await.len(), 6);
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 0);
+    page.select("#routine-select", &t.routine.to_string()).await;
+    page.wait_for(&format!(
+        "#suggestion[data-state=offered][data-prediction-id=\"{shown}\"]"
+    ))
+    .await;
+
     // One press, or two: each ends when the page is idle again, or when the service holds more
     // waypoints than one press may record.
     let pressed = |before: usize| {
