@@ -367,6 +367,67 @@ impl Api {
     }
 }
 
+impl Api {
+    async fn patch(&self, path: &str, body: Value) -> Value {
+        let r = self
+            .http
+            .patch(format!("{}{path}", self.base))
+            .bearer_auth(TOKEN)
+            .json(&body)
+            .send()
+            .await
+            .expect("send");
+        assert!(r.status().is_success(), "{path}: {}", r.status());
+        r.json().await.expect("json")
+    }
+
+    /// A route's answer with `bearer` (or none): its status and body, as any client meets it.
+    async fn answer(&self, path: &str, bearer: Option<&str>) -> (u16, Value) {
+        let mut request = self.http.get(format!("{}{path}", self.base));
+        if let Some(secret) = bearer {
+            request = request.bearer_auth(secret);
+        }
+        let r = request.send().await.expect("send");
+        let status = r.status().as_u16();
+        (status, r.json().await.expect("json"))
+    }
+
+    /// The stored waypoints of a routine.
+    async fn waypoints(&self, routine: i64) -> Vec<Value> {
+        self.get(&format!("/v1/routines/{routine}")).await["waypoints"]
+            .as_array()
+            .expect("waypoints")
+            .clone()
+    }
+
+    async fn feedback_count(&self, cell: i64, verdict: &str) -> i64 {
+        self.get(&format!("/v1/cells/{cell}/stats")).await["feedback"][verdict]
+            .as_i64()
+            .expect("a count")
+    }
+}
+
+/// Polls `check` until it gives an answer, for at most [`PATIENCE`]: the bounded wait of a
+/// condition the test cannot express as one DOM query (the server's state, or either of two
+/// outcomes).
+async fn eventually<T, F, Fut>(what: &str, mut check: F) -> T
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = Option<T>>,
+{
+    let deadline = tokio::time::Instant::now() + PATIENCE;
+    loop {
+        if let Some(v) = check().await {
+            return v;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{what}: not within {PATIENCE:?}"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
 fn position(v: &Value) -> [f64; 3] {
     let f = |k: &str| v[k].as_f64().expect(k);
     [f("x"), f("y"), f("z")]
@@ -1068,6 +1129,1076 @@ async fn the_page_shows_who_is_signed_in_and_greys_out_what_the_role_may_not_do(
         assert_eq!(off, id == "calib-apply", "{id} for the admin ({title:?})");
     }
     page.screenshot("pendant-admin.png").await;
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+// ---- issue 46: what a new user met on the page ----
+
+impl Page {
+    /// Opens the page and signs in with `secret` through the token dialog.
+    async fn open_signed_in(&self, base: &str, secret: &str) {
+        self.c
+            .goto(&format!("{base}/"))
+            .await
+            .expect("open the page");
+        self.wait_for("#token-dialog[open]").await;
+        self.fill("#token-input", secret).await;
+        self.click("#token-submit").await;
+        self.wait_for("#token-dialog:not([open])").await;
+    }
+
+    /// Runs a script in the page and gives its value.
+    async fn js(&self, script: &str) -> Value {
+        self.c
+            .execute(script, vec![])
+            .await
+            .unwrap_or_else(|e| panic!("{script}: {e}"))
+    }
+
+    /// The header's status: `(level, text)`.
+    async fn status(&self) -> (String, String) {
+        let v = self
+            .js("const s = document.getElementById('status'); return [s.dataset.level, s.textContent];")
+            .await;
+        (
+            v[0].as_str().unwrap_or_default().to_string(),
+            v[1].as_str().unwrap_or_default().to_string(),
+        )
+    }
+
+    /// Whether the page has no press in flight (the page marks it on `body[data-busy]`).
+    async fn idle(&self) -> bool {
+        self.js("return document.body.dataset.busy === '0';").await == json!(true)
+    }
+}
+
+/// A cell of an IRB 140 that has learned one routine (six waypoints jogged in the work frame:
+/// a U over a seam, as the first test teaches it) and a second routine under way, 120 mm to the
+/// side, with its first waypoint: the next corner is on offer. All through the API, each
+/// waypoint with the joints the arm reaches it with.
+struct Taught {
+    cell: i64,
+    program: i64,
+    routine: i64,
+    /// The arm's ready TCP position, which the routines are placed from.
+    home: [f64; 3],
+}
+
+async fn teach_a_seam(api: &Api, robot: &str) -> Taught {
+    let cell = api
+        .post(
+            "/v1/cells",
+            json!({ "name": "seam cell", "settings": { "robot": robot } }),
+        )
+        .await;
+    let cell = cell["id"].as_i64().expect("cell id");
+    let program = api
+        .post(
+            &format!("/v1/cells/{cell}/programs"),
+            json!({ "name": "Seams" }),
+        )
+        .await;
+    let program = program["id"].as_i64().expect("program id");
+    let tcp = api.get(&format!("/v1/cells/{cell}/frames")).await["tcp"].clone();
+    let home = position(&tcp);
+    let mut near = api.get(&format!("/v1/cells/{cell}/frames")).await["joints"].clone();
+    let mut teach = async |routine: i64, offset: [f64; 3]| {
+        let mut pose = tcp.clone();
+        for (k, o) in ["x", "y", "z"].iter().zip(offset) {
+            pose[*k] = json!(tcp[*k].as_f64().expect("coordinate") + o);
+        }
+        let reach = api
+            .post(
+                &format!("/v1/cells/{cell}/reach"),
+                json!({ "pose": pose, "near": near }),
+            )
+            .await;
+        assert_eq!(reach["reachable"], true, "{pose} is within reach: {reach}");
+        near = reach["chosen"].clone();
+        api.post(
+            &format!("/v1/routines/{routine}/waypoints"),
+            json!({ "pose": pose, "joints": near, "motion": "linear" }),
+        )
+        .await
+    };
+    let first = api
+        .post(&format!("/v1/programs/{program}/routines"), json!({}))
+        .await["id"]
+        .as_i64()
+        .expect("routine id");
+    for o in [
+        [0.0, 0.0, 0.0],
+        [60.0, 0.0, 0.0],
+        [60.0, 40.0, 0.0],
+        [60.0, 40.0, -40.0],
+        [0.0, 40.0, -40.0],
+        [0.0, 40.0, 0.0],
+    ] {
+        teach(first, o).await;
+    }
+    api.post(&format!("/v1/routines/{first}/finish"), json!({}))
+        .await;
+    let routine = api
+        .post(&format!("/v1/programs/{program}/routines"), json!({}))
+        .await["id"]
+        .as_i64()
+        .expect("routine id");
+    let taught = teach(routine, [0.0, -80.0, 0.0]).await;
+    assert_eq!(
+        taught["prediction"]["offered"], true,
+        "the copy's next corner is offered: {taught}"
+    );
+    Taught {
+        cell,
+        program,
+        routine,
+        home,
+    }
+}
+
+/// Issue 46: a double click on Accept, or `a` pressed twice quickly, records one waypoint, the
+/// suggestion that was on screen; a double-clicked *Accept next* counts what it accepted. The
+/// two clicks (and the two key presses) are dispatched in one script, so no answer of the
+/// service can come between them: the second lands while the first is in flight.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_double_press_accepts_once_and_only_what_was_on_screen() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    page.open_signed_in(&base, TOKEN).await;
+    page.wait_for("#suggestion[data-state=offered]").await;
+    page.wait_for("#accept:not([disabled])").await;
+    let shown = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+    let offered = api
+        .get(&format!("/v1/routines/{}/prediction", t.routine))
+        .await["predictions"][0]
+        .clone();
+    assert_eq!(offered["id"].to_string(), shown);
+
+    // Accept pressed just after the finished routine was picked (both in one script): the
+    // press carries the suggestion on screen, which is gone when its turn comes, so nothing is
+    // sent and the header says why.
+    let routines = routines_of(&api, t.program).await;
+    page.js(&format!(
+        "const s = document.getElementById('routine-select'); s.value = '{}'; \
+         s.dispatchEvent(new Event('change')); document.getElementById('accept').click();",
+        routines[0]
+    ))
+    .await;
+    let said = page
+        .wait_until(
+            Locator::XPath("//*[@id='status' and @data-level='error']"),
+            "the refused Accept",
+        )
+        .await
+        .text()
+        .await
+        .expect("status");
+    assert!(said.contains("suggestion on screen changed"), "{said:?}");
+    assert_eq!(api.waypoints(t.routine).await.len(), 1);
+    assert_eq!(api.waypoints(routines[0]).await.len(), 6);
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 0);
+    page.select("#routine-select", &t.routine.to_string()).await;
+    page.wait_for(&format!(
+        "#suggestion[data-state=offered][data-prediction-id=\"{shown}\"]"
+    ))
+    .await;
+
+    // One press, or two: each ends when the page is idle again, or when the service holds more
+    // waypoints than one press may record.
+    let pressed = |before: usize| {
+        let (api, page) = (&api, &page);
+        async move {
+            eventually("the press to be taken", || async move {
+                let stored = api.waypoints(t.routine).await.len();
+                (stored > before + 1 || (stored == before + 1 && page.idle().await))
+                    .then_some(stored)
+            })
+            .await
+        }
+    };
+
+    // A double click on Accept.
+    page.js("const b = document.getElementById('accept'); b.click(); b.click();")
+        .await;
+    let stored = pressed(1).await;
+    assert_eq!(
+        stored,
+        2,
+        "a double click on Accept recorded {} waypoints",
+        stored - 1
+    );
+    let w = api.waypoints(t.routine).await;
+    assert!(
+        close(position(&w[1]["pose"]), position(&offered["pose"])),
+        "the accepted waypoint {:?} is the suggestion on screen {:?}",
+        w[1]["pose"],
+        offered["pose"]
+    );
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 1);
+    let (level, text) = page.status().await;
+    assert_ne!(level, "error", "{text}");
+
+    // `a` twice.
+    page.wait_for("#suggestion[data-state=offered]").await;
+    page.wait_for("#accept:not([disabled])").await;
+    page.js("for (const k of ['a', 'a']) document.body.dispatchEvent(\
+           new KeyboardEvent('keydown', { key: k, bubbles: true }));")
+        .await;
+    let stored = pressed(2).await;
+    assert_eq!(stored, 3, "a, a recorded {} waypoints, not one", stored - 2);
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 2);
+
+    // A double click on Accept next (5): the status counts what was accepted.
+    page.wait_for("#accept-n:not([disabled])").await;
+    page.fill("#accept-n-count", "5").await;
+    page.js("const b = document.getElementById('accept-n'); b.click(); b.click();")
+        .await;
+    let settled = eventually("Accept next to end", || async {
+        let (_, text) = page.status().await;
+        (page.idle().await || text.contains("accepted 0")).then_some(text)
+    })
+    .await;
+    let accepted = api.waypoints(t.routine).await.len() - 3;
+    assert!(accepted >= 1, "Accept next accepted nothing");
+    assert!(
+        settled.starts_with(&format!("accepted {accepted}")),
+        "the status says {settled:?}; {accepted} were accepted"
+    );
+    assert_eq!(
+        api.feedback_count(t.cell, "accepted").await,
+        2 + accepted as i64
+    );
+    let (level, text) = page.status().await;
+    assert_ne!(level, "error", "{text}");
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: feedback, undo and a reload agree with the service. Accepted, then the page is
+/// reloaded and the waypoint undone: the same suggestion is back, the page knows it has its
+/// feedback (Reject is off) and Accept records it again without a second feedback. Feedback
+/// given elsewhere (another pendant, here the API) is the service's word too: Accept records
+/// the waypoint, Reject says the suggestion already has feedback and changes nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn feedback_after_a_reload_and_an_undo_agrees_with_the_service() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        mut page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    page.open_signed_in(&base, TOKEN).await;
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let first = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+    page.click("#accept").await;
+    page.wait_for("#waypoints li:nth-child(2)").await;
+    page.wait_for_stat("accepted", 1).await;
+
+    page.c.refresh().await.expect("reload");
+    page.wait_for("#waypoints li:nth-child(2)").await;
+    page.click("#undo").await;
+    page.wait_until(
+        Locator::XPath("//*[@id='waypoints' and count(li)=1]"),
+        "one waypoint after undo",
+    )
+    .await;
+    page.wait_for(&format!(
+        "#suggestion[data-state=offered][data-prediction-id=\"{first}\"]"
+    ))
+    .await;
+    page.wait_for("#accept:not([disabled])").await;
+    let (off, title) = {
+        let c = page.controls(&["reject"]).await;
+        (c[0].1, c[0].2.clone())
+    };
+    assert!(
+        off && title.contains("already has feedback (accepted)"),
+        "Reject is off for a suggestion with feedback, and says why ({title:?})"
+    );
+
+    // Accept again: recorded, no second feedback, no error.
+    page.click("#accept").await;
+    let stored = eventually("the accepted waypoint to be stored", || async {
+        let w = api.waypoints(t.routine).await;
+        (w.len() == 2).then_some(w)
+    })
+    .await;
+    page.wait_for("#waypoints li:nth-child(2)").await;
+    let want = [t.home[0] + 60.0, t.home[1] - 80.0, t.home[2]];
+    assert!(close(position(&stored[1]["pose"]), want), "{:?}", stored[1]);
+    page.wait_for("#status[data-level=info]").await;
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 1);
+
+    // Feedback from elsewhere on the next suggestion, then Accept on the page: recorded.
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let second = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+    assert_ne!(second, first);
+    api.post(
+        &format!("/v1/predictions/{second}/feedback"),
+        json!({ "verdict": "rejected" }),
+    )
+    .await;
+    page.click("#accept").await;
+    eventually("the third waypoint to be stored", || async {
+        (api.waypoints(t.routine).await.len() == 3).then_some(())
+    })
+    .await;
+    let shown = page
+        .wait_for("#status[data-level=info]")
+        .await
+        .text()
+        .await
+        .expect("status");
+    assert!(shown.contains("rejected"), "the status says so: {shown:?}");
+
+    // And Reject on a suggestion accepted elsewhere: nothing recorded, the page says why.
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let third = page
+        .attr("#suggestion", "data-prediction-id")
+        .await
+        .expect("prediction id");
+    api.post(
+        &format!("/v1/predictions/{third}/feedback"),
+        json!({ "verdict": "accepted" }),
+    )
+    .await;
+    page.click("#reject").await;
+    page.wait_for("#suggestion[data-state=none]").await;
+    let shown = page.text("#status").await;
+    assert!(
+        shown.contains("already has feedback") && shown.contains("accepted"),
+        "{shown:?}"
+    );
+    assert_eq!(page.status().await.0, "info");
+    assert_eq!(api.feedback_count(t.cell, "accepted").await, 2);
+    assert_eq!(api.feedback_count(t.cell, "rejected").await, 1);
+    assert_eq!(api.waypoints(t.routine).await.len(), 3);
+
+    // The service's 409s the page was told and took as its word.
+    page.set_aside("status of 409").await;
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: the token dialog closed with Escape leaves a Sign in that opens it again; an empty
+/// or a wrong token is refused with the service's own reason (its 401 body), the right one signs
+/// in; *Change token* closed with Escape keeps the token the page had.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_token_dialog_can_always_be_opened_again_and_says_why_a_token_is_refused() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        mut page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    const ESCAPE: &str = "\u{e00c}";
+    page.c
+        .goto(&format!("{base}/"))
+        .await
+        .expect("open the page");
+    page.wait_for("#token-dialog[open]").await;
+    page.wait_for("#token-input")
+        .await
+        .send_keys(ESCAPE)
+        .await
+        .expect("Escape");
+    page.wait_for("#token-dialog:not([open])").await;
+    page.wait_for("#signed-in[data-role='']").await;
+    page.click("#sign-in:not([hidden])").await;
+    page.wait_for("#token-dialog[open]").await;
+
+    // What the service says to a request without a token, and with a wrong one.
+    let (status, refused) = api.answer("/v1/whoami", None).await;
+    assert_eq!(status, 401);
+    let without = refused["error"]["message"]
+        .as_str()
+        .expect("message")
+        .to_string();
+    let (status, refused) = api.answer("/v1/whoami", Some("not-the-token")).await;
+    assert_eq!(status, 401);
+    let wrong = refused["error"]["message"]
+        .as_str()
+        .expect("message")
+        .to_string();
+
+    page.click("#token-submit").await;
+    let said = page
+        .wait_for("#token-error:not([hidden])[data-code=unauthorized]")
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(said.contains(&without), "an empty token: {said:?}");
+    page.js("document.getElementById('token-error').hidden = true;")
+        .await;
+    page.fill("#token-input", "not-the-token").await;
+    page.click("#token-submit").await;
+    let said = page
+        .wait_for("#token-error:not([hidden])")
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(said.contains(&wrong), "a wrong token: {said:?}");
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", TOKEN).await;
+    page.click("#token-submit").await;
+    page.wait_for("#signed-in[data-role=admin]").await;
+    page.wait_for("#sign-in[hidden]").await;
+    page.wait_for("#new-cell-name:not([disabled])").await;
+
+    // Change token, then Escape: still signed in as before, and the page still works.
+    page.click("#sign-out").await;
+    page.wait_for("#token-dialog[open]").await;
+    page.wait_for("#token-input")
+        .await
+        .send_keys(ESCAPE)
+        .await
+        .expect("Escape");
+    page.wait_for("#token-dialog:not([open])").await;
+    page.wait_for("#signed-in[data-role=admin]").await;
+    page.fill("#new-cell-name", "after escape").await;
+    page.click("#create-cell").await;
+    page.wait_for("#cell-select option:checked").await;
+    let cells = api.get("/v1/cells").await;
+    assert_eq!(cells[0]["name"], "after escape", "{cells}");
+
+    page.set_aside("status of 401").await;
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: an error in the header is cleared by the next action that succeeds (a jog beyond
+/// the arm's reach, then a Record).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_error_is_cleared_by_the_next_action_that_succeeds() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    page.open_signed_in(&base, TOKEN).await;
+    page.wait_for("#record:not([disabled])").await;
+    page.select("#jog-frame", "work").await;
+    page.fill("#jog-step", "5000").await;
+    page.click("[data-jog=\"x+\"]").await;
+    let said = page
+        .wait_for("#status[data-level=error]")
+        .await
+        .text()
+        .await
+        .expect("status");
+    assert!(said.contains("cannot jog"), "{said:?}");
+    page.record().await;
+    assert_eq!(api.waypoints(t.routine).await.len(), 2);
+    let (level, text) = page.status().await;
+    assert_ne!(
+        level, "error",
+        "the jog's error is still shown after a Record: {text:?}"
+    );
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: names of 200 characters (the most the service takes) for the cell, the program,
+/// the routine and a waypoint never widen the page, at a desktop's size or a pendant's
+/// 800×600: the pickers and the list cut them, and their titles hold them whole.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_names_never_break_the_layout() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    let long = |c: &str| format!("{c}{}", "W".repeat(199));
+    api.patch(
+        &format!("/v1/cells/{}", t.cell),
+        json!({ "name": long("C") }),
+    )
+    .await;
+    api.patch(
+        &format!("/v1/programs/{}", t.program),
+        json!({ "name": long("P") }),
+    )
+    .await;
+    api.patch(
+        &format!("/v1/routines/{}", t.routine),
+        json!({ "name": long("R") }),
+    )
+    .await;
+    let w = api.waypoints(t.routine).await;
+    api.patch(
+        &format!("/v1/waypoints/{}", w[0]["id"]),
+        json!({ "name": long("N") }),
+    )
+    .await;
+    page.open_signed_in(&base, TOKEN).await;
+    page.wait_for("#waypoints li").await;
+    page.wait_for("#record:not([disabled])").await;
+    for (width, height) in [(1280, 800), (800, 600)] {
+        page.c.set_window_size(width, height).await.expect("resize");
+        let wide = page
+            .js(
+                "const d = document.documentElement; \
+                 const out = [...document.querySelectorAll('header *, #waypoints li, aside *, footer *')] \
+                   .filter((e) => e.getBoundingClientRect().right > window.innerWidth + 0.5) \
+                   .map((e) => e.id || e.tagName); \
+                 return [d.scrollWidth, d.clientWidth, document.body.scrollWidth, out];",
+            )
+            .await;
+        assert!(
+            wide[0].as_i64() <= wide[1].as_i64() && wide[2].as_i64() <= wide[1].as_i64(),
+            "at {width}×{height} the page is wider than the window: {wide}"
+        );
+        assert_eq!(
+            wide[3],
+            json!([]),
+            "at {width}×{height} beyond the right edge"
+        );
+        page.screenshot(&format!("pendant-long-names-{width}.png"))
+            .await;
+    }
+    for (select, name) in [("#cell-select", long("C")), ("#program-select", long("P"))] {
+        assert_eq!(
+            page.attr(select, "title").await.as_deref(),
+            Some(name.as_str()),
+            "{select}'s title is the whole name"
+        );
+    }
+    let routine_title = page
+        .attr("#routine-select", "title")
+        .await
+        .unwrap_or_default();
+    assert!(routine_title.contains(&long("R")), "{routine_title:?}");
+    let listed = page
+        .attr("#waypoints li .name", "title")
+        .await
+        .unwrap_or_default();
+    assert!(listed.contains(&long("N")), "{listed:?}");
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: renaming a waypoint to nothing clears its name (the API's `null`) and says so;
+/// a name is set as given.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_empty_name_clears_a_waypoints_name_and_says_so() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    let id = api.waypoints(t.routine).await[0]["id"]
+        .as_i64()
+        .expect("id");
+    api.patch(&format!("/v1/waypoints/{id}"), json!({ "name": "corner" }))
+        .await;
+    page.open_signed_in(&base, TOKEN).await;
+    page.wait_for("#waypoints li").await;
+    page.wait_for("#record:not([disabled])").await;
+
+    page.click("#waypoints li").await;
+    page.wait_for("#waypoints li[aria-selected=true]").await;
+    let rename = |to: &'static str| {
+        let page = &page;
+        async move {
+            page.click("#wp-rename").await;
+            eventually("the name prompt", || async {
+                page.c.get_alert_text().await.ok()
+            })
+            .await;
+            page.c.send_alert_text(to).await.expect("type the name");
+            page.c.accept_alert().await.expect("accept the prompt");
+        }
+    };
+    rename("").await;
+    let said = page
+        .wait_until(
+            Locator::XPath("//*[@id='status' and contains(text(), 'cleared')]"),
+            "the status saying the name is cleared",
+        )
+        .await
+        .text()
+        .await
+        .expect("status");
+    assert!(said.contains("waypoint 1"), "{said:?}");
+    let stored = api.waypoints(t.routine).await;
+    assert_eq!(stored[0]["name"], Value::Null, "{}", stored[0]);
+    page.wait_until(
+        Locator::XPath("//*[@id='waypoints']/li[1]/span[normalize-space(text())='1. p1']"),
+        "the list showing no name",
+    )
+    .await;
+
+    rename("start").await;
+    eventually("the name to be stored", || async {
+        (api.waypoints(t.routine).await[0]["name"] == "start").then_some(())
+    })
+    .await;
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// The numbers an export writes for the one waypoint of a program: `[x, y, z]` and the
+/// orientation as the language writes it (RAPID q1..q4, KRL A B C, FANUC W P R).
+async fn exported(api: &Api, program: i64, format: &str) -> Vec<(String, f64)> {
+    let e = api
+        .get(&format!("/v1/programs/{program}/export?format={format}"))
+        .await;
+    let text: String = e["files"]
+        .as_array()
+        .expect("files")
+        .iter()
+        .map(|f| f["text"].as_str().expect("text").to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    let number = |s: &str| -> f64 {
+        s.trim()
+            .parse()
+            .unwrap_or_else(|e| panic!("{s:?} in the {format} export: {e}\n{text}"))
+    };
+    let named = |names: [&str; 6], values: Vec<f64>| {
+        names
+            .iter()
+            .map(|n| n.to_string())
+            .zip(values)
+            .collect::<Vec<_>>()
+    };
+    match format {
+        "rapid" => {
+            let at = text.find("[[").expect("a robtarget") + 2;
+            let parts: Vec<&str> = text[at..].splitn(3, "],[").collect();
+            let mut v: Vec<f64> = parts[0].split(',').map(number).collect();
+            v.extend(parts[1].split(',').map(number));
+            assert_eq!(v.len(), 7, "{text}");
+            ["x", "y", "z", "q1", "q2", "q3", "q4"]
+                .iter()
+                .map(|n| n.to_string())
+                .zip(v)
+                .collect()
+        }
+        "krl" => {
+            let at = text.find("{X ").expect("an E6POS") + 1;
+            let body = &text[at..at + text[at..].find('}').expect("}")];
+            let field = |k: &str| {
+                body.split(',')
+                    .find_map(|f| f.trim().strip_prefix(&format!("{k} ")))
+                    .map(number)
+                    .unwrap_or_else(|| panic!("{k} in {body}"))
+            };
+            named(
+                ["x", "y", "z", "A", "B", "C"],
+                ["X", "Y", "Z", "A", "B", "C"].map(field).to_vec(),
+            )
+        }
+        "fanuc" => {
+            let at = text.find("GP1:").expect("a position");
+            let body = &text[at..];
+            let field = |k: &str| {
+                let from = body.find(&format!("{k} =")).expect(k) + k.len() + 2;
+                number(body[from..].split_whitespace().next().expect("a value"))
+            };
+            named(
+                ["x", "y", "z", "W", "P", "R"],
+                ["X", "Y", "Z", "W", "P", "R"].map(field).to_vec(),
+            )
+        }
+        other => panic!("no format {other}"),
+    }
+}
+
+/// Half a unit of the last decimal each exporter prints (src/export/mod.rs), and a little more
+/// for the page's own rounding of the same number.
+fn printed(name: &str, format: &str) -> f64 {
+    let decimals = match (name, format) {
+        ("x" | "y" | "z", _) => 3,
+        (_, "rapid") => 8,
+        (_, "krl") => 4,
+        _ => 3,
+    };
+    0.5 * 10f64.powi(-decimals) + 1e-9
+}
+
+/// `[[name, value], …]` as the page gives a pose in numbers.
+fn pairs(v: &Value) -> Vec<(String, f64)> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("pairs: {v}"))
+        .iter()
+        .map(|p| {
+            (
+                p[0].as_str().expect("name").to_string(),
+                p[1].as_f64().expect("value"),
+            )
+        })
+        .collect()
+}
+
+fn same_numbers(shown: &[(String, f64)], want: &[(String, f64)], format: &str, what: &str) {
+    assert_eq!(
+        shown.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+        want.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+        "{what}: the names"
+    );
+    for ((n, a), (_, b)) in shown.iter().zip(want) {
+        assert!(
+            (a - b).abs() <= printed(n, format),
+            "{what}: {n} is {a} on the page, {b} in the {format} export"
+        );
+    }
+}
+
+/// Issue 46: the page shows the TCP pose and the suggestion in numbers, the orientation as the
+/// cell's program language writes it (the arm's controller's: RAPID q1..q4, KRL A B C, FANUC
+/// W P R in degrees; an arm without one, URScript here: the quaternion). The conversion in
+/// js/pose.js is checked in the browser against the exporters' numbers for one pose (given to
+/// the page with the quaternion's other sign), and the TCP shown on each cell's page against
+/// the export of a waypoint recorded there.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn poses_are_shown_in_numbers_as_the_cells_language_writes_them() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    // One pose, turned about all three axes: Rz(30°)·Ry(20°)·Rx(10°).
+    let half = |deg: f64| deg.to_radians() / 2.0;
+    let mul = |a: [f64; 4], b: [f64; 4]| {
+        [
+            a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+        ]
+    };
+    let q = mul(
+        mul(
+            [half(30.0).cos(), 0.0, 0.0, half(30.0).sin()],
+            [half(20.0).cos(), 0.0, half(20.0).sin(), 0.0],
+        ),
+        [half(10.0).cos(), half(10.0).sin(), 0.0, 0.0],
+    );
+    let new_cell = |name: &'static str, robot: &'static str| {
+        let api = &api;
+        async move {
+            let cell = api
+                .post(
+                    "/v1/cells",
+                    json!({ "name": name, "settings": { "robot": robot } }),
+                )
+                .await["id"]
+                .as_i64()
+                .expect("cell id");
+            let program = api
+                .post(
+                    &format!("/v1/cells/{cell}/programs"),
+                    json!({ "name": name }),
+                )
+                .await["id"]
+                .as_i64()
+                .expect("program id");
+            let routine = api
+                .post(&format!("/v1/programs/{program}/routines"), json!({}))
+                .await["id"]
+                .as_i64()
+                .expect("routine id");
+            (cell, program, routine)
+        }
+    };
+    let (_, numbers, routine) = new_cell("numbers", "abb_irb140").await;
+    api.post(
+        &format!("/v1/routines/{routine}/waypoints"),
+        json!({ "pose": { "x": 412.5, "y": -133.25, "z": 506.75,
+                          "qw": q[0], "qx": q[1], "qy": q[2], "qz": q[3] } }),
+    )
+    .await;
+    api.post(&format!("/v1/routines/{routine}/finish"), json!({}))
+        .await;
+    let mut cells = Vec::new();
+    for (name, robot, language) in [
+        ("rapid cell", "abb_irb140", "rapid"),
+        ("krl cell", "kuka_kr6_r900", "krl"),
+        ("fanuc cell", "fanuc_lrmate200id", "fanuc"),
+    ] {
+        let (cell, program, routine) = new_cell(name, robot).await;
+        cells.push((cell, program, routine, language));
+    }
+    let (ur_cell, _, _) = new_cell("ur cell", "ur5e").await;
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    page.open_signed_in(&base, TOKEN).await;
+
+    // js/pose.js against the exporters, for the pose given with its quaternion's other sign.
+    let other_sign = json!({ "x": 412.5, "y": -133.25, "z": 506.75,
+                              "qw": -q[0], "qx": -q[1], "qy": -q[2], "qz": -q[3] });
+    for language in ["rapid", "krl", "fanuc"] {
+        let shown = page
+            .c
+            .execute_async(
+                "const [pose, language, done] = arguments; \
+                 import('/pendant/js/pose.js') \
+                   .then((m) => { const n = m.inNumbers(pose, language); \
+                                  done([...n.position, ...n.orientation]); }) \
+                   .catch((e) => done(String(e)));",
+                vec![other_sign.clone(), json!(language)],
+            )
+            .await
+            .expect("pose.js");
+        let want = exported(&api, numbers, language).await;
+        same_numbers(&pairs(&shown), &want, language, "js/pose.js");
+    }
+
+    // The suggestion on offer in the seam cell (RAPID), in numbers.
+    page.wait_for("#suggestion[data-state=offered]").await;
+    let offered = api
+        .get(&format!("/v1/routines/{}/prediction", t.routine))
+        .await["predictions"][0]["pose"]
+        .clone();
+    let shown = page
+        .wait_for("#suggestion-pose[data-notation=rapid]")
+        .await
+        .attr("data-pose")
+        .await
+        .expect("attr")
+        .expect("the suggestion's pose");
+    let shown = pairs(&serde_json::from_str(&shown).expect("json"));
+    let p = position(&offered);
+    let want: Vec<(String, f64)> = [
+        ("x", p[0]),
+        ("y", p[1]),
+        ("z", p[2]),
+        ("q1", offered["qw"].as_f64().expect("qw")),
+        ("q2", offered["qx"].as_f64().expect("qx")),
+        ("q3", offered["qy"].as_f64().expect("qy")),
+        ("q4", offered["qz"].as_f64().expect("qz")),
+    ]
+    .iter()
+    .map(|(n, v)| (n.to_string(), *v))
+    .collect();
+    same_numbers(&shown, &want, "rapid", "the suggestion");
+    let text = page.text("#suggestion-pose").await;
+    assert!(
+        text.contains("mm") && text.contains("q1") && text.contains("q4"),
+        "{text:?}"
+    );
+
+    // Each cell's TCP, turned off its axes, recorded, and the export of that waypoint.
+    for (cell, program, routine, language) in cells {
+        page.select("#cell-select", &cell.to_string()).await;
+        page.wait_for(&format!("#tcp-pose[data-notation={language}]"))
+            .await;
+        page.wait_for("#record:not([disabled])").await;
+        page.jog("rx+", 1).await;
+        page.jog("ry+", 1).await;
+        page.record().await;
+        assert_eq!(api.waypoints(routine).await.len(), 1);
+        let shown = page
+            .attr("#tcp-pose", "data-pose")
+            .await
+            .expect("the TCP's pose");
+        let shown = pairs(&serde_json::from_str(&shown).expect("json"));
+        let want = exported(&api, program, language).await;
+        same_numbers(&shown, &want, language, "the TCP");
+        let text = page.text("#tcp-pose").await;
+        for (name, _) in &want[3..] {
+            assert!(text.contains(&format!("{name} ")), "{name} in {text:?}");
+        }
+        page.screenshot(&format!("pendant-numbers-{language}.png"))
+            .await;
+    }
+    // An arm whose language writes no orientation the page knows: the quaternion.
+    page.select("#cell-select", &ur_cell.to_string()).await;
+    page.wait_for("#tcp-pose[data-notation=quaternion]").await;
+
+    page.close().await;
+    drop(driver);
+    drop(server);
+}
+
+/// Issue 46: the program's history on the page. An operator sees the revisions but may not
+/// restore (the control is off, its title names the engineer role); an engineer re-teaches a
+/// waypoint, sees the revision (who, what), compares the one before it with now (moved mm,
+/// turned degrees, as the service's diff says), restores it, and the service's program is as
+/// it was.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_engineer_sees_a_revision_and_its_diff_and_restores_it() {
+    let Session {
+        _dir,
+        server,
+        api,
+        driver,
+        _profile,
+        page,
+    } = Session::open().await;
+    let base = api.base.clone();
+    let t = teach_a_seam(&api, "abb_irb140").await;
+    let token = |name: &'static str, role: &'static str| {
+        let api = &api;
+        async move {
+            api.post("/v1/tokens", json!({ "name": name, "role": role }))
+                .await["secret"]
+                .as_str()
+                .expect("secret")
+                .to_string()
+        }
+    };
+    let operator = token("op-1", "operator").await;
+    let engineer = token("eng-1", "engineer").await;
+    let history = || {
+        let api = &api;
+        let path = format!("/v1/programs/{}/history", t.program);
+        async move { api.get(&path).await }
+    };
+
+    // The operator: the revisions, but no restore.
+    page.open_signed_in(&base, &operator).await;
+    page.wait_for("#signed-in[data-role=operator]").await;
+    page.click("#history summary").await;
+    page.click("#revisions li").await;
+    page.wait_for("#revisions li[aria-selected=true]").await;
+    page.wait_for("#diff[data-revision]:not([data-revision=''])")
+        .await;
+    let c = page.controls(&["history-restore"]).await;
+    assert!(c[0].1, "Restore is off for an operator");
+    assert!(c[0].2.contains("needs the engineer role"), "{:?}", c[0].2);
+
+    // The engineer re-teaches the routine's first waypoint 20 mm further in x.
+    page.click("#sign-out").await;
+    page.wait_for("#token-dialog[open]").await;
+    page.fill("#token-input", &engineer).await;
+    page.click("#token-submit").await;
+    page.wait_for("#signed-in[data-role=engineer]").await;
+    page.wait_for("#record:not([disabled])").await;
+    let before = api.waypoints(t.routine).await;
+    let was = history().await["revision"].as_i64().expect("revision");
+    page.select("#jog-frame", "work").await;
+    page.fill("#jog-step", "20").await;
+    page.jog("x+", 1).await;
+    page.click("#waypoints li").await;
+    page.wait_for("#waypoints li[aria-selected=true]").await;
+    page.click("#wp-reteach").await;
+    eventually("the re-taught waypoint to be stored", || async {
+        let now = api.waypoints(t.routine).await;
+        (now[0]["pose"] != before[0]["pose"]).then_some(())
+    })
+    .await;
+    let moved = position(&api.waypoints(t.routine).await[0]["pose"]);
+    let from = position(&before[0]["pose"]);
+    assert!(
+        close(moved, [from[0] + 20.0, from[1], from[2]]),
+        "{moved:?}"
+    );
+
+    // The revision: who, and what changed (the history is still open: the page loaded again
+    // for the new token without a reload).
+    page.wait_for("#history[open]").await;
+    let newest = page
+        .wait_for(&format!("#revisions li[data-revision='{}']", was + 1))
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(
+        newest.contains("eng-1") && newest.contains("waypoint") && newest.contains("changed"),
+        "{newest:?}"
+    );
+    // The revision before it against now, as the service's diff says.
+    let diff = api
+        .get(&format!("/v1/programs/{}/diff?from={was}", t.program))
+        .await;
+    let changed = &diff["waypoints_changed"][0];
+    let (mm, deg) = (
+        changed["moved_mm"].as_f64().expect("moved_mm"),
+        changed["turned_degrees"].as_f64().expect("turned_degrees"),
+    );
+    assert!((mm - 20.0).abs() < 1e-6, "{diff}");
+    page.click(&format!("#revisions li[data-revision='{was}']"))
+        .await;
+    let shown = page
+        .wait_for(&format!("#diff[data-revision='{was}'] li"))
+        .await
+        .text()
+        .await
+        .expect("text");
+    assert!(
+        shown.contains(&format!("moved {mm:.1} mm"))
+            && shown.contains(&format!("turned {deg:.1}°")),
+        "{shown:?}"
+    );
+    page.screenshot("pendant-history.png").await;
+
+    // Restore: the program is as it was.
+    page.click("#history-restore").await;
+    page.wait_until(
+        Locator::XPath("//*[@id='status' and contains(text(), 'restored')]"),
+        "the restore's status",
+    )
+    .await;
+    let after = api.waypoints(t.routine).await;
+    assert_eq!(after.len(), before.len());
+    for (a, b) in after.iter().zip(&before) {
+        assert_eq!(a["pose"], b["pose"]);
+        assert_eq!(a["id"], b["id"]);
+    }
+    let h = history().await;
+    assert_eq!(h["revision"], was + 2, "{h}");
+    assert_eq!(h["revisions"][0]["token"], "eng-1");
+    page.wait_for(&format!("#revisions li[data-revision='{}']", was + 2))
+        .await;
 
     page.close().await;
     drop(driver);

@@ -1,5 +1,5 @@
 // The REST client of the page: same-origin calls to /v1/…, the bearer token (asked for once,
-// kept for the browser session, forgotten on sign-out), and the service's error shape
+// kept for the browser session, replaced by one the dialog checked), and the service's error shape
 // (`{error: {code, message}}`) turned into ApiError: a 403's message says which role it needs.
 
 const TOKEN_KEY = 'nextpose-token';
@@ -36,16 +36,10 @@ export function hasToken() {
   return Boolean(token);
 }
 
-/** Forgets the token (sign out): the next guarded call asks for one. */
-export function forget() {
-  token = null;
-  sessionStorage.removeItem(TOKEN_KEY);
-}
-
-async function send(method, path, body) {
+async function send(method, path, body, secret = token) {
   const headers = { Accept: 'application/json' };
   if (body !== undefined) headers['Content-Type'] = 'application/json';
-  if (token) headers.Authorization = `Bearer ${token}`;
+  if (secret) headers.Authorization = `Bearer ${secret}`;
   const response = await fetch(path, {
     method,
     headers,
@@ -66,7 +60,23 @@ async function send(method, path, body) {
   return data;
 }
 
-/** Asks for the token now (the service said it wants one) and keeps it. */
+/**
+ * Who `secret` is (`GET /v1/whoami` with it, not with the token kept): the dialog checks a
+ * token before keeping it. Refused: the service's ApiError (a 401 says why).
+ */
+export function whoIs(secret) {
+  return send('GET', '/v1/whoami', undefined, secret);
+}
+
+/** Keeps a token the dialog checked; the page then starts again as its caller. */
+export function use(secret) {
+  keep(secret);
+}
+
+/**
+ * Asks for the token now (the service said it wants one) and keeps it. The dialog may be
+ * closed without one: then this throws, and the page stays signed out with its Sign in.
+ */
 export async function ask() {
   keep(await askToken());
 }

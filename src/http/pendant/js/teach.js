@@ -7,6 +7,28 @@
 import * as api from './api.js';
 import { jogged } from './pose.js';
 
+// Feedback the page gave or learned of, by prediction id, kept for the browser session so that
+// a reload still knows it (the service takes feedback once per prediction and says so with a
+// 409, which the page takes as the service's word).
+const VERDICTS_KEY = 'nextpose-verdicts';
+
+function storedVerdicts() {
+  try {
+    const kept = JSON.parse(sessionStorage.getItem(VERDICTS_KEY) || '{}');
+    return new Map(Object.entries(kept).map(([id, v]) => [Number(id), String(v)]));
+  } catch {
+    return new Map();
+  }
+}
+
+/** The suggestion an action was pressed on is no longer the one on offer: nothing is sent. */
+export class Stale extends Error {
+  constructor() {
+    super('the suggestion on screen changed before the press was taken: nothing recorded, press again');
+    this.code = 'stale';
+  }
+}
+
 /** Joint vectors from `a` to `b` in `n` equal steps (both ends included). */
 function interpolate(a, b, n) {
   return Array.from({ length: n + 1 }, (_, i) => a.map((v, j) => v + ((b[j] - v) * i) / n));
@@ -23,8 +45,9 @@ export class Session {
     // The suggestion was rejected or is being adjusted: no longer on offer.
     this.dismissed = false;
     // Feedback given, by prediction id: an undo offers the same prediction again, and the
-    // service takes feedback once per prediction.
-    this.verdicts = new Map();
+    // service takes feedback once per prediction (kept across a reload).
+    this.verdicts = storedVerdicts();
+    this.language = null; // the cell's program language (poses in numbers)
     this.adjusting = null;
     this.latencies = [];
     // What the look-ahead showed: suggestions ahead, and the first unreachable one (1-based).
@@ -64,12 +87,24 @@ export class Session {
     this.view.drawArm(this.frames);
   }
 
-  async setCell(cell) {
+  async setCell(cell, language = null) {
     this.cell = cell;
+    this.language = language;
     this.routine = null;
     this.others = [];
     this.clearSuggestion();
     await this.moveTo(null);
+  }
+
+  /** No cell (the caller sees none): nothing to teach. */
+  leaveCell() {
+    this.cell = null;
+    this.language = null;
+    this.routine = null;
+    this.others = [];
+    this.frames = null;
+    this.clearSuggestion();
+    this.view.drawPaths([], []);
   }
 
   async setRoutine(detail, others) {
@@ -156,9 +191,22 @@ export class Session {
     await this.moveTo(reach.chosen);
   }
 
-  /** Appends a waypoint (the arm's pose and joints unless given) and shows the next suggestion. */
+  /**
+   * Appends a waypoint (the arm's pose and joints unless given) and shows the next suggestion.
+   * With `api.SEND_SEQ` it says which place the waypoint is to have, so that the service stores
+   * it once even when the request is sent again (it is, once, after a failure of the network).
+   */
   async append(motion, pose = this.frames.tcp, joints = this.joints) {
-    const taught = await api.post(`/v1/routines/${this.routine.id}/waypoints`, { pose, joints, motion });
+    const body = { pose, joints, motion };
+    if (api.SEND_SEQ) body.seq = this.routine.waypoints.length + 1;
+    const path = `/v1/routines/${this.routine.id}/waypoints`;
+    let taught;
+    try {
+      taught = await api.post(path, body);
+    } catch (e) {
+      if (!api.SEND_SEQ || e instanceof api.ApiError) throw e;
+      taught = await api.post(path, body);
+    }
     this.routine.waypoints.push(taught.waypoint);
     this.routine.finished = false;
     this.view.drawPaths(this.routine.waypoints, this.others);
@@ -187,17 +235,49 @@ export class Session {
     this.frames = steps[steps.length - 1];
   }
 
-  async feedback(p, verdict, pose) {
-    await api.post(`/v1/predictions/${p.id}/feedback`, pose ? { verdict, pose } : { verdict });
-    this.verdicts.set(p.id, verdict);
+  remember(id, verdict) {
+    this.verdicts.set(id, verdict);
+    sessionStorage.setItem(VERDICTS_KEY, JSON.stringify(Object.fromEntries(this.verdicts)));
   }
 
-  /** Accept: the arm goes there and the waypoint is recorded (the feedback once). */
-  async accept(motion) {
-    const p = this.prediction;
+  /**
+   * Feedback on `p`, once: returns null when it is recorded now, or the verdict it already had
+   * (known to the page, or a 409 from the service: given before, from this page before a
+   * reload or from another pendant), which is then kept as the service has it.
+   */
+  async feedback(p, verdict, pose) {
+    const known = this.verdicts.get(p.id);
+    if (known !== undefined) return known;
+    try {
+      await api.post(`/v1/predictions/${p.id}/feedback`, pose ? { verdict, pose } : { verdict });
+    } catch (e) {
+      if (!(e instanceof api.ApiError) || e.status !== 409) throw e;
+      const given = /\((accepted|adjusted|rejected)\)/.exec(e.message);
+      this.remember(p.id, given ? given[1] : 'given');
+      return this.verdicts.get(p.id);
+    }
+    this.remember(p.id, verdict);
+    return null;
+  }
+
+  /** Throws Stale unless `shown` is the suggestion on offer. */
+  check(shown) {
+    if (!shown || shown !== this.prediction || this.dismissed || !shown.offered) throw new Stale();
+  }
+
+  /**
+   * Accept the suggestion `shown` (the one on screen when pressed): its feedback once, the arm
+   * goes there, and the waypoint is recorded at its pose and joints. Returns `{ before }`: the
+   * verdict it already had, if any.
+   */
+  async accept(motion, shown) {
+    this.check(shown);
+    const joints = this.reachableSuggestion;
+    if (!joints) throw new Error('the suggestion is out of the arm\'s reach');
+    const before = await this.feedback(shown, 'accepted');
     await this.goToSuggestion();
-    if (!this.verdicts.has(p.id)) await this.feedback(p, 'accepted');
-    await this.append(motion, p.pose, this.joints);
+    await this.append(motion, shown.pose, joints);
+    return { before };
   }
 
   /**
@@ -206,12 +286,13 @@ export class Session {
    * next one is offered and the arm reaches it. The arm ends at the last; returns how many
    * were accepted.
    */
-  async acceptNext(n, motion) {
+  async acceptNext(n, motion, shown) {
+    this.check(shown);
     let accepted = 0;
     while (accepted < n && this.reachableSuggestion) {
       const p = this.prediction;
       const joints = this.reachableSuggestion;
-      if (!this.verdicts.has(p.id)) await this.feedback(p, 'accepted');
+      await this.feedback(p, 'accepted');
       await this.append(motion, p.pose, joints);
       accepted += 1;
     }
@@ -222,17 +303,23 @@ export class Session {
   }
 
   /** Adjust: the arm goes there; the next Record gives the feedback with the pose taught. */
-  async adjust() {
-    const p = this.prediction;
+  async adjust(shown) {
+    this.check(shown);
     await this.goToSuggestion();
-    this.adjusting = this.verdicts.has(p.id) ? null : p;
+    this.adjusting = this.verdicts.has(shown.id) ? null : shown;
     this.dismissed = true;
     this.view.hideGhost();
   }
 
-  async reject() {
-    await this.feedback(this.prediction, 'rejected');
+  /**
+   * Reject the suggestion `shown`; it is set aside either way. Returns null, or the verdict it
+   * already had (then nothing is recorded).
+   */
+  async reject(shown) {
+    this.check(shown);
+    const before = await this.feedback(shown, 'rejected');
     this.clearSuggestion();
+    return before;
   }
 
   async undo() {
