@@ -66,6 +66,7 @@ pub struct Placements {
 pub struct FramesQuery {
     /// Six joint values (rad), comma-separated (`0,0.3,-0.2,0,0.8,0`); left out: the arm's
     /// ready position (flange pointing down in front of the base).
+    #[param(pattern = r"^-?[0-9]{1,6}(\.[0-9]{1,12})?(,-?[0-9]{1,6}(\.[0-9]{1,12})?){5}$")]
     pub joints: Option<String>,
 }
 

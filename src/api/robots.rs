@@ -33,11 +33,25 @@ pub struct RobotUpload {
     /// The URDF text: a serial chain of six revolute joints from the root link to `tool0`
     /// (or the only leaf), each with `<limit lower upper velocity>`; lengths in metres.
     pub urdf: String,
+    /// Not blank; at most 200 characters.
     #[serde(default)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub maker: Option<String>,
+    /// Not blank; at most 200 characters.
     #[serde(default)]
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = r"^[^\x00-\x1f\x7f-\x9f]*[^\s\x00-\x1f\x7f-\x9f][^\x00-\x1f\x7f-\x9f]*$"
+    )]
     pub product: Option<String>,
+    /// Rated payload, kg: positive.
     #[serde(default)]
+    #[schema(exclusive_minimum = 0.0)]
     pub payload_kg: Option<f64>,
 }
 

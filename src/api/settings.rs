@@ -82,12 +82,20 @@ pub struct CellSettings {
 #[serde(deny_unknown_fields)]
 pub struct CellSettingsInput {
     pub profile: Option<Profile>,
+    /// Complexity δ ∈ (0, 1].
+    #[schema(exclusive_minimum = 0.0, maximum = 1.0)]
     pub delta: Option<f64>,
+    /// Minimum confidence φ ∈ [0, 1].
+    #[schema(minimum = 0.0, maximum = 1.0)]
     pub phi_min: Option<f64>,
     /// Moves a prediction conditions on, 1 to 50.
     #[schema(minimum = 1, maximum = 50)]
     pub horizon: Option<usize>,
+    /// Translation repeatability σ_t, 0.001 to 1000 mm.
+    #[schema(minimum = 0.001, maximum = 1000.0)]
     pub sigma_t_mm: Option<f64>,
+    /// Quaternion-component repeatability σ_q, 0.000001 to 1.
+    #[schema(minimum = 0.000001, maximum = 1.0)]
     pub sigma_q: Option<f64>,
     pub scale: Option<ScaleSettings>,
     pub robot: Option<String>,
@@ -96,7 +104,11 @@ pub struct CellSettingsInput {
     pub reach_policy: Option<ReachPolicy>,
     pub noise: Option<Noise>,
     pub tolerance: Option<Tolerance>,
+    /// The cell's offer threshold on `p_useful`, 0 to 1 (left out: steered).
+    #[schema(minimum = 0.0, maximum = 1.0)]
     pub offer_threshold: Option<f64>,
+    /// The precision the cell steers its threshold to, 0 to 1.
+    #[schema(minimum = 0.0, maximum = 1.0)]
     pub target_precision: Option<f64>,
     pub export: Option<ExportSettings>,
 }

@@ -47,7 +47,7 @@ async fn program_history(
 #[utoipa::path(get, path = "/v1/programs/{program_id}/history/{revision}", tag = "history",
     params(
         ("program_id" = i64, Path, description = "Program id"),
-        ("revision" = i64, Path, description = "Revision (0, 1, …)"),
+        ("revision" = i64, Path, minimum = 0, description = "Revision (0, 1, …)"),
     ),
     responses(
         (status = 200, description = "The program as of the revision", body = ProgramRevision),

@@ -193,18 +193,19 @@ export class Session {
 
   /**
    * Appends a waypoint (the arm's pose and joints unless given) and shows the next suggestion.
-   * With `api.SEND_SEQ` it says which place the waypoint is to have, so that the service stores
-   * it once even when the request is sent again (it is, once, after a failure of the network).
+   * It says which place the waypoint is to have (`seq`), so that the service stores it once
+   * even when the request is sent again (it is, once, after a failure of the network: the
+   * service answers a repeat with the waypoint it stored).
    */
   async append(motion, pose = this.frames.tcp, joints = this.joints) {
     const body = { pose, joints, motion };
-    if (api.SEND_SEQ) body.seq = this.routine.waypoints.length + 1;
+    body.seq = this.routine.waypoints.length + 1;
     const path = `/v1/routines/${this.routine.id}/waypoints`;
     let taught;
     try {
       taught = await api.post(path, body);
     } catch (e) {
-      if (!api.SEND_SEQ || e instanceof api.ApiError) throw e;
+      if (e instanceof api.ApiError) throw e;
       taught = await api.post(path, body);
     }
     this.routine.waypoints.push(taught.waypoint);
