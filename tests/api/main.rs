@@ -27,3 +27,4 @@ mod storage;
 mod teaching;
 mod tokens;
 mod trajectory;
+mod upgrade;
