@@ -952,20 +952,23 @@ async fn a_failed_migration_leaves_the_database_as_it_was(
         panic!("today's server started on a database whose migration {migration} fails");
     };
     let message = format!("{e:#}");
-    assert!(message.contains(migration), "{message}");
-    assert!(
-        message.contains(&format!("at migration {:04}", release.version)),
-        "{message}"
+    assert_eq!(sql.version().await, release.version, "{message}");
+    assert_eq!(
+        sql.shape().await,
+        shape,
+        "the schema is as it was: {message}"
     );
-
-    assert_eq!(sql.version().await, release.version);
-    assert_eq!(sql.shape().await, shape, "the schema is as it was");
     assert_same(
         &sql.snapshot(&shape).await,
         &before,
         "every row is as it was",
     );
     assert_eq!(sql.snapshot(&bookkeeping()).await, migrations);
+    assert!(message.contains(migration), "{message}");
+    assert!(
+        message.contains(&format!("at migration {:04}", release.version)),
+        "{message}"
+    );
 
     sqlx::raw_sql(sqlx::AssertSqlSafe(undo.to_string()))
         .execute(&mut sql.conn)
