@@ -15,6 +15,12 @@ use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
 use sqlx::sqlite::SqliteConnectOptions;
 
 use super::error::{Result, StorageError};
+use super::migrate;
+
+/// Each dialect's schema, applied at start-up, every pending migration or none
+/// ([`migrate`]).
+static SQLITE_MIGRATIONS: sqlx::migrate::Migrator = sqlx::migrate!("./migrations/sqlite");
+static POSTGRES_MIGRATIONS: sqlx::migrate::Migrator = sqlx::migrate!("./migrations/postgres");
 
 /// How hard commits try to reach the disk.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -109,14 +115,14 @@ pub(super) async fn connect(
     match location {
         Location::File(path) => {
             let pool = sqlite_pool(sqlite_url(path), 8, durability).await?;
-            sqlx::migrate!("./migrations/sqlite").run(&pool).await?;
+            migrate::run(&pool, &SQLITE_MIGRATIONS).await?;
             tokio::spawn(checkpoints(pool.clone()));
             Ok((pool, Backend::Sqlite))
         }
         Location::Memory => {
             // One connection: each `:memory:` connection is its own database.
             let pool = sqlite_pool("sqlite::memory:".into(), 1, durability).await?;
-            sqlx::migrate!("./migrations/sqlite").run(&pool).await?;
+            migrate::run(&pool, &SQLITE_MIGRATIONS).await?;
             Ok((pool, Backend::Sqlite))
         }
         Location::Postgres(url) => {
@@ -127,7 +133,7 @@ pub(super) async fn connect(
                 .acquire_timeout(Duration::from_secs(10))
                 .connect_with(options.disable_statement_logging())
                 .await?;
-            sqlx::migrate!("./migrations/postgres").run(&pool).await?;
+            migrate::run(&pool, &POSTGRES_MIGRATIONS).await?;
             Ok((pool, Backend::Postgres))
         }
     }

@@ -26,6 +26,18 @@ pub enum StorageError {
     Database(#[from] sqlx::Error),
     #[error("migration failed: {0}")]
     Migration(#[from] sqlx::migrate::MigrateError),
+    /// A pending migration failed at start-up: nothing of the upgrade was kept, the database
+    /// is at migration `at` as before ([`super::migrate`]).
+    #[error(
+        "migration {version:04} ({description}) failed, so none of this upgrade was kept: the \
+         database is at migration {at:04} as it was; {error}"
+    )]
+    MigrationFailed {
+        version: i64,
+        description: String,
+        at: i64,
+        error: sqlx::Error,
+    },
 }
 
 pub(super) type Result<T> = std::result::Result<T, StorageError>;

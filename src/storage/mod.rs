@@ -31,6 +31,7 @@ mod error;
 mod feedback;
 mod group_commit;
 mod history;
+mod migrate;
 mod predictions;
 mod programs;
 mod query;

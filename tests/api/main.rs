@@ -29,3 +29,4 @@ mod storage;
 mod teaching;
 mod tokens;
 mod trajectory;
+mod upgrade;
