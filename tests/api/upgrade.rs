@@ -914,7 +914,7 @@ fn settings(db: &Database) -> ServerSettings {
         durability: Durability::Process,
         addr: "127.0.0.1:0".into(),
         http: TransportOptions::default(),
-        robots: nextpose::kinematics::bundled_robots_dir(),
+        robots: None,
         backup_dir: None,
     }
 }
