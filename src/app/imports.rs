@@ -131,6 +131,14 @@ async fn parse(cell_id: i64, input: ImportRequest) -> Result<import::ImportRepor
     Ok(report)
 }
 
+/// The routines an upload teaches a cell's model, in program order, each pose checked and as
+/// it will be read back from the database: the pure part of an import between the parser and
+/// the engine, which the fuzz target `import` drives (parse, this, then
+/// [`crate::engine::Teacher::learn_routine`] for each, as [`App::import`] learns them).
+pub fn routines_learned(report: &import::ImportReport) -> Result<Vec<Vec<Pose>>> {
+    Upload::of(report).map(|u| u.poses)
+}
+
 /// A parsed upload in the two shapes it is used in: the rows to store (programs by name, with
 /// their routines) and, routine by routine, the poses the model learns — as they will be read
 /// back from the database, so that a rebuild gives bit-identical results.
