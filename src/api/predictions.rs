@@ -34,6 +34,7 @@ pub struct Prediction {
     pub pose: Option<PoseValues>,
     /// The relative move from the last waypoint to the proposal, in the last waypoint's frame
     /// (SRHCT 7-vector: mm and a quaternion with `qw ≥ 0`).
+    #[schema(value_type = Option<super::schema::mirror::RelativeMove>)]
     pub relative: Option<PoseValues>,
     /// Confidence φ ∈ [0, 1] (entropy of the next-state distribution).
     pub phi: f64,

@@ -45,15 +45,39 @@ schema_of!(Verdict, mirror::Verdict);
 
 /// Schema-only copies of the engine's wire types; never built outside the tests.
 #[allow(dead_code)]
-mod mirror {
+pub(crate) mod mirror {
     use serde::{Deserialize, Serialize};
     use utoipa::ToSchema;
 
     /// A pose as plain numbers, as clients send and see it: position in mm and a unit quaternion
-    /// `w, x, y, z`.
+    /// `w, x, y, z`. The service accepts a pose whose numbers are finite, whose coordinates are
+    /// within ±100,000 mm (100 m) of the frame's origin and whose quaternion is within 1e-3 of
+    /// unit norm (it is normalised); anything else is a 422 naming the field and value.
     #[derive(Debug, Serialize, Deserialize, ToSchema)]
     #[serde(deny_unknown_fields)]
     pub struct PoseValues {
+        /// mm
+        #[schema(minimum = -100000.0, maximum = 100000.0)]
+        pub x: f64,
+        /// mm
+        #[schema(minimum = -100000.0, maximum = 100000.0)]
+        pub y: f64,
+        /// mm
+        #[schema(minimum = -100000.0, maximum = 100000.0)]
+        pub z: f64,
+        pub qw: f64,
+        pub qx: f64,
+        pub qy: f64,
+        pub qz: f64,
+    }
+
+    /// A relative move as plain numbers (a prediction's `relative`): the translation in mm and
+    /// the rotation as a unit quaternion `w, x, y, z` with `qw ≥ 0`, in the frame of the
+    /// waypoint it starts from. Not a pose in the work frame, so not bounded like one: a move
+    /// between two poses within ±100 m may be longer than 100 m on an axis.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct RelativeMove {
         /// mm
         pub x: f64,
         /// mm
@@ -145,6 +169,15 @@ mod tests {
     fn every_mirror_matches_its_type() {
         same_wire::<_, mirror::PoseValues>(PoseValues {
             x: 1.0,
+            y: 2.0,
+            z: 3.0,
+            qw: 1.0,
+            qx: 0.0,
+            qy: 0.0,
+            qz: 0.0,
+        });
+        same_wire::<_, mirror::RelativeMove>(PoseValues {
+            x: 250_000.0,
             y: 2.0,
             z: 3.0,
             qw: 1.0,

@@ -332,10 +332,7 @@ impl CellModel {
     /// `state`; `last_finish` is the `finish_seq` of the last (None: none was learned).
     pub fn learned(&mut self, routines: &[Vec<Pose>], state: &CellState, last_finish: Option<i64>) {
         for routine in routines {
-            for pose in routine {
-                self.teacher.teach(*pose);
-            }
-            self.teacher.finish_routine();
+            self.teacher.learn_routine(routine);
         }
         self.version = state.model_version;
         self.revision = state.revision;

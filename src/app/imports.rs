@@ -131,6 +131,14 @@ async fn parse(cell_id: i64, input: ImportRequest) -> Result<import::ImportRepor
     Ok(report)
 }
 
+/// The routines an upload teaches a cell's model, in program order, each pose checked and as
+/// it will be read back from the database: the pure part of an import between the parser and
+/// the engine, which the fuzz target `import` drives (parse, this, then
+/// [`crate::engine::Teacher::learn_routine`] for each, as [`App::import`] learns them).
+pub fn routines_learned(report: &import::ImportReport) -> Result<Vec<Vec<Pose>>> {
+    Upload::of(report).map(|u| u.poses)
+}
+
 /// A parsed upload in the two shapes it is used in: the rows to store (programs by name, with
 /// their routines) and, routine by routine, the poses the model learns — as they will be read
 /// back from the database, so that a rebuild gives bit-identical results.
@@ -200,5 +208,48 @@ fn skipped(s: &import::Skipped) -> Skipped {
         routine: s.routine.clone(),
         reason: s.reason.as_str().to_string(),
         text: s.text.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::{EngineConfig, Teacher};
+
+    /// The fuzz target `rapid` found this in 22 s on the code before issue 46's fixes (one
+    /// flipped character in a corpus file, `1790.90` → `1790e90`, minimised by libFuzzer): the
+    /// second target's y of 1e90 passed the importer, and the sequence experts' grid overflowed
+    /// an i64 (a panic in a debug build, a 500 from the route). Now the upload is refused naming
+    /// the file, line and value; and the engine taught the two poses directly does not panic.
+    #[test]
+    fn the_fuzzers_finding_is_refused_and_no_longer_panics_the_engine() {
+        let found = "pROC s()MoveJ[[1,1,9],[0,.347,.938,0]];ArcL[[7,1e90,1],[.04,.342,.938,0]]";
+        let err = import::parse_upload(&[("fuzz.mod", found)]).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "fuzz.mod line 1: y = 1e90 is outside ±100000 mm (target literal@L1)"
+        );
+        // What the importer let through before: the poses as written, taught as the import
+        // route teaches them.
+        let report = import::parse_upload(&[("fuzz.mod", &found.replace("1e90", "1e3"))])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut routines = routines_learned(&report).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(routines.len(), 1);
+        let far = routines[0][1].values();
+        routines[0][1] = Pose::new([far.x, 1e90, far.z], [far.qw, far.qx, far.qy, far.qz])
+            .unwrap_or_else(|e| panic!("{e}"));
+        for config in [
+            EngineConfig::default(),
+            EngineConfig::profile(crate::engine::Profile::Seed),
+        ] {
+            let mut teacher = Teacher::new(config).unwrap_or_else(|e| panic!("{e}"));
+            for _ in 0..3 {
+                teacher.learn_routine(&routines[0]);
+                teacher.teach(routines[0][0]);
+                let _ = teacher.predict();
+                teacher.abandon_routine();
+            }
+            assert_eq!(teacher.stats().routines, 3);
+        }
     }
 }

@@ -34,7 +34,7 @@ pub mod error;
 mod exports;
 mod feedback;
 mod history;
-mod imports;
+pub mod imports;
 mod layout;
 mod offer;
 mod programs;
@@ -67,8 +67,7 @@ pub(crate) use registry::blocking;
 use robots::Robots;
 pub use tokens::{SECRET_PREFIX, secret_hash};
 pub use trajectory::{
-    MAX_POSITION_MM, MAX_ROTATION_MM_PER_RAD, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET,
-    REPRODUCTION_ERROR_BUDGET,
+    MAX_ROTATION_MM_PER_RAD, MAX_TRAJECTORY_SAMPLES, REPRODUCTION_BUDGET, REPRODUCTION_ERROR_BUDGET,
 };
 
 /// Longest open-loop completion a request may ask for.
@@ -93,6 +92,17 @@ pub struct App {
     tasks: TaskTracker,
     /// Where backups go, taken one at a time ([`backups`]).
     backups: Arc<Backups>,
+}
+
+/// Taught joint values are finite; the error names the first that is not, by its place
+/// (`joints[2] = NaN is not a finite number`). JSON cannot carry such a value; gRPC can.
+fn check_joints_finite(joints: &[f64]) -> Result<()> {
+    match joints.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        Some((i, v)) => Err(AppError::Invalid(format!(
+            "joints[{i}] = {v:?} is not a finite number"
+        ))),
+        None => Ok(()),
+    }
 }
 
 fn check_name(what: &str, name: &str) -> Result<()> {

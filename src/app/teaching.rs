@@ -7,7 +7,7 @@ use super::offer;
 use super::registry::{Locked, OpenRoutine, blocking, stale_check};
 use super::rows::waypoint;
 use super::settings::MAX_HORIZON;
-use super::{App, MAX_COMPLETION, Result, check_name};
+use super::{App, MAX_COMPLETION, Result, check_joints_finite, check_name};
 use crate::api::{self, PoseValues, PredictQuery, PredictionSet, Taught, Undone};
 use crate::kinematics::Reachability;
 use crate::storage::{Append, NewWaypoint};
@@ -30,12 +30,11 @@ impl App {
                 "joints must hold 1 to 12 values, not {}",
                 j.len()
             ))),
-            Some(j) if j.iter().any(|v| !v.is_finite()) => {
-                Err(AppError::Invalid("joint values must be finite".into()))
-            }
-            Some(j) => serde_json::to_string(j)
-                .map(Some)
-                .map_err(|e| AppError::Internal(e.to_string())),
+            Some(j) => check_joints_finite(j).and_then(|()| {
+                serde_json::to_string(j)
+                    .map(Some)
+                    .map_err(|e| AppError::Internal(e.to_string()))
+            }),
         }
     }
 

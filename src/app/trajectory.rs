@@ -25,7 +25,7 @@ use super::error::AppError;
 use super::offer;
 use super::registry::{blocking, stale_check};
 use super::rows::waypoint;
-use super::{App, Result};
+use super::{App, Result, check_joints_finite};
 use crate::api::{
     self, PoseValues, Taught, TrajectoryAnswer, TrajectoryPoint, TrajectoryRequest,
     TrajectorySegment, TrajectorySettings,
@@ -43,9 +43,11 @@ use crate::storage::{NewPrediction, NewWaypoint};
 /// JSON and about 15000 as protobuf; raise it for longer recordings.
 pub const MAX_TRAJECTORY_SAMPLES: usize = 20_000;
 
-/// Largest coordinate of a sample's position and largest weight of rotation against position:
-/// the engine's bounds ([`segment::MAX_COORDINATE_MM`], [`segment::MAX_ROTATION_MM_PER_RAD`]).
-pub use segment::{MAX_COORDINATE_MM as MAX_POSITION_MM, MAX_ROTATION_MM_PER_RAD};
+/// Largest weight of rotation against position: the engine's bound
+/// ([`segment::MAX_ROTATION_MM_PER_RAD`]). A sample's position is bounded as every entering
+/// pose's is ([`crate::engine::POSITION_LIMIT_MM`], well within the engine's
+/// [`segment::MAX_COORDINATE_MM`]).
+pub use segment::MAX_ROTATION_MM_PER_RAD;
 
 /// Reproduced states the segmentation may compute for one request, over all its segments
 /// (48 bytes each): the memory a request may take for its reproduction.
@@ -303,14 +305,9 @@ fn prepare(input: &TrajectoryRequest) -> Result<Prepared> {
     let mut joints = Vec::with_capacity(n);
     for (index, s) in input.samples.iter().enumerate() {
         let sample_pose = |source| AppError::SamplePose { index, source };
+        // The check of every entering pose, which also keeps the engine's segmentation within
+        // its bounds (±100 m against its ±1 km).
         let pose = s.pose.to_pose().map_err(sample_pose)?;
-        let p = pose.position();
-        if p.iter().any(|v| v.abs() > MAX_POSITION_MM) {
-            return Err(AppError::Invalid(format!(
-                "sample {index}: position ({}, {}, {}) mm is beyond ±{MAX_POSITION_MM} mm",
-                p.x, p.y, p.z
-            )));
-        }
         // As it will be read back from the database (see `append_waypoint`).
         let pose = PoseValues::from(&pose).to_pose().map_err(sample_pose)?;
         samples.push(TimedPose { t: s.t, pose });
@@ -364,10 +361,9 @@ fn check_sample_joints(index: usize, joints: Option<&[f64]>, count: Option<usize
             "sample {index}: {} joint values, but sample 0 has {k}",
             j.len()
         ))),
-        (Some(j), Some(_)) if j.iter().any(|v| !v.is_finite()) => Err(AppError::Invalid(format!(
-            "sample {index}: joint values must be finite"
-        ))),
-        (Some(_), Some(_)) => Ok(()),
+        (Some(j), Some(_)) => {
+            check_joints_finite(j).map_err(|e| AppError::Invalid(format!("sample {index}: {e}")))
+        }
     }
 }
 
@@ -522,7 +518,11 @@ mod tests {
         let backwards = vec![sample(1.0, 0.0, 0.0), sample(1.0, 5.0, 0.0)];
         assert!(message(request(backwards)).contains("sample 1"));
         let mut far = vec![sample(0.0, 0.0, 0.0), sample(1.0, 2e6, 0.0)];
-        assert!(message(request(far.clone())).contains("sample 1: position"));
+        let said = message(request(far.clone()));
+        assert!(
+            said.contains("sample 1: invalid pose: x = 2000000.0 is outside ±100000 mm"),
+            "{said}"
+        );
         far[1].pose.x = 5.0;
         far[1].pose.qw = 0.5;
         let e = prepare(&request(far.clone())).unwrap_err();

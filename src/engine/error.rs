@@ -5,10 +5,17 @@ use thiserror::Error;
 /// A pose or observation that cannot be used.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum PoseError {
-    #[error("position has a non-finite component")]
-    NonFinitePosition,
-    #[error("quaternion has a non-finite component")]
-    NonFiniteQuaternion,
+    /// A number that is not finite (NaN, ±infinity), by its field (`x`, `qw`, ...).
+    #[error("{field} = {value:?} is not a finite number")]
+    NonFinite { field: &'static str, value: f64 },
+    /// A coordinate farther from its frame's origin than the service accepts
+    /// ([`super::pose::POSITION_LIMIT_MM`]).
+    #[error("{field} = {value:?} is outside ±{limit} mm")]
+    OutOfRange {
+        field: &'static str,
+        value: f64,
+        limit: f64,
+    },
     #[error("quaternion norm {norm} is not within 1e-3 of 1")]
     NotUnitQuaternion { norm: f64 },
     #[error("observation has a non-finite component")]

@@ -35,5 +35,5 @@ pub use config::{EngineConfig, OfferRule, PredictOptions, Profile};
 pub use error::{ConfigError, PoseError};
 pub use experts::frames::Tolerance;
 pub use experts::noise::Noise;
-pub use pose::{Move, Observation, Pose, PoseValues};
+pub use pose::{Move, Observation, POSITION_LIMIT_MM, Pose, PoseValues};
 pub use teach::Teacher;

@@ -20,6 +20,12 @@ pub type Observation = SVector<f64, 7>;
 /// How far from unit norm an input quaternion may be and still be accepted (it is normalised).
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
 
+/// How far from the origin of its frame (the work object, user frame or base the pose is given
+/// in) a position may lie on each axis, mm: ±100 m. No cell is that large; a coordinate beyond
+/// it is a corrupted or mistyped number (`-1e308`), and accepting it would only turn the moves
+/// learned from it into infinities. [`PoseValues::to_pose`] refuses it.
+pub const POSITION_LIMIT_MM: f64 = 100_000.0;
+
 /// A waypoint pose: position in mm and orientation, in one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
@@ -27,7 +33,9 @@ pub struct Pose {
 }
 
 /// A pose as plain numbers, as clients send and see it: position in mm and a unit quaternion
-/// `w, x, y, z`.
+/// `w, x, y, z`. The service accepts a pose whose numbers are finite, whose coordinates are
+/// within ±100,000 mm (100 m) of the frame's origin and whose quaternion is within 1e-3 of
+/// unit norm (it is normalised); anything else is a 422 naming the field and value.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PoseValues {
@@ -47,10 +55,14 @@ impl Pose {
     /// A pose from a position (mm) and a quaternion `[w, x, y, z]`.
     ///
     /// The quaternion is normalised when its norm is within [`QUATERNION_NORM_TOLERANCE`] of 1 and
-    /// rejected otherwise; non-finite numbers are rejected.
+    /// rejected otherwise; non-finite numbers are rejected. These are the invariants of the
+    /// type; a pose entering the service passes [`PoseValues::to_pose`], which also bounds the
+    /// position.
     pub fn new(position: [f64; 3], quaternion_wxyz: [f64; 4]) -> Result<Pose, PoseError> {
-        if position.iter().any(|v| !v.is_finite()) {
-            return Err(PoseError::NonFinitePosition);
+        for (field, value) in ["x", "y", "z"].into_iter().zip(position) {
+            if !value.is_finite() {
+                return Err(PoseError::NonFinite { field, value });
+            }
         }
         let rotation = unit_quaternion(quaternion_wxyz)?;
         Ok(Pose {
@@ -120,9 +132,44 @@ impl Pose {
 }
 
 impl PoseValues {
-    /// The pose (typed error for non-finite numbers or a quaternion far from unit).
+    /// The one check of a pose that enters the service, wherever it enters: taught or edited
+    /// over REST or gRPC, imported from a RAPID, KRL or FANUC file, read from a recorded
+    /// trajectory, given as a cell's base or tool. Every number finite, each coordinate within
+    /// ±[`POSITION_LIMIT_MM`] of the frame's origin, the quaternion within
+    /// [`QUATERNION_NORM_TOLERANCE`] of unit norm (then normalised). The error names the
+    /// offending field and its value (`x = -1e308 is outside ±100000 mm`).
     pub fn to_pose(&self) -> Result<Pose, PoseError> {
-        Pose::try_from(*self)
+        for (field, value) in self.fields() {
+            if !value.is_finite() {
+                return Err(PoseError::NonFinite { field, value });
+            }
+        }
+        for (field, value) in self.fields().into_iter().take(3) {
+            if value.abs() > POSITION_LIMIT_MM {
+                return Err(PoseError::OutOfRange {
+                    field,
+                    value,
+                    limit: POSITION_LIMIT_MM,
+                });
+            }
+        }
+        Pose::new(
+            [self.x, self.y, self.z],
+            [self.qw, self.qx, self.qy, self.qz],
+        )
+    }
+
+    /// The seven numbers by name, position first.
+    fn fields(&self) -> [(&'static str, f64); 7] {
+        [
+            ("x", self.x),
+            ("y", self.y),
+            ("z", self.z),
+            ("qw", self.qw),
+            ("qx", self.qx),
+            ("qy", self.qy),
+            ("qz", self.qz),
+        ]
     }
 }
 
@@ -134,8 +181,9 @@ impl From<&Pose> for PoseValues {
 
 impl TryFrom<PoseValues> for Pose {
     type Error = PoseError;
+    /// [`PoseValues::to_pose`]: the check of a pose entering the service.
     fn try_from(v: PoseValues) -> Result<Pose, PoseError> {
-        Pose::new([v.x, v.y, v.z], [v.qw, v.qx, v.qy, v.qz])
+        v.to_pose()
     }
 }
 
@@ -231,8 +279,10 @@ pub fn scale_translation(x: &Observation, psi: f64) -> Observation {
 }
 
 fn unit_quaternion(q: [f64; 4]) -> Result<UnitQuaternion<f64>, PoseError> {
-    if q.iter().any(|v| !v.is_finite()) {
-        return Err(PoseError::NonFiniteQuaternion);
+    for (field, value) in ["qw", "qx", "qy", "qz"].into_iter().zip(q) {
+        if !value.is_finite() {
+            return Err(PoseError::NonFinite { field, value });
+        }
     }
     let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
     let norm = quat.norm();
@@ -277,15 +327,65 @@ mod tests {
         ));
     }
 
+    /// The check of a pose entering the service: each number finite, each coordinate within
+    /// ±100 m, the quaternion of unit norm; the error names the field and the value.
+    #[test]
+    fn an_entering_pose_is_checked_field_by_field() {
+        let at = |x: f64, y: f64, z: f64, qw: f64| PoseValues {
+            x,
+            y,
+            z,
+            qw,
+            qx: 0.0,
+            qy: 0.0,
+            qz: 0.0,
+        };
+        // The bounds themselves are accepted; the quaternion is normalised.
+        let p = at(-100_000.0, 100_000.0, 0.0, 1.0005).to_pose().unwrap();
+        assert_eq!(p.position(), Vector3::new(-100_000.0, 100_000.0, 0.0));
+        assert!((p.rotation().into_inner().norm() - 1.0).abs() < 1e-12);
+        let err = at(-1e308, 0.0, 0.0, 1.0).to_pose().unwrap_err();
+        assert_eq!(
+            err,
+            PoseError::OutOfRange {
+                field: "x",
+                value: -1e308,
+                limit: POSITION_LIMIT_MM
+            }
+        );
+        assert_eq!(err.to_string(), "x = -1e308 is outside ±100000 mm");
+        let err = at(0.0, 0.0, 100_000.5, 1.0).to_pose().unwrap_err();
+        assert_eq!(err.to_string(), "z = 100000.5 is outside ±100000 mm");
+        let err = at(0.0, f64::NAN, 0.0, 1.0).to_pose().unwrap_err();
+        assert_eq!(err.to_string(), "y = NaN is not a finite number");
+        let err = at(0.0, 0.0, f64::NEG_INFINITY, 1.0).to_pose().unwrap_err();
+        assert_eq!(err.to_string(), "z = -inf is not a finite number");
+        let err = at(0.0, 0.0, 0.0, 1e308).to_pose().unwrap_err();
+        assert!(matches!(err, PoseError::NotUnitQuaternion { .. }), "{err}");
+        let err = at(0.0, 0.0, 0.0, f64::NAN).to_pose().unwrap_err();
+        assert_eq!(err.to_string(), "qw = NaN is not a finite number");
+        // The wire conversion is the same check.
+        assert_eq!(Pose::try_from(at(2e5, 0.0, 0.0, 1.0)).unwrap_err(), {
+            PoseError::OutOfRange {
+                field: "x",
+                value: 2e5,
+                limit: POSITION_LIMIT_MM,
+            }
+        });
+    }
+
     #[test]
     fn non_finite_input_is_rejected() {
-        assert_eq!(
-            Pose::new([f64::NAN, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]),
-            Err(PoseError::NonFinitePosition)
-        );
+        assert!(matches!(
+            Pose::new([0.0, f64::NAN, 0.0], [1.0, 0.0, 0.0, 0.0]),
+            Err(PoseError::NonFinite { field: "y", value }) if value.is_nan()
+        ));
         assert_eq!(
             Pose::new([0.0; 3], [f64::INFINITY, 0.0, 0.0, 0.0]),
-            Err(PoseError::NonFiniteQuaternion)
+            Err(PoseError::NonFinite {
+                field: "qw",
+                value: f64::INFINITY
+            })
         );
         let mut x = Observation::zeros();
         x[3] = f64::NAN;

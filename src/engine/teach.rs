@@ -688,6 +688,14 @@ impl Teacher {
         out
     }
 
+    /// Teaches a whole routine, waypoint by waypoint, and finishes it (an imported routine).
+    pub fn learn_routine(&mut self, waypoints: &[Pose]) {
+        for pose in waypoints {
+            self.teach(*pose);
+        }
+        self.finish_routine();
+    }
+
     /// Finishes the current routine and learns it. A routine of fewer than two waypoints has no
     /// move and teaches nothing.
     pub fn finish_routine(&mut self) {
@@ -801,6 +809,73 @@ mod tests {
         assert_eq!(a.stats(), b.stats());
         assert_eq!(a.routine(), b.routine());
         assert_eq!(a.predict(), b.predict());
+    }
+
+    /// The engine taught poses at the ends of the floats, which the service refuses where poses
+    /// enter (issue 46: −1e308 reached the k-d tree, whose leaf sort panicked on the NaN of a
+    /// move between two such poses): no panic, nothing non-finite offered, and the cell still
+    /// learns and predicts an ordinary pattern afterwards.
+    #[test]
+    fn poses_at_the_ends_of_the_floats_are_taught_without_a_panic() {
+        let extreme: Vec<Vec<Pose>> = vec![
+            vec![
+                pose([-1e308, 0.0, 0.0], 0.0),
+                pose([1e308, 0.0, 0.0], 0.3),
+                pose([1e308, 1e308, -1e308], 1.2),
+                pose([0.0, 0.0, 0.0], 0.0),
+            ],
+            vec![
+                pose([f64::MAX, -f64::MAX, f64::MAX], 0.7),
+                pose([-f64::MAX, f64::MAX, -f64::MAX], 2.0),
+                pose([1e154, 1e154, 1e154], 0.1),
+                pose([-1e154, 0.0, 1e154], 0.2),
+            ],
+            vec![pose([1e308, 0.0, 0.0], 0.0); 5],
+            vec![
+                pose([1e300, -1e300, 5.0], 0.4),
+                pose([1e300, -1e300, 6.0], 0.4),
+            ],
+        ];
+        for profile in [Profile::Seed, Profile::Default] {
+            let mut t = Teacher::new(EngineConfig::profile(profile)).unwrap();
+            let finite = |p: &Prediction| {
+                p.pose.is_none_or(|q| {
+                    let v = q.values();
+                    [v.x, v.y, v.z, v.qw, v.qx, v.qy, v.qz]
+                        .iter()
+                        .all(|x| x.is_finite())
+                })
+            };
+            for _ in 0..3 {
+                for routine in &extreme {
+                    for w in routine {
+                        t.teach(*w);
+                        let p = t.predict();
+                        assert!(!p.offered() || finite(&p), "{profile:?}: {p:?}");
+                    }
+                    t.finish_routine();
+                }
+            }
+            // Undo over the extreme poses, then a routine of them abandoned.
+            extreme[0].iter().for_each(|w| t.teach(*w));
+            while t.undo().is_some() {}
+            extreme[1].iter().for_each(|w| t.teach(*w));
+            t.abandon_routine();
+            assert_eq!(t.stats().routines, 12, "{profile:?}");
+            // An ordinary pattern is still learned and predicted.
+            t.learn_routine(&stitches(15, 0.0));
+            t.learn_routine(&stitches(15, 700.0));
+            let copy = stitches(15, 2000.0);
+            copy[..8].iter().for_each(|w| t.teach(*w));
+            let p = t.predict();
+            assert!(p.offered(), "{profile:?}: {:?}", p.withheld);
+            let got = p.pose.unwrap();
+            assert!(
+                got.distance_to(&copy[8]) < 1e-6,
+                "{profile:?}: {} mm off",
+                got.distance_to(&copy[8])
+            );
+        }
     }
 
     #[test]

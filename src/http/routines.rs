@@ -118,7 +118,7 @@ async fn delete_routine(
         (status = 409, description = "The routine is finished, or `seq` is neither the next nor a retry of the last waypoint", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
-        (status = 422, description = "Invalid pose (non-finite, quaternion far from unit), joints or unknown fields", body = ErrorBody),
+        (status = 422, description = "Invalid pose (a number not finite, a coordinate beyond ±100000 mm, a quaternion far from unit; the message names the field and value), joints or unknown fields", body = ErrorBody),
     ))]
 async fn append_waypoint(
     State(app): State<Arc<App>>,

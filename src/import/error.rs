@@ -3,6 +3,8 @@
 
 use thiserror::Error;
 
+use crate::engine::PoseError;
+
 /// Why an upload could not be imported at all. Things the importer merely cannot use (joint
 /// moves, targets computed at run time) are not errors: they are listed in
 /// [`super::ImportReport::skipped`].
@@ -60,6 +62,19 @@ pub enum ImportError {
         /// 1-based column, in characters.
         column: usize,
         limit: usize,
+    },
+    /// A waypoint whose pose the service does not accept: a number that is not finite, a
+    /// coordinate beyond ±100 m of its frame (see [`crate::engine::POSITION_LIMIT_MM`]). Named
+    /// by the file and line of the instruction that moves to it, and the target as written.
+    #[error("{file} line {line}: {source} (target {target})")]
+    Pose {
+        file: String,
+        /// 1-based line of the motion instruction.
+        line: usize,
+        /// The target as written (`p10`, `P[3]`, `{X 1e308, ...}`).
+        target: String,
+        #[source]
+        source: PoseError,
     },
 }
 

@@ -252,18 +252,15 @@ fn parse_file(
                 frame,
                 config,
                 uframe,
-            }) => match pose_of(frame) {
-                Some(pose) => waypoints.push(ImportedWaypoint {
-                    name: format!("P[{i}]"),
-                    pose,
-                    motion: m.motion.to_string(),
-                    role: m.role,
-                    line: m.line,
-                    configuration: config.clone().map(|config| Configuration::Fanuc { config }),
-                    frame: uframe.clone(),
-                }),
-                None => skip(skipped, SkipReason::InvalidTarget),
-            },
+            }) => waypoints.push(ImportedWaypoint {
+                name: format!("P[{i}]"),
+                pose: pose_of(frame),
+                motion: m.motion.to_string(),
+                role: m.role,
+                line: m.line,
+                configuration: config.clone().map(|config| Configuration::Fanuc { config }),
+                frame: uframe.clone(),
+            }),
         }
     }
     Ok(ImportedRoutine {

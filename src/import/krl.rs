@@ -502,11 +502,7 @@ fn motion(
             Ok(Value::Partial(_) | Value::Array { .. }) => Err(SkipReason::ComputedAtRunTime),
             Err(e) => Err(e),
         };
-        match frame.and_then(|(f, s, tu)| {
-            pose_of(&f)
-                .map(|p| (p, s, tu))
-                .ok_or(SkipReason::InvalidTarget)
-        }) {
+        match frame.map(|(f, s, tu)| (pose_of(&f), s, tu)) {
             Ok((pose, status, turn)) => routine.waypoints.push(ImportedWaypoint {
                 name: text,
                 pose,

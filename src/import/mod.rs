@@ -35,7 +35,7 @@ pub mod trajectory;
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use crate::engine::Pose;
@@ -351,6 +351,7 @@ pub fn parse_sources(files: &[SourceFile<'_>]) -> Result<ImportReport, ImportErr
     if !fanuc_files.is_empty() {
         fanuc::parse(&fanuc_files, &mut report)?;
     }
+    check_poses(&report)?;
     drop_empty_programs(&mut report);
     Ok(report)
 }
@@ -469,20 +470,46 @@ pub(crate) fn rotation_zyx_deg(a: f64, b: f64, c: f64) -> UnitQuaternion<f64> {
 }
 
 /// A unit quaternion from `w x y z` as written, if it is close enough to unit norm to be meant
-/// as a rotation (the same tolerance [`Pose::new`] applies).
+/// as a rotation (the same tolerance [`Pose::new`] applies); `None` when it is not (a target
+/// skipped as [`SkipReason::InvalidTarget`]). A quaternion with a non-finite number is kept as
+/// written, so that [`check_poses`] refuses the upload naming the line that moves to it.
 pub(crate) fn quaternion_wxyz(q: [f64; 4]) -> Option<UnitQuaternion<f64>> {
+    let [w, x, y, z] = q;
+    if q.iter().any(|v| !v.is_finite()) {
+        return Some(UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z)));
+    }
     Pose::new([0.0; 3], q).ok().map(|p| p.rotation())
 }
 
-/// The pose of a resolved frame, with the quaternion's sign chosen so `w ≥ 0`.
-pub(crate) fn pose_of(frame: &Frame) -> Option<Pose> {
-    let q = frame.rotation.quaternion();
-    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
-    Pose::new(
-        [frame.position.x, frame.position.y, frame.position.z],
-        [s * q.w, s * q.i, s * q.j, s * q.k],
-    )
-    .ok()
+/// The pose of a resolved frame, with the quaternion's sign chosen so `w ≥ 0`. Not checked
+/// here: a waypoint's pose is checked once, by [`check_poses`], when the upload is parsed.
+pub(crate) fn pose_of(frame: &Frame) -> Pose {
+    let q = frame.rotation.into_inner();
+    let q = if q.w < 0.0 { -q } else { q };
+    Pose::from_isometry(Isometry3::from_parts(
+        Translation3::from(frame.position),
+        UnitQuaternion::new_unchecked(q),
+    ))
+}
+
+/// Every imported waypoint's pose passes the check of a pose entering the service
+/// ([`crate::engine::PoseValues::to_pose`]: finite numbers, coordinates within ±100 m of the frame, a unit
+/// quaternion); the first that does not refuses the upload, naming its file, line, target and
+/// value. A corrupted number (`-1e308`, `1e999`) is refused, not skipped: the program is not
+/// what its author wrote, and importing the rest of it would hide that.
+fn check_poses(report: &ImportReport) -> Result<(), ImportError> {
+    for r in report.programs.iter().flat_map(|p| &p.routines) {
+        for w in &r.waypoints {
+            let values = w.pose.values();
+            values.to_pose().map_err(|source| ImportError::Pose {
+                file: r.file.clone(),
+                line: w.line,
+                target: excerpt(&w.name),
+                source,
+            })?;
+        }
+    }
+    Ok(())
 }
 
 /// Shortens source text for a skip record.
@@ -731,6 +758,118 @@ mod tests {
         );
         // A file that gives no program clashes with nothing.
         assert!(parse_upload(&[("a.mod", MODULE), ("b.mod", "MODULE M\nENDMODULE")]).is_ok());
+    }
+
+    /// Issue 46: an import let −1e308 through to the learner, whose k-d tree panicked. Every
+    /// waypoint's pose is checked once the files are parsed: a number that is not finite or a
+    /// coordinate beyond ±100 m refuses the upload, naming the file, the line of the move, the
+    /// value and the target, in each language; a finite quaternion that is not a rotation is
+    /// still only skipped.
+    #[test]
+    fn a_waypoint_out_of_range_or_not_finite_refuses_the_upload_naming_it() {
+        let rapid = |p2: &str, q2: &str| {
+            format!(
+                "MODULE Weld
+ CONST robtarget p1:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];
+                  CONST robtarget p2:=[[{p2}],[{q2}],[0,0,0,0],[0,0,0,0,0,0]];
+ PROC main()
+                   MoveL p1, v1, z1, tool0;
+  MoveL p2, v1, z1, tool0;
+  MoveL p1, v1, z1, tool0;
+                  ENDPROC
+ENDMODULE
+"
+            )
+        };
+        let krl = |x: &str| {
+            format!(
+                "DEF a()
+LIN {{X 1,Y 2,Z 3,A 0,B 0,C 0}}
+LIN {{X {x},Y 2,Z 3,A 0,B 0,C 0}}
+END
+"
+            )
+        };
+        let fanuc = |z: &str| {
+            format!(
+                "/PROG A
+/MN
+ 1:L P[1] 100mm/sec FINE ;
+ 2:L P[2] 100mm/sec FINE ;
+/POS
+                 P[1]{{
+ GP1:
+ UF : 0, UT : 1,
+ X = 1 mm, Y = 2 mm, Z = 3 mm,
+ W = 0 deg, P = 0 deg, R = 0 deg
+}};
+                 P[2]{{
+ GP1:
+ UF : 0, UT : 1,
+ X = 1 mm, Y = 2 mm, Z = {z} mm,
+ W = 0 deg, P = 0 deg, R = 0 deg
+}};
+/END
+"
+            )
+        };
+        let cases = [
+            (
+                "weld.mod",
+                rapid("-1e308,2,3", "1,0,0,0"),
+                "weld.mod line 6: x = -1e308 is outside ±100000 mm (target p2)",
+            ),
+            (
+                "weld.mod",
+                rapid("1,2,1e999", "1,0,0,0"),
+                "weld.mod line 6: z = inf is not a finite number (target p2)",
+            ),
+            (
+                "weld.mod",
+                rapid("1,2,3", "1e999,0,0,0"),
+                "weld.mod line 6: qw = inf is not a finite number (target p2)",
+            ),
+            (
+                "r/a.src",
+                krl("1e308"),
+                "r/a.src line 3: x = 1e308 is outside ±100000 mm",
+            ),
+            (
+                "r/a.src",
+                krl("-100000.5"),
+                "r/a.src line 3: x = -100000.5 is outside ±100000 mm",
+            ),
+            (
+                "c/a/A.LS",
+                fanuc("-250000"),
+                "c/a/A.LS line 4: z = -250000.0 is outside ±100000 mm (target P[2])",
+            ),
+        ];
+        for (name, text, said) in &cases {
+            let err = parse_upload(&[(name, text)]).unwrap_err();
+            assert!(matches!(err, ImportError::Pose { .. }), "{err:?}");
+            assert_eq!(
+                err.to_string().split(" (target").next(),
+                said.split(" (target").next(),
+                "{err}"
+            );
+            assert!(err.to_string().starts_with(said), "{err}");
+        }
+        // At the bound: imported. A quaternion of norm 1e308: skipped as not a rotation.
+        let report = parse_upload(&[("k.src", &krl("-100000"))]).unwrap();
+        assert_eq!(
+            report.programs[0].routines[0].waypoints[1]
+                .pose
+                .position()
+                .x,
+            -100_000.0
+        );
+        let report = parse_upload(&[("weld.mod", &rapid("1,2,3", "1e308,0,0,0"))]).unwrap();
+        assert_eq!(report.programs[0].waypoint_count(), 2);
+        assert_eq!(
+            report.skipped_counts().get(&SkipReason::InvalidTarget),
+            Some(&1)
+        );
     }
 
     #[test]

@@ -4,11 +4,12 @@
 //! the quaternion `qw`, `qx`, `qy`, `qz` are optional (a missing `z` is 0, a missing quaternion
 //! the identity; a quaternion is all four columns or none); joint columns `j1`, `j2`, … are
 //! optional. Other columns are refused so a misspelt name is not silently ignored. Blank lines
-//! and lines starting with `#` are skipped. Every value must be a finite number.
+//! and lines starting with `#` are skipped. Every value must be a finite number, and each pose
+//! one the service accepts ([`PoseValues::to_pose`]: coordinates within ±100,000 mm).
 
 use thiserror::Error;
 
-use crate::engine::Pose;
+use crate::engine::PoseValues;
 use crate::engine::lead_through::segment::TimedPose;
 
 /// One sample of the file.
@@ -128,7 +129,16 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<TrajectorySample>, TrajectoryF
             value(c.quat[2], "qy", 0.0)?,
             value(c.quat[3], "qz", 0.0)?,
         ];
-        let pose = Pose::new(p, q).map_err(|e| row(e.to_string()))?;
+        let values = PoseValues {
+            x: p[0],
+            y: p[1],
+            z: p[2],
+            qw: q[0],
+            qx: q[1],
+            qy: q[2],
+            qz: q[3],
+        };
+        let pose = values.to_pose().map_err(|e| row(e.to_string()))?;
         let joints = if c.joints.is_empty() {
             None
         } else {
@@ -170,6 +180,10 @@ mod tests {
         assert!(err("t,x,y,j2\n0,1,2,3\n").contains("j1 to jN"));
         assert!(err("t,x,y\n0,1,2\n0.1,nan,2\n").contains("line 3"));
         assert!(err("t,x,y,qw,qx,qy,qz\n0,1,2,2,0,0,0\n").contains("quaternion norm"));
+        assert!(
+            err("t,x,y\n0,1,2\n0.1,1,-2e5\n")
+                .contains("line 3: y = -200000.0 is outside ±100000 mm")
+        );
         assert!(err("t,x,y\n0,1\n").contains("CSV"));
     }
 }

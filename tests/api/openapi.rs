@@ -232,6 +232,19 @@ fn the_spec_states_the_enforced_limits() {
     let joints = prop("TrajectorySample", "joints");
     assert_eq!(limit(&joints, "minItems"), Some(1.0), "{joints}");
     assert_eq!(limit(&joints, "maxItems"), Some(12.0), "{joints}");
+    // The bound every entering pose's position is checked against; a relative move has none.
+    for field in ["x", "y", "z"] {
+        let p = prop("PoseValues", field);
+        let bound = nextpose::engine::POSITION_LIMIT_MM;
+        assert_eq!(
+            limit(&p, "minimum"),
+            Some(-bound),
+            "PoseValues.{field}: {p}"
+        );
+        assert_eq!(limit(&p, "maximum"), Some(bound), "PoseValues.{field}: {p}");
+        let m = prop("RelativeMove", field);
+        assert_eq!((m.get("minimum"), m.get("maximum")), (None, None), "{m}");
+    }
     let rotation = prop("TrajectorySettings", "rotation_mm_per_rad");
     assert_eq!(
         limit(&rotation, "maximum"),

@@ -265,8 +265,8 @@ async fn bad_trajectories_are_refused_and_change_nothing() {
             "position too far",
             with(&|s| s[3]["pose"]["x"] = json!(1e300)),
             StatusCode::UNPROCESSABLE_ENTITY,
-            "invalid",
-            "sample 3",
+            "invalid_pose",
+            "sample 3: invalid pose: x = 1e300 is outside ±100000 mm",
         ),
         (
             "five joints",

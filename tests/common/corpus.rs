@@ -32,6 +32,38 @@ pub fn raw() -> PathBuf {
     dir().join("raw")
 }
 
+/// The raw files of the second corpus, `../shared/corpus2/raw` (same layout as [`raw`]).
+pub fn raw2() -> PathBuf {
+    dir().join("../corpus2/raw")
+}
+
+/// Every raw file of both corpora (the second when it is there), as an upload names it (the
+/// original path, `__` → `/`) with its text, sorted by repository folder and file.
+pub fn raw_files() -> Vec<File> {
+    let mut out = Vec::new();
+    for root in [raw(), raw2()].into_iter().filter(|r| r.is_dir()) {
+        let mut paths: Vec<PathBuf> = fs::read_dir(&root)
+            .expect("raw folder")
+            .map(|e| e.expect("entry").path())
+            .filter(|p| p.is_dir())
+            .flat_map(|dir| {
+                fs::read_dir(dir)
+                    .expect("repository folder")
+                    .map(|e| e.expect("entry").path())
+                    .collect::<Vec<_>>()
+            })
+            .filter(|p| p.is_file())
+            .collect();
+        paths.sort();
+        out.extend(
+            paths
+                .iter()
+                .map(|p| (file_name(p).replace("__", "/"), read_text(p))),
+        );
+    }
+    out
+}
+
 /// A file as an upload gives it: (name, text).
 pub type File = (String, String);
 

@@ -362,7 +362,7 @@ fn withheld_reasons_are_reported() {
 fn bad_input_gives_typed_errors() {
     assert!(matches!(
         Pose::new([0.0, f64::NAN, 0.0], [1.0, 0.0, 0.0, 0.0]),
-        Err(PoseError::NonFinitePosition)
+        Err(PoseError::NonFinite { field: "y", .. })
     ));
     assert!(matches!(
         Pose::new([0.0; 3], [0.7, 0.0, 0.0, 0.0]),

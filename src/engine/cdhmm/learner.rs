@@ -496,7 +496,10 @@ impl ObservationGraph {
 /// A k-d tree over node means. kiddo's mutable tree cannot split a bucket whose points all share
 /// a coordinate on the split axis (common here: many moves have `q_x = 0`); nodes it refuses
 /// are kept in a small overflow list that every query returns, so correctness never depends on
-/// the tree accepting a point.
+/// the tree accepting a point. A mean with a non-finite coordinate (a move between poses near
+/// the ends of the floats, which the service refuses where poses enter) is never handed to the
+/// tree, whose leaf sort panics on NaN: it goes to the overflow list too, where the exact
+/// criterion (NaN or infinite, so never within ε) keeps every move from joining it.
 #[derive(Debug, Default)]
 struct NodeIndex {
     tree: MutableKdTree<f64, DIMENSION>,
@@ -533,13 +536,13 @@ impl NodeIndex {
         if self.stored.len() <= id {
             self.stored.resize(id + 1, None);
         }
-        match self.tree.add(&p, id as u32) {
-            Ok(()) => self.stored[id] = Some(p),
-            Err(_) => {
-                self.stored[id] = None;
-                if !self.overflow.contains(&id) {
-                    self.overflow.push(id);
-                }
+        let finite = p.iter().all(|v| v.is_finite());
+        if finite && self.tree.add(&p, id as u32).is_ok() {
+            self.stored[id] = Some(p);
+        } else {
+            self.stored[id] = None;
+            if !self.overflow.contains(&id) {
+                self.overflow.push(id);
             }
         }
     }
@@ -564,11 +567,14 @@ impl NodeIndex {
     fn candidates(&self, z: &Observation, radius_sq: f64, out: &mut Vec<usize>) {
         out.clear();
         let q: [f64; DIMENSION] = (*z).into();
-        self.tree
-            .query(&q)
-            .within::<SquaredEuclidean<f64>>(radius_sq)
-            .unsorted()
-            .visit(|n| out.push(n.item as usize));
+        // A non-finite move is within no node's reach: only the overflow list is returned.
+        if q.iter().all(|v| v.is_finite()) && radius_sq.is_finite() {
+            self.tree
+                .query(&q)
+                .within::<SquaredEuclidean<f64>>(radius_sq)
+                .unsorted()
+                .visit(|n| out.push(n.item as usize));
+        }
         out.extend_from_slice(&self.overflow);
         // In node order: the tree's layout (which depends on how it was built, e.g. after a
         // rollback) must not change what a caller computes from the candidates.
@@ -757,7 +763,7 @@ mod tests {
                 .enumerate()
                 .map(|(i, n)| (n.increase(&z), i))
                 .filter(|(c, _)| *c <= g.epsilon())
-                .min_by(|a, b| a.partial_cmp(b).unwrap())
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
                 .map(|(_, i)| i);
             assert_eq!(g.best_node(&z), linear);
             g.push(&x);

@@ -227,7 +227,13 @@ impl SequenceExpert {
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                        // Saturating: an element in an edge cell (a saturated cast) has no
+                        // neighbour beyond it.
+                        let key = [
+                            c[0].saturating_add(dx),
+                            c[1].saturating_add(dy),
+                            c[2].saturating_add(dz),
+                        ];
                         v.extend(self.grid.get(&key).into_iter().flatten().copied());
                     }
                 }

@@ -275,10 +275,7 @@ pub(super) fn routine_stmt(
         }
         .expr(a, b)
         .and_then(as_target);
-        let resolved = ev.and_then(|t| match pose_of(&t.frame) {
-            Some(pose) => Ok((pose, t.config)),
-            None => Err(SkipReason::InvalidTarget),
-        });
+        let resolved = ev.map(|t| (pose_of(&t.frame), t.config));
         match resolved {
             Ok((pose, configuration)) => {
                 let name = if toks.get(a).is_some_and(|t| t.k == K::LBrack) {

@@ -18,7 +18,7 @@ pub(crate) async fn channel(app: &TestApp) -> Channel {
         .expect("connect")
 }
 
-pub(super) async fn client(app: &TestApp) -> Client {
+pub(crate) async fn client(app: &TestApp) -> Client {
     NextposeClient::new(channel(app).await)
 }
 
