@@ -100,9 +100,17 @@ async fn rebuild_and_restart_give_the_same_model_and_predictions() {
 
 /// The real binary on `db`, started on a free port; returns the child and its base URL.
 pub(crate) fn start_binary(db: &Database) -> (Child, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_nextpose"))
+    let mut command = Command::new(env!("CARGO_BIN_EXE_nextpose"));
+    command
         .args(["serve", "--addr", "127.0.0.1:0", "--db"])
-        .arg(db_setting(db))
+        .arg(db_setting(db));
+    listening(command)
+}
+
+/// Starts `command`, a `serve` on port 0, without a token and with a quiet log, and reads the
+/// base URL from the line it prints once it listens.
+pub(crate) fn listening(mut command: Command) -> (Child, String) {
+    let mut child = command
         .env("RUST_LOG", "warn")
         .env_remove("NEXTPOSE_TOKEN")
         .stdout(Stdio::piped())

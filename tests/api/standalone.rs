@@ -2,11 +2,11 @@
 //! beside it and started there, serves the pendant page, lists every bundled arm and suggests
 //! a reachable next waypoint (the arms are carried by the binary, not read from `robots/`).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 use reqwest::StatusCode;
 
+use crate::durability::listening;
 use crate::helpers::*;
 
 #[tokio::test]
@@ -16,30 +16,15 @@ async fn the_binary_alone_serves_the_pendant_and_suggests_with_no_checkout_besid
     std::fs::copy(env!("CARGO_BIN_EXE_nextpose"), &binary).expect("copy the binary");
     let work = dir.path().join("plant");
     std::fs::create_dir(&work).unwrap();
-    let mut child = Command::new(&binary)
+    let mut command = Command::new(&binary);
+    command
         .args(["serve", "--addr", "127.0.0.1:0", "--db", "plant.db"])
         .current_dir(&work)
-        .env("RUST_LOG", "warn")
-        .env_remove("NEXTPOSE_TOKEN")
         .env_remove("NEXTPOSE_ROBOTS")
-        .env_remove("NEXTPOSE_DB")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("start the copied binary");
-    let stdout = child.stdout.take().expect("stdout");
-    let line = tokio::task::spawn_blocking(move || {
-        let mut line = String::new();
-        BufReader::new(stdout).read_line(&mut line).map(|_| line)
-    })
-    .await
-    .unwrap()
-    .expect("read the listening line");
-    let base = line
-        .split_whitespace()
-        .find(|w| w.starts_with("http://"))
-        .unwrap_or_else(|| panic!("no address in {line:?}"))
-        .to_string();
+        .env_remove("NEXTPOSE_DB");
+    let (mut child, base) = tokio::task::spawn_blocking(move || listening(command))
+        .await
+        .unwrap();
     let app = TestApp::remote(&base);
 
     let page = app.get("/").await;

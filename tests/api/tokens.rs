@@ -19,7 +19,7 @@ async fn app_on(path: &Path) -> App {
     App::new(store, Arc::new(Metrics::new()), Arc::new(robots))
 }
 
-fn token_cli(db: &Path, args: &[&str]) -> std::process::Output {
+fn token_cli(db: impl AsRef<std::ffi::OsStr>, args: &[&str]) -> std::process::Output {
     let out = Command::new(env!("CARGO_BIN_EXE_nextpose"))
         .arg("token")
         .args(args)
@@ -214,18 +214,9 @@ async fn an_anonymous_client_cannot_turn_authentication_on_and_the_host_can() {
     app.create_cell("weld-2").await;
 
     // The host's operator makes the first token, on the server's database, while it serves.
-    let out = Command::new(env!("CARGO_BIN_EXE_nextpose"))
-        .args([
-            "token", "create", "--name", "admin", "--role", "admin", "--db",
-        ])
-        .arg(db_setting(&app.db))
-        .env_remove("NEXTPOSE_DB")
-        .output()
-        .expect("run nextpose token");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = token_cli(
+        db_setting(&app.db),
+        &["create", "--name", "admin", "--role", "admin"],
     );
     let admin = String::from_utf8(out.stdout).unwrap().trim().to_string();
     assert_eq!(app.get_ok("/healthz").await["token_required"], true);
