@@ -148,8 +148,8 @@ impl App {
             .waypoint(last)
             .await?
             .ok_or_else(|| AppError::Internal(format!("waypoint {last} is not stored")))?;
-        let same = row.seq == retry.seq - 1
-            && row.pose == retry.pose
+        // `last` is the routine's last waypoint, so its seq is the one the retry names.
+        let same = row.pose == retry.pose
             && row.joints == retry.joints
             && row.motion == retry.motion
             && row.name == retry.name;
