@@ -29,6 +29,8 @@ use serde_json::{Value, json};
 const TOKEN: &str = "pendant-test-token";
 /// Longest wait for the page to show something (generous: a loaded 2-core machine).
 const PATIENCE: Duration = Duration::from_secs(30);
+/// How many times an element the page replaced between finding and using it is found again.
+const STALE_RETRIES: usize = 5;
 
 fn binary(var: &str, default: &str) -> PathBuf {
     let path = std::env::var_os(var)
@@ -203,40 +205,59 @@ impl Page {
         .await;
     }
 
+    /// Clicks the element once it is on. The page re-renders its lists, so an element found
+    /// may be replaced before the click reaches it: then it is found again.
     async fn click(&self, css: &str) {
-        self.wait_for(&format!("{css}:not([disabled])"))
-            .await
-            .click()
-            .await
-            .unwrap_or_else(|e| panic!("click {css}: {e}"));
+        let on = format!("{css}:not([disabled])");
+        for _ in 0..STALE_RETRIES {
+            match self.wait_for(&on).await.click().await {
+                Err(e) if e.is_stale_element_reference() => continue,
+                done => return done.unwrap_or_else(|e| panic!("click {css}: {e}")),
+            }
+        }
+        panic!("click {css}: replaced {STALE_RETRIES} times in a row");
     }
 
     /// Types into a field once it is on (the page turns its controls on when it knows who
     /// is calling).
     async fn fill(&self, css: &str, text: &str) {
-        let e = self.wait_for(&format!("{css}:not([disabled])")).await;
-        e.clear().await.expect("clear");
-        e.send_keys(text).await.expect("type");
+        for _ in 0..STALE_RETRIES {
+            let e = self.wait_for(&format!("{css}:not([disabled])")).await;
+            let typed = match e.clear().await {
+                Ok(()) => e.send_keys(text).await,
+                cleared => cleared,
+            };
+            match typed {
+                Err(e) if e.is_stale_element_reference() => continue,
+                typed => return typed.unwrap_or_else(|e| panic!("type into {css}: {e}")),
+            }
+        }
+        panic!("type into {css}: replaced {STALE_RETRIES} times in a row");
     }
 
     async fn select(&self, css: &str, value: &str) {
-        self.wait_for(&format!("{css}:not([disabled]) option[value=\"{value}\"]"))
-            .await
-            .click()
-            .await
-            .unwrap_or_else(|e| panic!("select {value} in {css}: {e}"));
+        self.click(&format!("{css}:not([disabled]) option[value=\"{value}\"]"))
+            .await;
     }
 
     async fn attr(&self, css: &str, name: &str) -> Option<String> {
-        self.wait_for(css)
-            .await
-            .attr(name)
-            .await
-            .expect("attribute")
+        for _ in 0..STALE_RETRIES {
+            match self.wait_for(css).await.attr(name).await {
+                Err(e) if e.is_stale_element_reference() => continue,
+                read => return read.unwrap_or_else(|e| panic!("{css} [{name}]: {e}")),
+            }
+        }
+        panic!("{css} [{name}]: replaced {STALE_RETRIES} times in a row");
     }
 
     async fn text(&self, css: &str) -> String {
-        self.wait_for(css).await.text().await.expect("text")
+        for _ in 0..STALE_RETRIES {
+            match self.wait_for(css).await.text().await {
+                Err(e) if e.is_stale_element_reference() => continue,
+                read => return read.unwrap_or_else(|e| panic!("text of {css}: {e}")),
+            }
+        }
+        panic!("text of {css}: replaced {STALE_RETRIES} times in a row");
     }
 
     /// Jogs `n` steps along one axis (`x+`, `rz-`, ...), each step waiting until the arm has
@@ -1323,9 +1344,10 @@ async fn a_double_press_accepts_once_and_only_what_was_on_screen() {
         let (api, page) = (&api, &page);
         async move {
             eventually("the press to be taken", || async move {
+                // Idle first: once the page is idle, what is stored is the press's last word.
+                let idle = page.idle().await;
                 let stored = api.waypoints(t.routine).await.len();
-                (stored > before + 1 || (stored == before + 1 && page.idle().await))
-                    .then_some(stored)
+                (stored > before + 1 || (stored == before + 1 && idle)).then_some(stored)
             })
             .await
         }
@@ -1367,9 +1389,12 @@ async fn a_double_press_accepts_once_and_only_what_was_on_screen() {
     page.fill("#accept-n-count", "5").await;
     page.js("const b = document.getElementById('accept-n'); b.click(); b.click();")
         .await;
+    // Idle first, then the status: read the other way round, the status could be the one
+    // before Accept next when it ends between the two reads.
     let settled = eventually("Accept next to end", || async {
+        let idle = page.idle().await;
         let (_, text) = page.status().await;
-        (page.idle().await || text.contains("accepted 0")).then_some(text)
+        (idle || text.contains("accepted 0")).then_some(text)
     })
     .await;
     let accepted = api.waypoints(t.routine).await.len() - 3;
