@@ -14,6 +14,8 @@ use super::PoseValues;
 pub struct PlacementSearch {
     pub program_id: Option<i64>,
     pub cell_id: Option<i64>,
+    /// 1 to 20,000 poses.
+    #[schema(min_items = 1, max_items = 20000)]
     pub targets: Option<Vec<PoseValues>>,
     /// `floor` (default) or `ceiling`.
     #[serde(default)]
@@ -36,6 +38,7 @@ pub struct PlacementSearch {
 #[schema(as = PlacementDto)]
 pub struct Placement {
     /// Robot base frame in the work frame, mm.
+    #[schema(schema_with = computed_pose)]
     pub base: PoseValues,
     pub reached: usize,
     pub total: usize,
@@ -75,7 +78,31 @@ pub struct FramesQuery {
 pub struct LinkFrame {
     /// The robot base link's name, then each joint's.
     pub name: String,
+    #[schema(schema_with = computed_pose)]
     pub pose: PoseValues,
+}
+
+/// The schema of a frame the service computes (an arm's links, flange and TCP): a pose as
+/// [`PoseValues`], but its position may lie past the ±100 m a given pose keeps to (an arm based
+/// near that limit reaches beyond it).
+fn computed_pose() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+    use utoipa::openapi::RefOr;
+    use utoipa::openapi::schema::Schema;
+    let mut schema = <PoseValues as utoipa::PartialSchema>::schema();
+    if let RefOr::T(Schema::Object(object)) = &mut schema {
+        for axis in ["x", "y", "z"] {
+            if let Some(RefOr::T(Schema::Object(p))) = object.properties.get_mut(axis) {
+                p.minimum = None;
+                p.maximum = None;
+            }
+        }
+        object.description = Some(
+            "A frame the service computes: a pose as `PoseValues`, whose position may lie past \
+             ±100,000 mm."
+                .into(),
+        );
+    }
+    schema
 }
 
 /// The cell's arm at a joint vector, every frame in the cell's work frame (mm): segments from
@@ -90,8 +117,10 @@ pub struct ArmFrames {
     /// The base, then each of the six joints' frames after its rotation.
     pub links: Vec<LinkFrame>,
     /// The flange (`tool0`).
+    #[schema(schema_with = computed_pose)]
     pub flange: PoseValues,
     /// The tool centre point: the flange with the cell's `tool` mounted.
+    #[schema(schema_with = computed_pose)]
     pub tcp: PoseValues,
 }
 

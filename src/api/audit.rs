@@ -10,15 +10,18 @@ use utoipa::{IntoParams, ToSchema};
 #[serde(deny_unknown_fields)]
 pub struct AuditQuery {
     /// Only changes to this cell.
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub cell_id: Option<i64>,
     /// Only entries at or after this UTC time (RFC 3339, e.g. `2026-12-06T08:00:00Z`).
     #[param(format = DateTime)]
     pub since: Option<String>,
     /// Only entries older than this id: the `next` of the page before.
     #[param(minimum = 1)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub before: Option<i64>,
     /// Entries per page, 1 to 1000 (default 100).
     #[param(minimum = 1, maximum = 1000)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub limit: Option<u32>,
 }
 

@@ -14,9 +14,11 @@ use super::{MotionType, PoseValues, Program};
 pub struct HistoryQuery {
     /// Only revisions older than this one: the `next` of the page before.
     #[param(minimum = 1)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub before: Option<i64>,
     /// Revisions per page, 1 to 1000 (default 100).
     #[param(minimum = 1, maximum = 1000)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub limit: Option<u32>,
 }
 
@@ -125,9 +127,11 @@ pub struct WaypointRevision {
 pub struct DiffQuery {
     /// The earlier revision (0: the program when its history began).
     #[param(minimum = 0)]
+    #[serde(deserialize_with = "super::integral::required")]
     pub from: i64,
     /// The later revision (default: the last).
     #[param(minimum = 0)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub to: Option<i64>,
 }
 

@@ -21,7 +21,10 @@ pub struct UploadedFile {
     )]
     #[serde(alias = "file_name")]
     pub name: String,
-    /// The file's text. Also read as `text`.
+    /// The file's text. Also read as `text`. Text only: no NUL nor another C0 control
+    /// character but tab, line feed, vertical tab, form feed, carriage return and SUB (the DOS
+    /// end-of-file mark).
+    #[schema(pattern = r"^[^\x00-\x08\x0e-\x19\x1b-\x1f]*$")]
     #[serde(alias = "text")]
     pub content: String,
 }

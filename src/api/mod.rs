@@ -26,6 +26,7 @@ pub mod error;
 pub mod feedback;
 pub mod history;
 pub mod imports;
+pub mod integral;
 pub mod predictions;
 pub mod programs;
 pub mod replays;

@@ -76,6 +76,7 @@ pub struct Prediction {
 pub struct PredictQuery {
     /// Moves to condition on (1–50).
     #[param(minimum = 1, maximum = 50)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub horizon: Option<usize>,
     /// Minimum confidence φ (0–1).
     #[param(minimum = 0, maximum = 1)]
@@ -85,6 +86,7 @@ pub struct PredictQuery {
     /// Number of next waypoints to predict (open-loop completion, 1–100; stops at the first
     /// prediction that is not offered).
     #[param(minimum = 1, maximum = 100)]
+    #[serde(default, deserialize_with = "super::integral::optional")]
     pub k: Option<usize>,
 }
 

@@ -45,10 +45,34 @@ pub struct Rename {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FixturePoints {
-    #[schema(min_items = 3, max_items = 3)]
+    #[schema(schema_with = three_points)]
     pub old: Vec<[f64; 3]>,
-    #[schema(min_items = 3, max_items = 3)]
+    #[schema(schema_with = three_points)]
     pub new: Vec<[f64; 3]>,
+}
+
+/// Three points `[x, y, z]`, each coordinate within ±100,000 mm (as a pose's position).
+fn three_points() -> utoipa::openapi::schema::Array {
+    use utoipa::openapi::schema::{ArrayBuilder, ObjectBuilder, Type};
+    use utoipa::openapi::{KnownFormat, SchemaFormat};
+    let coordinate = ObjectBuilder::new()
+        .schema_type(Type::Number)
+        .format(Some(SchemaFormat::KnownFormat(KnownFormat::Double)))
+        .minimum(Some(-crate::engine::POSITION_LIMIT_MM))
+        .maximum(Some(crate::engine::POSITION_LIMIT_MM));
+    let point = ArrayBuilder::new()
+        .items(coordinate)
+        .min_items(Some(3))
+        .max_items(Some(3));
+    ArrayBuilder::new()
+        .items(point)
+        .min_items(Some(3))
+        .max_items(Some(3))
+        .description(Some(
+            "The origin, a point on the x axis (at least 1 mm from the origin) and a point in \
+             the xy plane (at least 1 mm off the axis); mm, each coordinate within ±100,000 mm.",
+        ))
+        .build()
 }
 
 /// Where a routine's or program's fixture went: either `frame`, the moved work object's frame in

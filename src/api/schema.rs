@@ -65,9 +65,14 @@ pub(crate) mod mirror {
         /// mm
         #[schema(minimum = -100000.0, maximum = 100000.0)]
         pub z: f64,
+        /// Within ±1.001 (a quaternion within 1e-3 of unit norm).
+        #[schema(minimum = -1.001, maximum = 1.001)]
         pub qw: f64,
+        #[schema(minimum = -1.001, maximum = 1.001)]
         pub qx: f64,
+        #[schema(minimum = -1.001, maximum = 1.001)]
         pub qy: f64,
+        #[schema(minimum = -1.001, maximum = 1.001)]
         pub qz: f64,
     }
 

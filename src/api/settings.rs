@@ -19,7 +19,9 @@ use crate::kinematics::ReachPolicy;
 pub struct ScaleSettings {
     pub enabled: bool,
     /// Bracket for ψ (0 < psi_min < 1 < psi_max).
+    #[schema(exclusive_minimum = 0.0, exclusive_maximum = 1.0)]
     pub psi_min: f64,
+    #[schema(exclusive_minimum = 1.0)]
     pub psi_max: f64,
 }
 
@@ -98,6 +100,8 @@ pub struct CellSettingsInput {
     #[schema(minimum = 0.000001, maximum = 1.0)]
     pub sigma_q: Option<f64>,
     pub scale: Option<ScaleSettings>,
+    /// A robot model's name (`GET /v1/robots` lists them).
+    #[schema(pattern = r"^[A-Za-z0-9_-]{1,64}$")]
     pub robot: Option<String>,
     pub base: Option<PoseValues>,
     pub tool: Option<PoseValues>,

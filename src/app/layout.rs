@@ -99,6 +99,9 @@ impl App {
         }
         let (targets, ids, cell_tool) = match &request.targets {
             Some(values) => {
+                if values.is_empty() {
+                    return Err(AppError::Invalid("targets is empty".into()));
+                }
                 let poses = values
                     .iter()
                     .map(PoseValues::to_pose)
@@ -113,7 +116,9 @@ impl App {
             }
         };
         if targets.is_empty() {
-            return Err(AppError::Invalid(
+            // The program or cell has no waypoints yet: a state of the resource, not of the
+            // request.
+            return Err(AppError::Conflict(
                 "there are no waypoints to place the arm for".into(),
             ));
         }

@@ -143,20 +143,20 @@ pub mod extract {
     #[from_request(via(axum::extract::Query), rejection(ApiError))]
     pub struct Query<T>(pub T);
 
-    /// A resource id in a path, written in canonical decimal: `/v1/cells/01` and
-    /// `/v1/cells/+1` are not cell 1 but malformed ids (400).
+    /// A resource id in a path: an integer written as a JSON number (`crate::api::integral`:
+    /// `/v1/cells/1` and `/v1/cells/1.0` are cell 1, `/v1/cells/01` and `/v1/cells/+1` are
+    /// malformed ids, 400).
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub struct Id(pub i64);
 
     impl<'de> Deserialize<'de> for Id {
         fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Id, D::Error> {
             let text = String::deserialize(deserializer)?;
-            match text.parse::<i64>() {
-                Ok(id) if id.to_string() == text => Ok(Id(id)),
-                _ => Err(D::Error::custom(format!(
-                    "`{text}` is not an id (a decimal integer without sign or leading zeros)"
-                ))),
-            }
+            crate::api::integral::parse(&text).map(Id).ok_or_else(|| {
+                D::Error::custom(format!(
+                    "`{text}` is not an id (an integer, without sign `+` or leading zeros)"
+                ))
+            })
         }
     }
 }

@@ -9,6 +9,7 @@
 mod access;
 mod audit;
 mod backups;
+mod body_rules;
 mod cells;
 pub mod error;
 mod history;
@@ -149,6 +150,7 @@ pub fn openapi() -> OpenApiDoc {
     let mut doc = api().split_for_parts().1;
     // After the routes are merged in: it declares the token on each of them.
     BearerAuth.modify(&mut doc);
+    body_rules::BodyRules.modify(&mut doc);
     doc
 }
 

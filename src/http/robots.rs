@@ -86,6 +86,7 @@ async fn delete_robot(
         (status = 200, description = "The placements found, best first", body = Placements),
         (status = 400, description = "Malformed JSON", body = ErrorBody),
         (status = 404, description = "No such robot, program or cell", body = ErrorBody),
+        (status = 409, description = "The program or cell has no waypoints yet", body = ErrorBody),
         (status = 413, description = "Body too large (see --body-limit)", body = ErrorBody),
         (status = 415, description = "Not JSON (Content-Type is not application/json)", body = ErrorBody),
         (status = 422, description = "Not exactly one source of targets, no targets, a bad pose or option", body = ErrorBody),

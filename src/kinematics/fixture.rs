@@ -5,7 +5,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-use crate::engine::Pose;
+use crate::engine::{POSITION_LIMIT_MM, Pose};
 
 /// Points closer than this (mm), or an xy-plane point this close to the x axis, define no frame.
 pub const MIN_SPREAD_MM: f64 = 1.0;
@@ -15,6 +15,8 @@ pub const MIN_SPREAD_MM: f64 = 1.0;
 pub enum FixtureError {
     #[error("{0} must be finite")]
     NotFinite(&'static str),
+    #[error("{what}: coordinate {value} is outside ±{POSITION_LIMIT_MM} mm")]
+    OutOfRange { what: &'static str, value: f64 },
     #[error(
         "{what}: the x-axis point is {distance:.3} mm from the origin (at least {MIN_SPREAD_MM} mm)"
     )]
@@ -33,6 +35,13 @@ pub fn frame_from_points(
 ) -> Result<Isometry3<f64>, FixtureError> {
     if [o, x, xy].iter().flatten().any(|v| !v.is_finite()) {
         return Err(FixtureError::NotFinite(what));
+    }
+    if let Some(&value) = [o, x, xy]
+        .iter()
+        .flatten()
+        .find(|v| v.abs() > POSITION_LIMIT_MM)
+    {
+        return Err(FixtureError::OutOfRange { what, value });
     }
     let (o, x, xy) = (Point3::from(o), Point3::from(x), Point3::from(xy));
     let ex = x - o;
@@ -119,5 +128,14 @@ mod tests {
         ));
         let nan = [[f64::NAN, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 100.0, 0.0]];
         assert!(frame_from_points("old", nan).is_err());
+        // Beyond ±100 m: a frame a cell cannot have (and whose lengths would overflow).
+        let far = [[0.0; 3], [1e300, 0.0, 0.0], [0.0, 100.0, 0.0]];
+        assert_eq!(
+            frame_from_points("old", far),
+            Err(FixtureError::OutOfRange {
+                what: "old",
+                value: 1e300
+            })
+        );
     }
 }

@@ -460,18 +460,28 @@ async fn arrays_are_not_objects_at_any_level() {
     }
 }
 
+/// An id in a path is an integer written as a JSON number (the spec's `type: integer`, which
+/// JSON Schema reads as any number of integral value): `1`, `1.0` and `1e0` are cell 1; a sign
+/// `+`, leading zeros or spaces make a malformed id.
 #[tokio::test]
-async fn path_ids_are_canonical_decimal() {
+async fn path_ids_are_integers_written_as_json_numbers() {
     let app = spawn_app().await;
     let cell = app.create_cell("one").await;
     assert_eq!(cell, 1);
-    assert_eq!(app.get_ok("/v1/cells/1").await["id"], 1);
+    for path in [
+        "/v1/cells/1",
+        "/v1/cells/1.0",
+        "/v1/cells/1e0",
+        "/v1/cells/10E-1",
+    ] {
+        assert_eq!(app.get_ok(path).await["id"], 1, "{path}");
+    }
     for path in [
         "/v1/cells/01",
         "/v1/cells/+1",
-        "/v1/cells/-0",
         "/v1/cells/ 1",
-        "/v1/cells/1.0",
+        "/v1/cells/1.5",
+        "/v1/cells/0x1",
         "/v1/cells/001/stats",
         "/v1/cells/01/programs",
     ] {
@@ -482,11 +492,37 @@ async fn path_ids_are_canonical_decimal() {
         .await;
     expect_error(r, StatusCode::BAD_REQUEST, "bad_request").await;
     assert_eq!(app.get_ok("/v1/cells/1/programs").await, json!([]));
-    // Negative ids are well-formed; there are none.
-    expect_error(
-        app.get("/v1/cells/-1").await,
-        StatusCode::NOT_FOUND,
-        "not_found",
-    )
-    .await;
+    // Negative ids (and -0, which is 0) are well-formed; there are none.
+    for path in ["/v1/cells/-1", "/v1/cells/-0"] {
+        expect_error(app.get(path).await, StatusCode::NOT_FOUND, "not_found").await;
+    }
+}
+
+/// Integer query parameters follow the same rule.
+#[tokio::test]
+async fn integer_query_parameters_may_be_written_with_a_zero_fraction() {
+    let app = spawn_app().await;
+    let cell = app.create_cell("one").await;
+    let all = app.get_ok("/v1/audit").await;
+    let written = app
+        .get_ok(&format!("/v1/audit?cell_id={cell}.0&limit=1e1"))
+        .await;
+    assert_eq!(
+        written,
+        app.get_ok(&format!("/v1/audit?cell_id={cell}&limit=10"))
+            .await
+    );
+    assert!(!all["entries"].as_array().unwrap().is_empty());
+    assert!(
+        !written["entries"].as_array().unwrap().is_empty(),
+        "{written}"
+    );
+    for query in ["cell_id=1.5", "limit=01", "cell_id=-9223372036854775809"] {
+        expect_error(
+            app.get(&format!("/v1/audit?{query}")).await,
+            StatusCode::BAD_REQUEST,
+            "bad_request",
+        )
+        .await;
+    }
 }
