@@ -17,8 +17,9 @@ use super::audit::Recorder;
 use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
+use super::inserts::{RevisionRows, Who, insert_kept_waypoints};
 use super::query::select;
-use super::rows::{CellState, RoutineRow, Stored, WaypointRow, WaypointValues, flag};
+use super::rows::{CellState, NewWaypoint, RoutineRow, Stored, WaypointRow, WaypointValues, flag};
 use super::slots::Params;
 use super::transaction::{Places, Tx, UPDATE_WAYPOINT, close_gap, make_room, touch_cell};
 
@@ -239,8 +240,7 @@ pub(super) async fn record(tx: &mut Tx<'_>, program: i64, changes: &[Change]) ->
     record_for(tx, program, changes, Recorder::current().as_ref()).await
 }
 
-/// [`record`] for the request `recorder` (None: no request), which may be another task's (the
-/// append writer's jobs carry theirs).
+/// [`record`] for the request `recorder` (None: no request).
 async fn record_for(
     tx: &mut Tx<'_>,
     program: i64,
@@ -252,37 +252,18 @@ async fn record_for(
     }
     let json = serde_json::to_string(changes)
         .map_err(|e| inconsistent(format!("a change could not be written: {e}")))?;
-    let [token, request_id, operation] = Recorder::who(recorder);
-    let (revision,): (i64,) = sqlx::query_as(
-        "INSERT INTO program_history (program_id, revision, token, request_id, operation, \
-           changes) \
-         VALUES ($1, (SELECT COALESCE(MAX(revision), 0) + 1 FROM program_history \
-                      WHERE program_id = $1), $2, $3, $4, $5) \
-         RETURNING revision",
-    )
-    .bind(program)
-    .bind(token)
-    .bind(request_id)
-    .bind(operation)
-    .bind(json)
-    .fetch_one(&mut **tx)
-    .await
-    .map_err(classify)?;
+    let mut params = Params::default();
+    let who = Who::bind(&mut params, Recorder::who(recorder));
+    let program = params.push(program);
+    let changes = params.push(json);
+    let mut rows = RevisionRows::default();
+    rows.push(&program.to_string(), &who, changes, "");
+    let (revision,): (i64,) = params
+        .query_as(rows.sql("revision"))?
+        .fetch_one(&mut **tx)
+        .await
+        .map_err(classify)?;
     Ok(revision)
-}
-
-/// A waypoint taught (appended) to `routine` at `seq` in the request `recorder`, as the next
-/// revision of its program.
-pub(super) async fn record_taught(
-    tx: &mut Tx<'_>,
-    routine: i64,
-    seq: i64,
-    recorder: Option<&Recorder>,
-) -> Result<()> {
-    let program = program_of(tx, routine).await?;
-    let change = Change::WaypointAdded { routine, seq };
-    record_for(tx, program, &[change], recorder).await?;
-    Ok(())
 }
 
 /// The program a routine is part of.
@@ -551,7 +532,7 @@ async fn restore_waypoints(
             None => {
                 // The waypoints kept are in the target's order: this one's place is free.
                 make_room(tx, Places::Waypoints, r.id, seq).await?;
-                insert_with_id(tx, r.id, seq, x).await?;
+                insert_kept_waypoints(&mut **tx, &[(x.id, x.values.at(r.id, seq))]).await?;
                 r.waypoints.insert(at, x.clone());
                 changes.push(Change::WaypointAdded { routine: r.id, seq });
             }
@@ -588,28 +569,11 @@ async fn bring_back(
         .execute(&mut **tx)
         .await
         .map_err(classify)?;
-    for (at, w) in t.waypoints.iter().enumerate() {
-        insert_with_id(tx, t.id, at as i64 + 1, w).await?;
-    }
-    Ok(())
-}
-
-/// Inserts a waypoint with the id it had.
-async fn insert_with_id(tx: &mut Tx<'_>, routine: i64, seq: i64, w: &WaypointState) -> Result<()> {
-    let mut params = Params::default();
-    let values = params.run(|p| {
-        p.value(w.id).new_waypoint(&w.values.at(routine, seq));
-    });
-    let sql = format!(
-        "INSERT INTO waypoints (id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
-         name, reachable) VALUES ({values})"
-    );
-    params
-        .query(sql)?
-        .execute(&mut **tx)
-        .await
-        .map_err(classify)?;
-    Ok(())
+    let waypoints: Vec<(i64, NewWaypoint)> = (1..)
+        .zip(&t.waypoints)
+        .map(|(seq, w)| (w.id, w.values.at(t.id, seq)))
+        .collect();
+    insert_kept_waypoints(&mut **tx, &waypoints).await
 }
 
 /// The place (1, 2, …) of a routine in its program's order.
