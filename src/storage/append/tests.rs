@@ -34,21 +34,12 @@ async fn stores() -> Vec<(&'static str, Store, Option<tempfile::TempDir>)> {
 /// A new database in the test cluster at `cluster`; its URL.
 async fn postgres_database(cluster: &str) -> String {
     use sqlx::Connection;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let name = format!("unit_{}", uuid::Uuid::now_v7().simple());
+    let create = format!("CREATE DATABASE {name}");
     let mut conn = sqlx::PgConnection::connect(cluster)
         .await
         .expect("connect to the test cluster");
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .expect("clock")
-        .subsec_nanos();
-    let name = format!(
-        "unit{}_{}_{nanos}",
-        std::process::id(),
-        NEXT.fetch_add(1, Ordering::Relaxed)
-    );
-    sqlx::query(sqlx::AssertSqlSafe(format!("CREATE DATABASE {name}")))
+    sqlx::query(sqlx::AssertSqlSafe(create))
         .execute(&mut conn)
         .await
         .expect("create a test database");
@@ -234,13 +225,11 @@ async fn a_batch_writes_each_appends_rows_and_leaves_a_stale_one_out() {
         assert_eq!(revisions(&store, pc).await.len(), before_c, "{dialect}");
 
         // The audit row of the fresh append's request, on its cell; none for the stale one.
-        let rows = store
-            .audit_rows(&AuditFilter {
-                limit: 100,
-                ..AuditFilter::default()
-            })
-            .await
-            .unwrap();
+        let every = AuditFilter {
+            limit: 100,
+            ..AuditFilter::default()
+        };
+        let rows = store.audit_rows(&every).await.unwrap();
         let got: Vec<(&str, Option<i64>, &str)> = rows
             .iter()
             .map(|r| (r.request_id.as_str(), r.cell_id, r.outcome.as_str()))
