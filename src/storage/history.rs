@@ -532,7 +532,7 @@ async fn restore_waypoints(
             None => {
                 // The waypoints kept are in the target's order: this one's place is free.
                 make_room(tx, Places::Waypoints, r.id, seq).await?;
-                insert_kept_waypoints(&mut **tx, &[(x.id, x.values.at(r.id, seq))]).await?;
+                insert_kept_waypoints(tx, &[(x.id, x.values.at(r.id, seq))]).await?;
                 r.waypoints.insert(at, x.clone());
                 changes.push(Change::WaypointAdded { routine: r.id, seq });
             }
@@ -573,7 +573,7 @@ async fn bring_back(
         .zip(&t.waypoints)
         .map(|(seq, w)| (w.id, w.values.at(t.id, seq)))
         .collect();
-    insert_kept_waypoints(&mut **tx, &waypoints).await
+    insert_kept_waypoints(tx, &waypoints).await
 }
 
 /// The place (1, 2, …) of a routine in its program's order.

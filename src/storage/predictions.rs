@@ -39,7 +39,7 @@ impl Store {
             // append, a prediction asked for again).
             Some((id,)) => id,
             None => {
-                let (id, _) = insert_predictions(&mut *tx, &[(pr, last)])
+                let (id, _) = insert_predictions(&mut tx, &[(pr, last)])
                     .await?
                     .pop()
                     .ok_or(StorageError::NotFound)?;

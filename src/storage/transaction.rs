@@ -80,7 +80,7 @@ pub(super) async fn insert_waypoints(
         .zip(waypoints)
         .map(|(seq, v)| v.at(routine_id, seq))
         .collect();
-    inserts::insert_waypoints(&mut **tx, &rows).await?;
+    inserts::insert_waypoints(tx, &rows).await?;
     Ok(())
 }
 

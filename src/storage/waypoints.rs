@@ -145,7 +145,7 @@ impl Store {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, write).await?;
         make_room(&mut tx, Places::Waypoints, routine_id, seq).await?;
-        let row = inserts::insert_waypoints(&mut *tx, &[v.at(routine_id, seq)])
+        let row = inserts::insert_waypoints(&mut tx, &[v.at(routine_id, seq)])
             .await?
             .pop()
             .ok_or(StorageError::NotFound)?;

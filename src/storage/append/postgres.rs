@@ -27,14 +27,14 @@ pub(super) async fn write(pool: &AnyPool, batch: &[&Writes]) -> Result<Written> 
         .iter()
         .flat_map(|w| w.taught.iter().map(|t| t.waypoint.clone()))
         .collect();
-    let stored = inserts::insert_waypoints(&mut *tx, &new).await?;
+    let stored = inserts::insert_waypoints(&mut tx, &new).await?;
     let made_after: Vec<(&NewPrediction, Option<i64>)> = fresh
         .iter()
         .flat_map(|w| &w.taught)
         .zip(&stored)
         .filter_map(|(t, row)| Some((t.prediction.as_ref()?, Some(row.id))))
         .collect();
-    let predictions = inserts::insert_predictions(&mut *tx, &made_after).await?;
+    let predictions = inserts::insert_predictions(&mut tx, &made_after).await?;
     record(&mut tx, &fresh).await?;
     tx.commit().await?;
     Ok(Written {
