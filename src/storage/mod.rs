@@ -58,11 +58,15 @@ pub use backend::{Backend, Durability, Location};
 pub use backup::{BackupError, BackupFile, backup_database};
 pub use cell_write::CellWrite;
 pub use error::StorageError;
-pub use history::{Change, ProgramState, RevisionFilter, RevisionRow, RoutineState, WaypointState};
+pub use history::{RevisionFilter, RevisionRow};
 pub use rows::{
     AuditRow, CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
     NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, TokenRow,
-    WaypointRow, WaypointValues,
+    WaypointRow,
+};
+// The program model's revisions, as storage writes and reads them.
+pub use crate::program::revisions::{
+    Change, ProgramState, RoutineState, WaypointState, WaypointValues,
 };
 
 /// The store: SQLite (one file, this process the only writer) or PostgreSQL (shared by several
