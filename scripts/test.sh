@@ -26,8 +26,10 @@ cargo test --locked --test engine -- --ignored --exact \
   lead_through::lasa_handwriting_is_segmented_and_reproduced
 
 # The API tests once more on PostgreSQL (a throwaway cluster, its server installed when missing),
-# then the tests of several instances on one database and the pg_dump/pg_restore round trip
-# (ignored by plain `cargo test`: they need the cluster), named exactly. The instances test that
+# the storage unit tests that take a cluster (the append writer's PostgreSQL pass, skipped with a
+# notice by plain `cargo test`), then the tests of several instances on one database and the
+# pg_dump/pg_restore round trip (ignored by plain `cargo test`: they need the cluster), named
+# exactly. The instances test that
 # teaches a corpus program also needs ../shared.
 instances="instances::concurrent_appends_on_two_instances_are_serialised"
 instances+=" backup::pg_dump_and_pg_restore_give_the_same_models_and_predictions"
@@ -38,5 +40,6 @@ else
   echo "test: no ../shared/corpus/json: skipping instances::two_instances_alternating_with_a_kill_match_one_instance (it teaches a corpus program)" >&2
 fi
 INSTANCES="$instances" NEXTPOSE_TEST_DB=postgres bash scripts/with-postgres.sh bash -c \
-  'cargo test --locked --test api "$@" && cargo test --locked --test api -- --ignored --exact $INSTANCES' \
+  'cargo test --locked --test api "$@" && cargo test --locked --lib storage:: &&
+   cargo test --locked --test api -- --ignored --exact $INSTANCES' \
   test "$@"

@@ -18,7 +18,9 @@ use sqlx::AnyConnection;
 
 use super::Store;
 use super::error::Result;
+use super::inserts::{AuditRows, Who};
 use super::rows::{AuditRow, Stored};
+use super::slots::Params;
 
 /// Who is changing what, for the request being served.
 #[derive(Debug, Clone)]
@@ -83,20 +85,14 @@ impl Recorder {
 
     /// Puts the request's row in `tx` (nothing when it is there already).
     pub(super) async fn record(&self, tx: &mut AnyConnection, cell_id: Option<i64>) -> Result<()> {
-        let target = self.state().target.clone();
-        sqlx::query(
-            "INSERT INTO audit (token, request_id, operation, target, cell_id, outcome, \
-               request_key) VALUES ($1, $2, $3, $4, $5, 'ok', $6) \
-             ON CONFLICT (request_key) DO NOTHING",
-        )
-        .bind(&*self.token)
-        .bind(&*self.request_id)
-        .bind(&*self.operation)
-        .bind(target)
-        .bind(cell_id)
-        .bind(&*self.key)
-        .execute(&mut *tx)
-        .await?;
+        let mut params = Params::default();
+        let [token, request_id, operation, target, key] = self.values();
+        let who = Who::bind(&mut params, [token, request_id, operation]);
+        let named = [params.push(target), params.push(key)];
+        let cell = params.push(cell_id);
+        let mut rows = AuditRows::default();
+        rows.push(&who, named, cell, "");
+        params.query(rows.sql())?.execute(&mut *tx).await?;
         self.state().recorded = true;
         Ok(())
     }

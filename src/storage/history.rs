@@ -2,102 +2,27 @@
 //! per program), written by the change's own transaction ([`record`]), with who made it (the
 //! request's token, request id and operation, as in the audit trail).
 //!
-//! A revision stores its [`Change`]s, not a copy of the program: each holds what it takes to
-//! take the change back (the values a waypoint had before an edit, a deleted routine with its
-//! waypoints) and nothing more (a taught or imported waypoint is where the program now has it).
-//! The program as of revision `n` is its present state with the revisions after `n` taken back
-//! in reverse order ([`ProgramState::take_back`]); revision 0 is the program when its history
-//! began. A restore ([`Store::restore_program`]) writes the changes that make the program
-//! equal to an earlier state as one more revision, keeping the ids of what it brings back.
-
-use serde::{Deserialize, Serialize};
+//! A revision stores its [`Change`]s, not a copy of the program; the program as of revision
+//! `n` is its present state with the revisions after `n` taken back in reverse order
+//! ([`ProgramState::take_back`]); revision 0 is the program when its history began. The
+//! changes and the taking back are the program model's ([`crate::program::revisions`]); this
+//! file writes and reads them. A restore ([`Store::restore_program`]) writes the changes that
+//! make the program equal to an earlier state as one more revision, keeping the ids of what it
+//! brings back.
 
 use super::Store;
 use super::audit::Recorder;
 use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
+use super::inserts::{RevisionRows, Who, insert_kept_waypoints};
 use super::query::select;
-use super::rows::{CellState, RoutineRow, Stored, WaypointRow, WaypointValues, flag};
+use super::rows::{CellState, NewWaypoint, RoutineRow, Stored, WaypointRow, flag};
 use super::slots::Params;
 use super::transaction::{Places, Tx, UPDATE_WAYPOINT, close_gap, make_room, touch_cell};
-
-/// One change to a program, as its revision stores it. Places (`seq`, `position`) are
-/// 1-based and as they were at the moment of the change.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "change", rename_all = "snake_case")]
-pub enum Change {
-    /// A waypoint was put in at place `seq` (taught, inserted, brought back by a restore).
-    WaypointAdded { routine: i64, seq: i64 },
-    /// A waypoint was taken out of place `seq` (undone or deleted).
-    WaypointRemoved {
-        routine: i64,
-        seq: i64,
-        waypoint: WaypointState,
-    },
-    /// A waypoint's values were changed; `before` is what they were.
-    WaypointModified {
-        routine: i64,
-        waypoint: i64,
-        before: WaypointValues,
-    },
-    /// A routine was put in at place `position` with `waypoints` waypoints (a new routine to
-    /// teach, an import, a re-targeted copy, a routine brought back by a restore).
-    RoutineAdded {
-        routine: i64,
-        position: i64,
-        waypoints: i64,
-    },
-    /// A routine was deleted from place `position`, with everything it held.
-    RoutineRemoved {
-        position: i64,
-        routine: RoutineState,
-    },
-    /// A routine was renamed; `before` is its name then.
-    RoutineRenamed {
-        routine: i64,
-        before: Option<String>,
-    },
-    /// A routine was moved from place `from` to place `to`.
-    RoutineMoved { routine: i64, from: i64, to: i64 },
-    /// A routine being taught was finished (the cell's model learned it).
-    RoutineFinished { routine: i64 },
-    /// The routines were put in another order (a restore); `before` is the order then.
-    RoutinesReordered { before: Vec<i64> },
-}
-
-/// A program's routines and waypoints, now or as of a revision.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct ProgramState {
-    /// In program order.
-    pub routines: Vec<RoutineState>,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RoutineState {
-    pub id: i64,
-    pub name: Option<String>,
-    /// Imported from an offline program.
-    pub imported: bool,
-    /// Learned by the cell's model (finished, or imported to be learned).
-    pub learned: bool,
-    /// In order.
-    pub waypoints: Vec<WaypointState>,
-}
-
-impl RoutineState {
-    /// Being taught (neither finished nor imported).
-    pub fn open(&self) -> bool {
-        !self.imported && !self.learned
-    }
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct WaypointState {
-    pub id: i64,
-    #[serde(flatten)]
-    pub values: WaypointValues,
-}
+pub(super) use crate::program::revisions::{
+    Change, ProgramState, RoutineState, WaypointState, WaypointValues,
+};
 
 /// A revision as listed.
 #[derive(Debug, Clone, sqlx::FromRow)]
@@ -132,115 +57,13 @@ fn inconsistent(what: String) -> StorageError {
     StorageError::History(what)
 }
 
-impl ProgramState {
-    fn routine_mut(&mut self, id: i64) -> Result<&mut RoutineState> {
-        self.routines
-            .iter_mut()
-            .find(|r| r.id == id)
-            .ok_or_else(|| inconsistent(format!("routine {id} is not in the program")))
-    }
-
-    fn index_of(&self, id: i64) -> Result<usize> {
-        self.routines
-            .iter()
-            .position(|r| r.id == id)
-            .ok_or_else(|| inconsistent(format!("routine {id} is not in the program")))
-    }
-
-    /// The state before `change`, from the state after it.
-    pub fn take_back(&mut self, change: &Change) -> Result<()> {
-        match change {
-            Change::WaypointAdded { routine, seq } => {
-                let r = self.routine_mut(*routine)?;
-                let at = place(*seq, r.waypoints.len())?;
-                r.waypoints.remove(at);
-            }
-            Change::WaypointRemoved {
-                routine,
-                seq,
-                waypoint,
-            } => {
-                let r = self.routine_mut(*routine)?;
-                let at = place(*seq, r.waypoints.len() + 1)?;
-                r.waypoints.insert(at, waypoint.clone());
-            }
-            Change::WaypointModified {
-                routine,
-                waypoint,
-                before,
-            } => {
-                let r = self.routine_mut(*routine)?;
-                let w = r
-                    .waypoints
-                    .iter_mut()
-                    .find(|w| w.id == *waypoint)
-                    .ok_or_else(|| inconsistent(format!("waypoint {waypoint} is not there")))?;
-                w.values = before.clone();
-            }
-            Change::RoutineAdded { routine, .. } => {
-                let at = self.index_of(*routine)?;
-                self.routines.remove(at);
-            }
-            Change::RoutineRemoved { position, routine } => {
-                let at = place(*position, self.routines.len() + 1)?;
-                self.routines.insert(at, routine.clone());
-            }
-            Change::RoutineRenamed { routine, before } => {
-                self.routine_mut(*routine)?.name = before.clone();
-            }
-            Change::RoutineMoved { routine, from, to } => {
-                let at = self.index_of(*routine)?;
-                if at + 1 != *to as usize {
-                    return Err(inconsistent(format!(
-                        "routine {routine} is at place {}, not {to}",
-                        at + 1
-                    )));
-                }
-                let r = self.routines.remove(at);
-                let back = place(*from, self.routines.len() + 1)?;
-                self.routines.insert(back, r);
-            }
-            Change::RoutineFinished { routine } => {
-                self.routine_mut(*routine)?.learned = false;
-            }
-            Change::RoutinesReordered { before } => {
-                let mut by_id: Vec<Option<RoutineState>> = std::mem::take(&mut self.routines)
-                    .into_iter()
-                    .map(Some)
-                    .collect();
-                for id in before {
-                    let r = by_id
-                        .iter_mut()
-                        .find(|r| r.as_ref().is_some_and(|r| r.id == *id))
-                        .and_then(Option::take)
-                        .ok_or_else(|| inconsistent(format!("routine {id} is not there")))?;
-                    self.routines.push(r);
-                }
-                if by_id.iter().any(Option::is_some) {
-                    return Err(inconsistent("a reordering lost a routine".into()));
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-/// The index of 1-based place `n` in a list that has `len` places.
-fn place(n: i64, len: usize) -> Result<usize> {
-    match usize::try_from(n) {
-        Ok(n) if (1..=len).contains(&n) => Ok(n - 1),
-        _ => Err(inconsistent(format!("place {n} of {len}"))),
-    }
-}
-
 /// Writes `changes` to `program` as its next revision, in `tx`; returns the revision's number
 /// (with no changes, nothing is written and the last revision is answered).
 pub(super) async fn record(tx: &mut Tx<'_>, program: i64, changes: &[Change]) -> Result<i64> {
     record_for(tx, program, changes, Recorder::current().as_ref()).await
 }
 
-/// [`record`] for the request `recorder` (None: no request), which may be another task's (the
-/// append writer's jobs carry theirs).
+/// [`record`] for the request `recorder` (None: no request).
 async fn record_for(
     tx: &mut Tx<'_>,
     program: i64,
@@ -252,37 +75,18 @@ async fn record_for(
     }
     let json = serde_json::to_string(changes)
         .map_err(|e| inconsistent(format!("a change could not be written: {e}")))?;
-    let [token, request_id, operation] = Recorder::who(recorder);
-    let (revision,): (i64,) = sqlx::query_as(
-        "INSERT INTO program_history (program_id, revision, token, request_id, operation, \
-           changes) \
-         VALUES ($1, (SELECT COALESCE(MAX(revision), 0) + 1 FROM program_history \
-                      WHERE program_id = $1), $2, $3, $4, $5) \
-         RETURNING revision",
-    )
-    .bind(program)
-    .bind(token)
-    .bind(request_id)
-    .bind(operation)
-    .bind(json)
-    .fetch_one(&mut **tx)
-    .await
-    .map_err(classify)?;
+    let mut params = Params::default();
+    let who = Who::bind(&mut params, Recorder::who(recorder));
+    let program = params.push(program);
+    let changes = params.push(json);
+    let mut rows = RevisionRows::default();
+    rows.push(&program.to_string(), &who, changes, "");
+    let (revision,): (i64,) = params
+        .query_as(rows.sql("revision"))?
+        .fetch_one(&mut **tx)
+        .await
+        .map_err(classify)?;
     Ok(revision)
-}
-
-/// A waypoint taught (appended) to `routine` at `seq` in the request `recorder`, as the next
-/// revision of its program.
-pub(super) async fn record_taught(
-    tx: &mut Tx<'_>,
-    routine: i64,
-    seq: i64,
-    recorder: Option<&Recorder>,
-) -> Result<()> {
-    let program = program_of(tx, routine).await?;
-    let change = Change::WaypointAdded { routine, seq };
-    record_for(tx, program, &[change], recorder).await?;
-    Ok(())
 }
 
 /// The program a routine is part of.
@@ -400,7 +204,9 @@ impl Store {
         tx.commit().await?;
         for row in &rows {
             for change in row.changes()?.iter().rev() {
-                state.take_back(change)?;
+                state
+                    .take_back(change)
+                    .map_err(|e| StorageError::History(e.0))?;
             }
         }
         Ok((state, last))
@@ -551,7 +357,7 @@ async fn restore_waypoints(
             None => {
                 // The waypoints kept are in the target's order: this one's place is free.
                 make_room(tx, Places::Waypoints, r.id, seq).await?;
-                insert_with_id(tx, r.id, seq, x).await?;
+                insert_kept_waypoints(tx, &[(x.id, x.values.at(r.id, seq))]).await?;
                 r.waypoints.insert(at, x.clone());
                 changes.push(Change::WaypointAdded { routine: r.id, seq });
             }
@@ -588,28 +394,11 @@ async fn bring_back(
         .execute(&mut **tx)
         .await
         .map_err(classify)?;
-    for (at, w) in t.waypoints.iter().enumerate() {
-        insert_with_id(tx, t.id, at as i64 + 1, w).await?;
-    }
-    Ok(())
-}
-
-/// Inserts a waypoint with the id it had.
-async fn insert_with_id(tx: &mut Tx<'_>, routine: i64, seq: i64, w: &WaypointState) -> Result<()> {
-    let mut params = Params::default();
-    let values = params.run(|p| {
-        p.value(w.id).new_waypoint(&w.values.at(routine, seq));
-    });
-    let sql = format!(
-        "INSERT INTO waypoints (id, routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, \
-         name, reachable) VALUES ({values})"
-    );
-    params
-        .query(sql)?
-        .execute(&mut **tx)
-        .await
-        .map_err(classify)?;
-    Ok(())
+    let waypoints: Vec<(i64, NewWaypoint)> = (1..)
+        .zip(&t.waypoints)
+        .map(|(seq, w)| (w.id, w.values.at(t.id, seq)))
+        .collect();
+    insert_kept_waypoints(tx, &waypoints).await
 }
 
 /// The place (1, 2, …) of a routine in its program's order.

@@ -4,7 +4,7 @@
 //!
 //! The database is the source of truth; the models in memory are rebuilt from it. Every
 //! write is one transaction; appends share theirs with the other cells' appends queued at the
-//! same time ([`group_commit`]). Every write to a cell advances the cell's revision
+//! same time ([`group_commit`]), written as [`append`] describes. Every write to a cell advances the cell's revision
 //! ([`CellWrite`]), so that models of it in several instances follow the database. SQLite runs
 //! in WAL mode with `synchronous = NORMAL`: a committed transaction survives the process being
 //! killed (it is in the WAL, which the OS holds); only a power loss can take back the last
@@ -18,9 +18,11 @@
 //! [`waypoints`], [`predictions`], [`feedback`], [`robots`], [`tokens`]; a program's revisions
 //! are [`history`]'s. What they share is written once:
 //! the reads by id ([`query`]), the statements a write makes in its transaction
-//! ([`transaction`]), the rows and their columns ([`rows`]), the order values are bound in
-//! ([`binds`]) and, for statements built to a batch's size, their parameters' names ([`slots`]).
+//! ([`transaction`]), the `INSERT` of each table an append writes ([`inserts`]), the rows and
+//! their columns ([`rows`]), the order values are bound in ([`binds`]) and, for statements
+//! built to a batch's size, their parameters' names ([`slots`]).
 
+mod append;
 mod audit;
 mod backend;
 mod backup;
@@ -31,6 +33,7 @@ mod error;
 mod feedback;
 mod group_commit;
 mod history;
+mod inserts;
 mod migrate;
 mod predictions;
 mod programs;
@@ -49,17 +52,21 @@ use sqlx::AnyPool;
 
 use error::Result;
 
+pub use append::{Append, Appended};
 pub use audit::{AuditFilter, Recorder};
 pub use backend::{Backend, Durability, Location};
 pub use backup::{BackupError, BackupFile, backup_database};
 pub use cell_write::CellWrite;
 pub use error::StorageError;
-pub use group_commit::{Append, Appended};
-pub use history::{Change, ProgramState, RevisionFilter, RevisionRow, RoutineState, WaypointState};
+pub use history::{RevisionFilter, RevisionRow};
 pub use rows::{
     AuditRow, CellRow, CellState, FeedbackCounts, NewFeedback, NewImportedRoutine, NewPrediction,
     NewWaypoint, PredictionRow, ProgramRow, RobotRow, RoutineRow, TeachingVerdictRow, TokenRow,
-    WaypointRow, WaypointValues,
+    WaypointRow,
+};
+// The program model's revisions, as storage writes and reads them.
+pub use crate::program::revisions::{
+    Change, ProgramState, RoutineState, WaypointState, WaypointValues,
 };
 
 /// The store: SQLite (one file, this process the only writer) or PostgreSQL (shared by several

@@ -5,8 +5,9 @@ use super::Store;
 use super::audit;
 use super::binds::Binds;
 use super::error::Result;
+use super::error::StorageError;
+use super::inserts::insert_predictions;
 use super::rows::{NewPrediction, PredictionRow};
-use super::transaction::insert_prediction;
 
 impl Store {
     /// Records an offered prediction unless the same one is already recorded: made after the
@@ -38,7 +39,10 @@ impl Store {
             // append, a prediction asked for again).
             Some((id,)) => id,
             None => {
-                let id = insert_prediction(&mut tx, pr, last).await?;
+                let (id, _) = insert_predictions(&mut tx, &[(pr, last)])
+                    .await?
+                    .pop()
+                    .ok_or(StorageError::NotFound)?;
                 audit::record(&mut tx, Some(pr.cell_id)).await?;
                 id
             }

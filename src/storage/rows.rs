@@ -8,6 +8,8 @@ use sqlx::types::Type;
 use sqlx::{FromRow, Row, ValueRef};
 
 use crate::engine::PoseValues;
+/// A waypoint's values are the program model's; rows are read into them.
+pub use crate::program::revisions::WaypointValues;
 
 /// A 0/1 integer column read as a flag. Both dialects store flags as integers so that the same
 /// SQL (`imported = 0`) and the same binds serve SQLite and PostgreSQL.
@@ -296,16 +298,7 @@ impl Stored for WaypointRow {
     const FROM: &'static str = "waypoints";
 }
 
-/// A waypoint's values as an edit sets them (its routine and place stay).
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct WaypointValues {
-    pub pose: PoseValues,
-    pub joints: Option<String>,
-    pub motion: Option<String>,
-    pub name: Option<String>,
-    pub reachable: Option<bool>,
-}
-
+/// A waypoint's values ([`WaypointValues`], the program model's) from and to rows.
 impl WaypointValues {
     /// A stored waypoint's values.
     pub fn of(row: &WaypointRow) -> WaypointValues {

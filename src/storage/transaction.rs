@@ -1,16 +1,14 @@
 //! The statements that several writes make inside their own transaction: opening the write on
 //! its cell ([`touch_cell`], always first, which also puts the request's audit row in the
-//! transaction), storing a waypoint or a prediction, and keeping a
-//! list's places 1, 2, … when one is put in or taken out ([`make_room`], [`close_gap`]). Each is written once here,
-//! so a table's file says what a write does, not how a row is spelled.
+//! transaction), storing a new routine's waypoints, and keeping a list's places 1, 2, … when one
+//! is put in or taken out ([`make_room`], [`close_gap`]). Each is written once here (the inserts
+//! of the rows an append writes, once in [`super::inserts`]), so a table's file says what a
+//! write does, not how a row is spelled.
 
-use super::binds::Binds;
 use super::cell_write::CellWrite;
-use super::error::{Result, StorageError, classify};
-use super::rows::{
-    CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues, flag,
-};
-use super::slots::Params;
+use super::error::{Result, StorageError};
+use super::inserts;
+use super::rows::{CellState, NewWaypoint, WaypointValues, flag};
 
 pub(super) type Tx<'c> = sqlx::Transaction<'c, sqlx::Any>;
 
@@ -72,62 +70,18 @@ pub(super) async fn hold_cell(tx: &mut Tx<'_>, cell_id: i64) -> Result<()> {
 pub(super) const UPDATE_WAYPOINT: &str = "UPDATE waypoints SET x = $1, y = $2, z = $3, qw = $4, \
     qx = $5, qy = $6, qz = $7, joints = $8, motion = $9, name = $10, reachable = $11 WHERE id = $12";
 
-/// Inserts a waypoint at its place; returns it as stored.
-pub(super) async fn insert_waypoint(tx: &mut Tx<'_>, wp: &NewWaypoint) -> Result<WaypointRow> {
-    let mut params = Params::default();
-    let values = params.run(|p| {
-        p.new_waypoint(wp);
-    });
-    let sql = format!(
-        "INSERT INTO waypoints (routine_id, seq, x, y, z, qw, qx, qy, qz, joints, motion, name, \
-         reachable) VALUES ({values}) RETURNING {}",
-        WaypointRow::COLUMNS
-    );
-    params
-        .query_as::<WaypointRow>(sql)?
-        .fetch_one(&mut **tx)
-        .await
-        .map_err(classify)
-}
-
 /// Stores a new routine's waypoints, numbered 1, 2, … in order.
 pub(super) async fn insert_waypoints(
     tx: &mut Tx<'_>,
     routine_id: i64,
     waypoints: &[WaypointValues],
 ) -> Result<()> {
-    for (i, v) in waypoints.iter().enumerate() {
-        insert_waypoint(tx, &v.at(routine_id, i as i64 + 1)).await?;
-    }
+    let rows: Vec<NewWaypoint> = (1..)
+        .zip(waypoints)
+        .map(|(seq, v)| v.at(routine_id, seq))
+        .collect();
+    inserts::insert_waypoints(tx, &rows).await?;
     Ok(())
-}
-
-/// Records a prediction made after the waypoint `after_waypoint` (None: before the first);
-/// returns its id.
-pub(super) async fn insert_prediction(
-    tx: &mut Tx<'_>,
-    pr: &NewPrediction,
-    after_waypoint: Option<i64>,
-) -> Result<i64> {
-    let mut params = Params::default();
-    let values = params.run(|p| {
-        p.value(pr.cell_id)
-            .value(pr.routine_id)
-            .value(pr.after_seq)
-            .value(after_waypoint)
-            .prediction_values(pr);
-    });
-    let sql = format!(
-        "INSERT INTO predictions (cell_id, routine_id, after_seq, after_waypoint_id, x, y, z, \
-           qw, qx, qy, qz, phi, psi, misfit, end_probability, model_version) \
-         VALUES ({values}) RETURNING id"
-    );
-    let (id,): (i64,) = params
-        .query_as(sql)?
-        .fetch_one(&mut **tx)
-        .await
-        .map_err(classify)?;
-    Ok(id)
 }
 
 /// A numbered list: a routine's waypoints (`seq`) or a program's routines (`position`), whose

@@ -1,17 +1,17 @@
 //! The `waypoints` table: a routine's taught poses in order (`seq`), appended while teaching
-//! (through the group commit, [`super::group_commit`]) and edited in place afterwards.
+//! (through the group commit, [`super::group_commit`], which writes them as [`super::append`]
+//! describes) and edited in place afterwards.
 
 use super::Store;
+use super::append::{Append, Appended};
 use super::binds::Binds;
 use super::cell_write::CellWrite;
 use super::error::{Result, StorageError, classify};
-use super::group_commit::{Append, Appended};
 use super::history::{self, Change};
+use super::inserts;
 use super::query::select;
 use super::rows::{CellState, NewPrediction, NewWaypoint, Stored, WaypointRow, WaypointValues};
-use super::transaction::{
-    self, Places, UPDATE_WAYPOINT, close_gap, insert_prediction, make_room, touch_cell,
-};
+use super::transaction::{self, Places, UPDATE_WAYPOINT, close_gap, make_room, touch_cell};
 
 impl Store {
     pub async fn waypoints(&self, routine_id: i64) -> Result<Vec<WaypointRow>> {
@@ -52,50 +52,16 @@ impl Store {
     }
 
     /// Appends several waypoints to a routine of `cell_id`, each with the prediction offered
-    /// after it (when one was), in one transaction of their own, all or nothing: a trajectory
-    /// taught at once. The model in memory made them at revision `expected` (refused with
-    /// [`StorageError::Stale`] when the cell has moved on); the revision advances once. Not
-    /// through the group-commit writer: its batches hold one append per cell.
+    /// after it (when one was), as one append, all or nothing: a trajectory taught at once.
+    /// The model in memory made them at revision `expected` (refused with
+    /// [`StorageError::Stale`] when the cell has moved on); the revision advances once.
     pub async fn append_waypoints(
         &self,
         cell_id: i64,
         expected: i64,
         appends: &[(NewWaypoint, Option<NewPrediction>)],
     ) -> Result<Vec<Appended>> {
-        let mut tx = self.pool.begin().await?;
-        let state = touch_cell(&mut tx, cell_id, CellWrite::following(expected)).await?;
-        let mut out = Vec::with_capacity(appends.len());
-        // The trajectory's revision of its routine's program: (routine, program, changes).
-        let mut revisions: Vec<(i64, i64, Vec<Change>)> = Vec::new();
-        for (waypoint, prediction) in appends {
-            let row = transaction::insert_waypoint(&mut tx, waypoint).await?;
-            let added = Change::WaypointAdded {
-                routine: row.routine_id,
-                seq: row.seq,
-            };
-            match revisions.iter_mut().find(|(r, _, _)| *r == row.routine_id) {
-                Some((_, _, changes)) => changes.push(added),
-                None => {
-                    let program = history::program_of(&mut tx, row.routine_id).await?;
-                    revisions.push((row.routine_id, program, vec![added]));
-                }
-            }
-            let prediction_id = match prediction {
-                Some(p) => Some(insert_prediction(&mut tx, p, Some(row.id)).await?),
-                None => None,
-            };
-            out.push(Appended {
-                row,
-                prediction_id,
-                revision: state.revision,
-                batch: 1,
-            });
-        }
-        for (_, program, changes) in &revisions {
-            history::record(&mut tx, *program, changes).await?;
-        }
-        tx.commit().await?;
-        Ok(out)
+        self.appends.append_all(cell_id, expected, appends).await
     }
 
     /// Deletes the last waypoint of a routine; returns it. Predictions made after it stay
@@ -179,7 +145,10 @@ impl Store {
         let mut tx = self.pool.begin().await?;
         let state = touch_cell(&mut tx, cell_id, write).await?;
         make_room(&mut tx, Places::Waypoints, routine_id, seq).await?;
-        let row = transaction::insert_waypoint(&mut tx, &v.at(routine_id, seq)).await?;
+        let row = inserts::insert_waypoints(&mut tx, &[v.at(routine_id, seq)])
+            .await?
+            .pop()
+            .ok_or(StorageError::NotFound)?;
         let program = history::program_of(&mut tx, routine_id).await?;
         let change = Change::WaypointAdded {
             routine: routine_id,

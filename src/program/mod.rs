@@ -1,6 +1,9 @@
 //! The recorded-program type every part shares: a program is ordered routines, a routine is
 //! the waypoints visited, in order. Import produces it, replay scores it, the simulated
 //! operator teaches it and the application stores it. A leaf: it needs only the engine's pose.
+//! A program's revisions (what each change takes back) are [`revisions`].
+
+pub mod revisions;
 
 use std::path::PathBuf;
 
