@@ -159,6 +159,38 @@ mod tests {
         assert_eq!(seed.engine_config(), want);
     }
 
+    /// A cell stored before the command line's overrides were settings reads its profile's
+    /// values for them (what its engine used), and its engine is the one it had.
+    #[test]
+    fn a_cell_stored_before_the_added_settings_reads_its_profiles() {
+        let old = |profile: &str| CellRow {
+            id: 1,
+            name: "old".into(),
+            settings: format!(
+                r#"{{"profile":"{profile}","delta":0.7,"phi_min":0.7,"horizon":3,"sigma_t_mm":1.0,"sigma_q":0.01,"scale":{{"enabled":true,"psi_min":0.2,"psi_max":5.0}},"robot":"abb_irb140","base":{{"x":0.0,"y":0.0,"z":0.0,"qw":1.0,"qx":0.0,"qy":0.0,"qz":0.0}},"tool":{{"x":0.0,"y":0.0,"z":0.0,"qw":1.0,"qx":0.0,"qy":0.0,"qz":0.0}},"reach_policy":"flag","noise":null,"tolerance":null,"offer_threshold":null}}"#
+            ),
+            created_at: String::new(),
+            model_version: 0,
+            settings_changed_at: None,
+            revision: 0,
+            reload_revision: 0,
+        };
+        for profile in [Profile::Default, Profile::Seed] {
+            let stored = parse_settings(&old(profile.name())).unwrap();
+            let want = EngineConfig::profile(profile);
+            let got = stored.engine_config();
+            assert_eq!(got.merge, want.merge);
+            assert_eq!(got.learn_within_routine, want.learn_within_routine);
+            assert_eq!(got.predict, want.predict);
+            // Stored as read, it reads back the same.
+            let row = CellRow {
+                settings: serde_json::to_string(&stored).unwrap(),
+                ..old(profile.name())
+            };
+            assert_eq!(parse_settings(&row).unwrap(), stored);
+        }
+    }
+
     #[test]
     fn bad_settings_are_refused() {
         for input in [
