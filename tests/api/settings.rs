@@ -3,22 +3,15 @@
 //! reads back as the profile's until set, is set, kept and reset like the others, and a bad value
 //! is a 422 naming it that changes nothing.
 
+use nextpose::api::settings::ADDED_LATER;
 use reqwest::StatusCode;
 use serde_json::{Value, json};
 
 use crate::helpers::*;
 
-const ADDED: [&str; 6] = [
-    "merge",
-    "learn_within_routine",
-    "max_misfit",
-    "max_spread",
-    "max_end_prob",
-    "recall",
-];
-
+/// The added settings of a cell, by name.
 fn added(cell: &Value) -> Value {
-    ADDED
+    ADDED_LATER
         .iter()
         .map(|k| (k.to_string(), cell["settings"][k].clone()))
         .collect::<serde_json::Map<_, _>>()
