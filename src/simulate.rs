@@ -147,7 +147,6 @@ impl CellSetup {
                 horizon: self.horizon,
                 sigma_t_mm: self.sigma_t_mm,
                 sigma_q: self.sigma_q,
-                scale: None,
                 robot: Some(self.robot.clone()),
                 base: Some(PoseValues::from(&self.base)),
                 tool: Some(PoseValues::from(&self.tool)),
@@ -155,8 +154,7 @@ impl CellSetup {
                 noise: self.noise,
                 tolerance: self.tolerance,
                 offer_threshold: self.offer_threshold,
-                target_precision: None,
-                export: None,
+                ..CellSettingsInput::default()
             },
         }
     }

@@ -1,6 +1,6 @@
 //! The OpenAPI schemas of the engine's types that travel on the wire as they are (a pose's seven
 //! numbers, the teaching noise, the acceptance tolerance, the profile, the segmentation
-//! criterion, the operator's verdict on a suggestion).
+//! criterion, the operator's verdict on a suggestion, the learner's merge test, the recall gate).
 //!
 //! The engine is pure and knows nothing of the web: it derives `Serialize`/`Deserialize` for
 //! these types, not `utoipa::ToSchema`. Their schemas are described here instead, by a mirror of
@@ -15,6 +15,7 @@ use utoipa::{PartialSchema, ToSchema};
 
 use crate::engine::Noise;
 use crate::engine::Tolerance;
+use crate::engine::config::{MergeRule, RecallGate};
 use crate::engine::experts::acceptance::Verdict;
 use crate::engine::lead_through::segment::Criterion;
 use crate::engine::{PoseValues, Profile};
@@ -42,6 +43,8 @@ schema_of!(Tolerance, mirror::Tolerance);
 schema_of!(Profile, mirror::Profile);
 schema_of!(Criterion, mirror::Criterion);
 schema_of!(Verdict, mirror::Verdict);
+schema_of!(MergeRule, mirror::MergeRule);
+schema_of!(RecallGate, mirror::RecallGate);
 
 /// Schema-only copies of the engine's wire types; never built outside the tests.
 #[allow(dead_code)]
@@ -137,6 +140,27 @@ pub(crate) mod mirror {
         Seed,
     }
 
+    /// How the learner decides that a move joins an existing state.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    #[serde(rename_all = "snake_case")]
+    pub enum MergeRule {
+        /// The seed's: join the state whose total scatter with the move stays within ε.
+        Total,
+        /// Join the state whose scatter grows least, when the increase stays within ε.
+        Incremental,
+    }
+
+    /// When a recalled continuation is offered: the window has at least `min_window` moves and
+    /// fits the recalled context's states within `max_cost`.
+    #[derive(Debug, Serialize, Deserialize, ToSchema)]
+    pub struct RecallGate {
+        /// Mean squared Mahalanobis distance of the window to the recalled context's states.
+        #[schema(minimum = 0.0)]
+        pub max_cost: f64,
+        /// Fewest window moves (after backoff) a recall may condition on.
+        pub min_window: usize,
+    }
+
     #[derive(Debug, Serialize, Deserialize, ToSchema)]
     #[serde(rename_all = "snake_case")]
     pub enum Verdict {
@@ -198,6 +222,13 @@ mod tests {
         for c in [Criterion::Direction, Criterion::Seed] {
             same_wire::<_, mirror::Criterion>(c);
         }
+        for m in [MergeRule::Total, MergeRule::Incremental] {
+            same_wire::<_, mirror::MergeRule>(m);
+        }
+        same_wire::<_, mirror::RecallGate>(RecallGate {
+            max_cost: 0.1,
+            min_window: 2,
+        });
         for v in Verdict::ALL {
             same_wire::<_, mirror::Verdict>(v);
             assert_eq!(Verdict::named(v.as_str()), Some(v));
@@ -213,5 +244,7 @@ mod tests {
         assert_eq!(<Profile as ToSchema>::name(), "Profile");
         assert_eq!(<Criterion as ToSchema>::name(), "Criterion");
         assert_eq!(<Verdict as ToSchema>::name(), "Verdict");
+        assert_eq!(<MergeRule as ToSchema>::name(), "MergeRule");
+        assert_eq!(<RecallGate as ToSchema>::name(), "RecallGate");
     }
 }

@@ -6,7 +6,7 @@ use super::error::AppError;
 use super::registry::blocking;
 use super::settings::MAX_HORIZON;
 use super::{App, Result};
-use crate::api::ReplayRequest;
+use crate::api::{CellSettingsInput, ReplayRequest, ScaleSettings};
 
 impl App {
     /// Replays programs (uploaded files or a cell's stored programs) through the engine and
@@ -20,24 +20,21 @@ impl App {
         use crate::replay::report::{ScoreboardError, scoreboard};
 
         let profile = input.profile.unwrap_or(crate::engine::Profile::Default);
+        if input.horizon.is_some_and(|v| v > MAX_HORIZON) {
+            return Err(AppError::Invalid(format!(
+                "horizon must be between 1 and {MAX_HORIZON}"
+            )));
+        }
         let mut config = crate::engine::EngineConfig::profile(profile);
-        if let Some(v) = input.delta {
-            config.delta = v;
+        CellSettingsInput {
+            profile: Some(profile),
+            delta: input.delta,
+            phi_min: input.phi_min,
+            horizon: input.horizon,
+            scale: input.scale.map(|on| ScaleSettings::switched(profile, on)),
+            ..CellSettingsInput::default()
         }
-        if let Some(v) = input.phi_min {
-            config.predict.phi_min = v;
-        }
-        if let Some(v) = input.horizon {
-            if v > MAX_HORIZON {
-                return Err(AppError::Invalid(format!(
-                    "horizon must be between 1 and {MAX_HORIZON}"
-                )));
-            }
-            config.predict.horizon = v;
-        }
-        if let Some(v) = input.scale {
-            config.predict.scale.enabled = v;
-        }
+        .apply(&mut config);
         config.validate()?;
         let programs: Vec<ReplayProgram> = match (&input.files, input.cell_id) {
             (Some(files), None) if !files.is_empty() => {

@@ -1,15 +1,13 @@
-//! A cell's settings filled in and checked: defaults from the profile, a change laid over the
-//! settings a cell has, the engine configuration they describe. The wire form is
-//! [`crate::api::settings`]; cells store it resolved, so a cell's behaviour does not change when
-//! a default does.
+//! A cell's settings filled in and checked: defaults from the profile, the ranges and the
+//! rules between settings, the settings stored with a cell. The wire form and the one list of
+//! settings (with how each maps onto the engine) is [`crate::api::settings`]; cells store it
+//! resolved, so a cell's behaviour does not change when a default does.
 
 use super::error::AppError;
-use crate::api::{CellSettings, CellSettingsInput, PoseValues, ScaleSettings};
-use crate::engine::{EngineConfig, Pose, Profile};
+use crate::api::settings::ADDED_LATER;
+use crate::api::{CellSettings, CellSettingsInput};
+use crate::engine::{EngineConfig, Profile};
 use crate::storage::CellRow;
-
-/// Robot model a new cell uses when none is named.
-pub const DEFAULT_ROBOT: &str = "abb_irb140";
 
 /// Largest horizon a cell or a request may ask for.
 pub const MAX_HORIZON: usize = 50;
@@ -24,43 +22,11 @@ pub const SIGMA_Q: std::ops::RangeInclusive<f64> = 1e-6..=1.0;
 pub const NOISE_MM_MAX: f64 = 100.0;
 pub const NOISE_RAD_MAX: f64 = 0.5;
 
-fn identity() -> PoseValues {
-    (&Pose::identity()).into()
-}
-
 impl CellSettingsInput {
     /// Fills in defaults and checks everything.
     pub fn resolve(self) -> Result<CellSettings, AppError> {
         let profile = self.profile.unwrap_or(Profile::Default);
-        let base = EngineConfig::profile(profile);
-        let settings = CellSettings {
-            profile,
-            delta: self.delta.unwrap_or(base.delta),
-            phi_min: self.phi_min.unwrap_or(base.predict.phi_min),
-            horizon: self.horizon.unwrap_or(base.predict.horizon),
-            sigma_t_mm: self.sigma_t_mm.unwrap_or(base.sigma_t),
-            sigma_q: self.sigma_q.unwrap_or(base.sigma_q),
-            scale: self.scale.unwrap_or(ScaleSettings {
-                enabled: base.predict.scale.enabled,
-                psi_min: base.predict.scale.psi_min,
-                psi_max: base.predict.scale.psi_max,
-            }),
-            robot: self.robot.unwrap_or_else(|| DEFAULT_ROBOT.to_string()),
-            base: self.base.unwrap_or_else(identity),
-            tool: self.tool.unwrap_or_else(identity),
-            reach_policy: self.reach_policy.unwrap_or_default(),
-            noise: self.noise.or(base.noise),
-            tolerance: self.tolerance.or(base.offer.and_then(|o| o.tolerance)),
-            offer_threshold: self
-                .offer_threshold
-                .or(base.offer.and_then(|o| o.threshold)),
-            target_precision: self
-                .target_precision
-                .or(base.offer.map(|o| o.target))
-                .unwrap_or(crate::engine::OfferRule::TARGET),
-            export: self.export.unwrap_or_default(),
-        };
-        if base.offer.is_none() {
+        if EngineConfig::profile(profile).offer.is_none() {
             for (name, given) in [
                 ("offer_threshold", self.offer_threshold.is_some()),
                 ("target_precision", self.target_precision.is_some()),
@@ -73,85 +39,13 @@ impl CellSettingsInput {
                 }
             }
         }
+        let settings = self.over_profile();
         settings.validate()?;
         Ok(settings)
     }
 }
 
-impl CellSettingsInput {
-    /// `self`'s fields over `base`'s: a partial change of settings. A new profile brings its
-    /// own engine values (δ, φ_min, horizon, σ, scale, offer threshold and target) for the fields not
-    /// given; the robot, frames, reach policy, noise, tolerance and export keep theirs.
-    pub fn over(self, base: CellSettingsInput) -> CellSettingsInput {
-        let new_profile = self.profile.is_some_and(|p| Some(p) != base.profile);
-        let keep = |v| if new_profile { None } else { v };
-        CellSettingsInput {
-            profile: self.profile.or(base.profile),
-            delta: self.delta.or(keep(base.delta)),
-            phi_min: self.phi_min.or(keep(base.phi_min)),
-            horizon: self
-                .horizon
-                .or(if new_profile { None } else { base.horizon }),
-            sigma_t_mm: self.sigma_t_mm.or(keep(base.sigma_t_mm)),
-            sigma_q: self.sigma_q.or(keep(base.sigma_q)),
-            scale: self.scale.or(if new_profile { None } else { base.scale }),
-            robot: self.robot.or(base.robot),
-            base: self.base.or(base.base),
-            tool: self.tool.or(base.tool),
-            reach_policy: self.reach_policy.or(base.reach_policy),
-            noise: self.noise.or(base.noise),
-            tolerance: self.tolerance.or(base.tolerance),
-            offer_threshold: self.offer_threshold.or(keep(base.offer_threshold)),
-            target_precision: self.target_precision.or(keep(base.target_precision)),
-            export: self.export.or(base.export),
-        }
-    }
-}
-
 impl CellSettings {
-    /// These settings as an input that gives every field (what a change is laid over).
-    pub fn as_input(&self) -> CellSettingsInput {
-        CellSettingsInput {
-            profile: Some(self.profile),
-            delta: Some(self.delta),
-            phi_min: Some(self.phi_min),
-            horizon: Some(self.horizon),
-            sigma_t_mm: Some(self.sigma_t_mm),
-            sigma_q: Some(self.sigma_q),
-            scale: Some(self.scale),
-            robot: Some(self.robot.clone()),
-            base: Some(self.base),
-            tool: Some(self.tool),
-            reach_policy: Some(self.reach_policy),
-            noise: self.noise,
-            tolerance: self.tolerance,
-            offer_threshold: self.offer_threshold,
-            target_precision: Some(self.target_precision)
-                .filter(|_| EngineConfig::profile(self.profile).offer.is_some()),
-            export: Some(self.export.clone()),
-        }
-    }
-
-    /// The engine configuration these settings describe.
-    pub fn engine_config(&self) -> EngineConfig {
-        let mut c = EngineConfig::profile(self.profile);
-        c.delta = self.delta;
-        c.predict.phi_min = self.phi_min;
-        c.predict.horizon = self.horizon;
-        c.sigma_t = self.sigma_t_mm;
-        c.sigma_q = self.sigma_q;
-        c.predict.scale.enabled = self.scale.enabled;
-        c.predict.scale.psi_min = self.scale.psi_min;
-        c.predict.scale.psi_max = self.scale.psi_max;
-        c.noise = self.noise;
-        if let Some(o) = c.offer.as_mut() {
-            o.tolerance = self.tolerance;
-            o.threshold = self.offer_threshold;
-            o.target = self.target_precision;
-        }
-        c
-    }
-
     pub fn validate(&self) -> Result<(), AppError> {
         self.export
             .validate()
@@ -216,10 +110,33 @@ impl CellSettings {
     }
 }
 
-/// The settings stored with a cell.
+/// The settings stored with a cell. A cell stored before a setting existed reads the value its
+/// engine used: its profile's ([`ADDED_LATER`]), or what the field's `serde` default says.
 pub(crate) fn parse_settings(cell: &CellRow) -> Result<CellSettings, AppError> {
-    serde_json::from_str(&cell.settings)
-        .map_err(|e| AppError::Internal(format!("stored settings of cell {}: {e}", cell.id)))
+    let bad = |e: serde_json::Error| {
+        AppError::Internal(format!("stored settings of cell {}: {e}", cell.id))
+    };
+    let mut stored: serde_json::Value = serde_json::from_str(&cell.settings).map_err(bad)?;
+    if let Some(fields) = stored.as_object_mut()
+        && ADDED_LATER.iter().any(|key| !fields.contains_key(*key))
+    {
+        let profile = match fields.get("profile") {
+            Some(p) => Some(serde_json::from_value::<Profile>(p.clone()).map_err(bad)?),
+            None => None,
+        };
+        let defaults = CellSettingsInput {
+            profile,
+            ..CellSettingsInput::default()
+        }
+        .over_profile();
+        let defaults = serde_json::to_value(defaults).map_err(bad)?;
+        for key in ADDED_LATER {
+            if !fields.contains_key(key) {
+                fields.insert(key.to_string(), defaults[key].clone());
+            }
+        }
+    }
+    serde_json::from_value(stored).map_err(bad)
 }
 
 #[cfg(test)]
@@ -240,6 +157,38 @@ mod tests {
         let mut want = EngineConfig::profile(Profile::Seed);
         want.predict.horizon = 2;
         assert_eq!(seed.engine_config(), want);
+    }
+
+    /// A cell stored before the command line's overrides were settings reads its profile's
+    /// values for them (what its engine used), and its engine is the one it had.
+    #[test]
+    fn a_cell_stored_before_the_added_settings_reads_its_profiles() {
+        let old = |profile: &str| CellRow {
+            id: 1,
+            name: "old".into(),
+            settings: format!(
+                r#"{{"profile":"{profile}","delta":0.7,"phi_min":0.7,"horizon":3,"sigma_t_mm":1.0,"sigma_q":0.01,"scale":{{"enabled":true,"psi_min":0.2,"psi_max":5.0}},"robot":"abb_irb140","base":{{"x":0.0,"y":0.0,"z":0.0,"qw":1.0,"qx":0.0,"qy":0.0,"qz":0.0}},"tool":{{"x":0.0,"y":0.0,"z":0.0,"qw":1.0,"qx":0.0,"qy":0.0,"qz":0.0}},"reach_policy":"flag","noise":null,"tolerance":null,"offer_threshold":null}}"#
+            ),
+            created_at: String::new(),
+            model_version: 0,
+            settings_changed_at: None,
+            revision: 0,
+            reload_revision: 0,
+        };
+        for profile in [Profile::Default, Profile::Seed] {
+            let stored = parse_settings(&old(profile.name())).unwrap();
+            let want = EngineConfig::profile(profile);
+            let got = stored.engine_config();
+            assert_eq!(got.merge, want.merge);
+            assert_eq!(got.learn_within_routine, want.learn_within_routine);
+            assert_eq!(got.predict, want.predict);
+            // Stored as read, it reads back the same.
+            let row = CellRow {
+                settings: serde_json::to_string(&stored).unwrap(),
+                ..old(profile.name())
+            };
+            assert_eq!(parse_settings(&row).unwrap(), stored);
+        }
     }
 
     #[test]

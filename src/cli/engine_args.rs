@@ -1,10 +1,13 @@
 //! Engine settings on the command line: a named profile, then one flag per overridden field.
+//! The flags are a cell's settings ([`crate::api::settings`], the same names and the same
+//! mapping onto the engine), as the command line spells them.
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 
+use crate::api::{CellSettingsInput, ScaleSettings};
 use crate::engine::config::{MergeRule, RecallGate};
-use crate::engine::{EngineConfig, Profile};
+use crate::engine::{EngineConfig, OfferRule, Profile};
 
 /// Engine settings on the command line: a profile, then per-field overrides.
 #[derive(Debug, Clone, Args)]
@@ -28,8 +31,8 @@ pub struct EngineArgs {
     #[arg(long, value_enum)]
     pub merge: Option<MergeArg>,
     /// Learn each move as it is taught (on) or only finished routines (off).
-    #[arg(long, value_enum)]
-    pub within: Option<Switch>,
+    #[arg(long, value_enum, visible_alias = "within")]
+    pub learn_within_routine: Option<Switch>,
     /// Misfit gate (number, or "none" for no gate).
     #[arg(long, value_name = "F|none", value_parser = parse_limit)]
     pub max_misfit: Option<Limit>,
@@ -45,7 +48,8 @@ pub struct EngineArgs {
     pub recall: Option<GateArg>,
     /// The experts' offer rule: a fixed p_useful a candidate needs to be offered (0–1), or
     /// "none" for the model alone with its own gates (the seed). Left out, the default profile's
-    /// cell steers its own threshold to `--target-precision`.
+    /// cell steers its own threshold to `--target-precision`. ("none" is not a cell setting:
+    /// there the profile decides whether there is an offer rule, and the seed has none.)
     #[arg(long, value_name = "P|none", value_parser = parse_limit)]
     pub offer_threshold: Option<Limit>,
     /// The share of offers that should be right when the cell steers its own threshold (0–1;
@@ -119,54 +123,43 @@ fn parse_limit(s: &str) -> Result<Limit, String> {
 }
 
 impl EngineArgs {
+    /// The overrides given, as a cell's settings (all but `--offer-threshold`, whose "none"
+    /// only the command line has).
+    pub fn overrides(&self) -> CellSettingsInput {
+        let profile = Profile::from(self.profile);
+        CellSettingsInput {
+            profile: Some(profile),
+            delta: self.delta,
+            phi_min: self.phi_min,
+            horizon: self.horizon,
+            scale: self.scale.map(|v| ScaleSettings::switched(profile, v.on())),
+            merge: self.merge.map(|v| match v {
+                MergeArg::Total => MergeRule::Total,
+                MergeArg::Incremental => MergeRule::Incremental,
+            }),
+            learn_within_routine: self.learn_within_routine.map(Switch::on),
+            max_misfit: self.max_misfit.map(|Limit(v)| v),
+            max_spread: self.max_spread.map(|Limit(v)| v),
+            max_end_prob: self.max_end_prob.map(|Limit(v)| v),
+            recall: self.recall.map(|GateArg(v)| v),
+            target_precision: self.target_precision,
+            ..CellSettingsInput::default()
+        }
+    }
+
     /// The profile's settings with the given overrides, validated.
     pub fn config(&self) -> Result<EngineConfig> {
         let mut c = EngineConfig::profile(self.profile.into());
-        if let Some(v) = self.delta {
-            c.delta = v;
-        }
-        if let Some(v) = self.phi_min {
-            c.predict.phi_min = v;
-        }
-        if let Some(v) = self.horizon {
-            c.predict.horizon = v;
-        }
-        if let Some(v) = self.scale {
-            c.predict.scale.enabled = v.on();
-        }
-        if let Some(v) = self.merge {
-            c.merge = match v {
-                MergeArg::Total => MergeRule::Total,
-                MergeArg::Incremental => MergeRule::Incremental,
-            };
-        }
-        if let Some(v) = self.within {
-            c.learn_within_routine = v.on();
-        }
-        if let Some(Limit(v)) = self.max_misfit {
-            c.predict.max_misfit = v;
-        }
-        if let Some(Limit(v)) = self.max_spread {
-            c.predict.max_spread = v;
-        }
-        if let Some(Limit(v)) = self.max_end_prob {
-            c.predict.max_end_prob = v;
-        }
-        if let Some(GateArg(v)) = self.recall {
-            c.predict.recall = v;
-        }
         if let Some(Limit(v)) = self.offer_threshold {
-            c.offer = v.map(|threshold| crate::engine::OfferRule {
+            c.offer = v.map(|threshold| OfferRule {
                 threshold: Some(threshold),
                 ..c.offer.unwrap_or_default()
             });
         }
-        if let Some(target) = self.target_precision {
-            let Some(o) = c.offer.as_mut() else {
-                anyhow::bail!("--target-precision: these settings have no offer rule");
-            };
-            o.target = target;
+        if self.target_precision.is_some() && c.offer.is_none() {
+            anyhow::bail!("--target-precision: these settings have no offer rule");
         }
+        self.overrides().apply(&mut c);
         c.validate().context("invalid engine settings")?;
         Ok(c)
     }

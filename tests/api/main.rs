@@ -26,6 +26,7 @@ mod retry;
 mod robots;
 mod roles;
 mod schemathesis;
+mod settings;
 mod standalone;
 mod storage;
 mod teaching;

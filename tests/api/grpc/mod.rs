@@ -18,6 +18,7 @@ mod import;
 mod replay;
 mod roles;
 mod session;
+mod settings;
 mod teach;
 mod transport;
 mod unary;
