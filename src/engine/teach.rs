@@ -26,12 +26,10 @@ use super::config::{EngineConfig, OfferRule, PredictOptions};
 use super::error::ConfigError;
 use super::experts::acceptance::{Acceptance, Verdict};
 use super::experts::calibration::Calibration;
-use super::experts::frames::{Frame, Tolerance};
-use super::experts::lattice;
+use super::experts::frames::Tolerance;
 use super::experts::noise::Noise;
 use super::experts::noise::estimate::{NoiseEstimator, OpenRoutine, Pair};
-use super::experts::template::TemplateExpert;
-use super::experts::{Candidate, Evidence, Expert, Followers, SequenceExpert};
+use super::experts::{Candidate, Cell, Evidence, Expert, Proposer};
 use super::metric::Metric;
 use super::pose::{Move, Observation, Pose, scale_translation};
 
@@ -41,17 +39,11 @@ pub struct Teacher {
     config: EngineConfig,
     graph: ObservationGraph,
     routine: Vec<Pose>,
-    /// The last finished routine of two waypoints or more (the lattice expert reads the layers
-    /// it laid).
-    previous: Vec<Pose>,
     moves: Vec<Observation>,
     /// Moves of the current routine already assimilated (within-routine learning only).
     assimilated: usize,
-    /// The sequence experts (tool-frame, work-frame, absolute) over the finished routines.
-    experts: [SequenceExpert; 3],
-    /// The template expert over the finished routines; only in a cell whose noise matters (on
-    /// exact waypoints it finds what a long tool-frame context finds).
-    template: Option<TemplateExpert>,
+    /// The experts besides the model ([`super::experts::experts`]), asked in turn.
+    experts: Vec<Box<dyn Expert>>,
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
     /// What the finished routines show of the teaching noise (a cell whose noise is not set).
@@ -82,7 +74,7 @@ struct Ahead {
 /// first-stage estimate; and the suggestion offered for it, with the operator's verdict.
 #[derive(Debug, Clone, Default)]
 struct Counted {
-    candidates: Vec<(Expert, Evidence, f64)>,
+    candidates: Vec<(Evidence, f64)>,
     chosen: Option<(f64, f64)>,
     /// The waypoint was taught as the cell offered it (a suggestion taken as is).
     suggested: bool,
@@ -105,12 +97,12 @@ struct Counted {
 }
 
 /// What a waypoint's change of the noise replaced: the noise and tolerance, and (when the
-/// noise began or stopped to matter) the template expert and the calibration.
+/// noise began or stopped to matter) the calibration.
 #[derive(Debug, Clone)]
 struct Before {
     noise: Noise,
     tolerance: Tolerance,
-    experts: Option<(Option<TemplateExpert>, Calibration)>,
+    calibration: Option<Calibration>,
 }
 
 /// Two poses are the same suggestion: equal to what storing them leaves.
@@ -137,11 +129,9 @@ impl Teacher {
             config,
             graph,
             routine: Vec::new(),
-            previous: Vec::new(),
             moves: Vec::new(),
             assimilated: 0,
-            experts: SequenceExpert::all(),
-            template: None,
+            experts: super::experts::experts(),
             calibration: Calibration::new(),
             outcomes: Vec::new(),
             ahead,
@@ -159,27 +149,21 @@ impl Teacher {
             .unwrap_or_else(|| acceptance.tolerance(noise.tolerance(), noise))
     }
 
-    /// A cell whose noise matters (it widens the tolerance) gets the template expert, over the
-    /// routines finished so far, and a calibration learned from its own outcomes only: the
-    /// prior's counts are exact programs'. A cell whose learned noise stops mattering (exact
-    /// revisits showed an exact teacher, [`NoiseEstimator::is_exact`]) goes back to the exact
-    /// cell's experts and prior.
+    /// A cell whose noise matters (it widens the tolerance) gets a calibration learned from its
+    /// own outcomes only: the prior's counts are exact programs'. A cell whose learned noise
+    /// stops mattering (exact revisits showed an exact teacher, [`NoiseEstimator::is_exact`])
+    /// goes back to the exact cell's prior. (The experts read whether it matters when asked,
+    /// [`Cell::noisy`].)
     fn become_noisy_if_it_matters(&mut self) {
         let noisy = self.noisy();
-        if noisy == self.template.is_some() {
+        if noisy == self.calibration.is_uninformed() {
             return;
         }
-        if noisy {
-            let mut template = TemplateExpert::new();
-            for r in self.estimator.iter().flat_map(NoiseEstimator::routines) {
-                template.learn(r);
-            }
-            self.template = Some(template);
-            self.calibration = Calibration::uninformed();
+        self.calibration = if noisy {
+            Calibration::uninformed()
         } else {
-            self.template = None;
-            self.calibration = Calibration::new();
-        }
+            Calibration::new()
+        };
     }
 
     /// The cell's teaching noise: set, or learned so far (exact until its repeats show some).
@@ -203,7 +187,7 @@ impl Teacher {
     pub fn threshold(&self) -> Option<f64> {
         let rule = self.config.offer?;
         Some(rule.threshold.unwrap_or_else(|| {
-            if self.template.is_some() {
+            if self.noisy() {
                 OfferRule::HEAD_START
             } else {
                 self.calibration.threshold(rule.target)
@@ -249,7 +233,7 @@ impl Teacher {
                 Counted {
                     candidates: candidates
                         .iter()
-                        .map(|c| (c.expert, c.evidence, outcome(c)))
+                        .map(|c| (c.evidence, outcome(c)))
                         .collect(),
                     chosen,
                     offered: offered.map(|o| {
@@ -267,8 +251,8 @@ impl Teacher {
             _ => Counted::default(),
         };
         counted.suggested = suggested;
-        for (expert, evidence, right) in &counted.candidates {
-            self.calibration.record(*expert, evidence, *right);
+        for (evidence, right) in &counted.candidates {
+            self.calibration.record(evidence, *right);
         }
         if let Some((first, right)) = counted.chosen {
             self.calibration.record_chosen(first, right);
@@ -277,6 +261,9 @@ impl Teacher {
             self.moves.push(Move::between(last, &pose).observation());
         }
         self.routine.push(pose);
+        for e in &mut self.experts {
+            e.taught(&self.routine);
+        }
         self.learn_open_noise(&mut counted);
         self.outcomes.push(counted);
         self.settle();
@@ -341,12 +328,12 @@ impl Teacher {
         let mut before = Before {
             noise: self.noise,
             tolerance: self.tolerance,
-            experts: None,
+            calibration: None,
         };
         self.noise = noise;
         self.tolerance = tolerance;
-        if self.noisy() != self.template.is_some() {
-            before.experts = Some((self.template.clone(), self.calibration.clone()));
+        if self.noisy() != self.calibration.is_uninformed() {
+            before.calibration = Some(self.calibration.clone());
         }
         self.become_noisy_if_it_matters();
         counted.before = Some(Box::new(before));
@@ -447,17 +434,13 @@ impl Teacher {
         if verdict == Verdict::Rejected {
             // The calibration the waypoint's outcomes were counted in: the cell's, and the one
             // an undo restores when the waypoint changed the cell's experts.
-            let mut snapshot = counted
-                .before
-                .as_mut()
-                .and_then(|b| b.experts.as_mut())
-                .map(|(_, c)| c);
+            let mut snapshot = counted.before.as_mut().and_then(|b| b.calibration.as_mut());
             for i in at {
-                let (expert, evidence, right) = &mut counted.candidates[i];
+                let (evidence, right) = &mut counted.candidates[i];
                 if *right > 0.0 {
                     for c in std::iter::once(&mut self.calibration).chain(snapshot.as_deref_mut()) {
-                        c.forget(*expert, evidence, *right);
-                        c.record(*expert, evidence, 0.0);
+                        c.forget(evidence, *right);
+                        c.record(evidence, 0.0);
                     }
                     *right = 0.0;
                     changed = true;
@@ -482,16 +465,18 @@ impl Teacher {
 
     fn forget_last_outcomes(&mut self) {
         let counted = self.outcomes.pop().unwrap_or_default();
+        for e in &mut self.experts {
+            e.undo();
+        }
         if let Some(before) = counted.before {
             self.noise = before.noise;
             self.tolerance = before.tolerance;
-            if let Some((template, calibration)) = before.experts {
-                self.template = template;
+            if let Some(calibration) = before.calibration {
                 self.calibration = calibration;
             }
         }
-        for (expert, evidence, right) in counted.candidates {
-            self.calibration.forget(expert, &evidence, right);
+        for (evidence, right) in counted.candidates {
+            self.calibration.forget(&evidence, right);
         }
         if let Some((first, right)) = counted.chosen {
             self.calibration.forget_chosen(first, right);
@@ -511,47 +496,27 @@ impl Teacher {
         }
     }
 
-    /// Every expert's candidate after `routine`: the model's proposal (whatever its gates
-    /// said), then each sequence expert's.
+    /// Every expert's candidates after `routine`: the model's proposal (whatever its gates
+    /// said), then each expert's in turn.
     fn candidates(&self, routine: &[Pose], model: &Prediction) -> Vec<Candidate> {
-        let mut out = Vec::with_capacity(4);
+        let mut out = Vec::with_capacity(8);
         if let Some(pose) = model.pose {
             out.push(Candidate {
-                expert: Expert::Model,
                 pose,
-                evidence: Evidence {
-                    context: model.window,
-                    places: 0,
-                    agreeing: 0,
-                    in_routine: false,
+                evidence: Evidence::Model {
+                    window: model.window,
                     gated_in: model.offered(),
                 },
             });
         }
-        let noise = &self.noise;
-        let followers = if self.noisy() {
-            Followers::Mean
-        } else {
-            Followers::Newest
+        let cell = Cell {
+            noise: self.noise,
+            tolerance: self.tolerance,
+            noisy: self.noisy(),
         };
-        out.extend(self.experts.iter().flat_map(|e| {
-            e.proposals(routine, &noise.widen(self.tolerance, e.frame()), followers)
-        }));
-        out.extend(
-            self.template
-                .as_ref()
-                .and_then(|t| t.propose(routine, noise, &self.tolerance)),
-        );
-        let moves = noise.widen(self.tolerance, Frame::Tool);
-        out.extend(lattice::follow(routine, moves.mm, moves.rad));
-        out.extend(lattice::propose(
-            routine,
-            &self.previous,
-            lattice::WalkTolerance {
-                point: noise.widen(self.tolerance, Frame::Absolute).mm,
-                step: noise.widen(self.tolerance, Frame::Work).mm,
-            },
-        ));
+        for e in &self.experts {
+            out.extend(e.propose(routine, &cell));
+        }
         out
     }
 
@@ -593,19 +558,20 @@ impl Teacher {
         let p = self.calibration.chosen(first);
         let offered = match rule.threshold {
             Some(t) => p >= t,
-            None if self.template.is_some() => p >= OfferRule::HEAD_START,
+            None if self.noisy() => p >= OfferRule::HEAD_START,
             None => self.calibration.offers(first, rule.target),
         };
         let c = *c;
         let mut out = model;
-        if c.expert != Expert::Model {
+        let by_model = c.proposer() == Proposer::Model;
+        if !by_model {
             out.pose = Some(c.pose);
             out.relative = Some(Move::between(last, &c.pose).observation());
         }
         out.p_useful = Some(p);
-        out.expert = Some(c.expert);
+        out.expert = Some(c.proposer());
         // The model's own proposal keeps the reason its gate gave, if one did.
-        let own_reason = out.withheld.filter(|_| c.expert == Expert::Model);
+        let own_reason = out.withheld.filter(|_| by_model);
         out.withheld = (!offered).then(|| own_reason.unwrap_or(Withheld::Unlikely { p_useful: p }));
         out
     }
@@ -614,7 +580,7 @@ impl Teacher {
     fn likeliest<'a>(&self, candidates: &'a [Candidate]) -> Option<(f64, &'a Candidate)> {
         let mut best: Option<(f64, &Candidate)> = None;
         for c in candidates {
-            let p = self.calibration.p_useful(c.expert, &c.evidence);
+            let p = self.calibration.p_useful(&c.evidence);
             if best.is_none_or(|(b, _)| p > b) {
                 best = Some((p, c));
             }
@@ -702,9 +668,6 @@ impl Teacher {
         for e in &mut self.experts {
             e.learn(&self.routine);
         }
-        if let Some(t) = self.template.as_mut() {
-            t.learn(&self.routine);
-        }
         for mm in self.outcomes.iter().filter_map(|c| c.adjusted_mm) {
             self.acceptance.add(mm);
         }
@@ -739,9 +702,6 @@ impl Teacher {
             }
         }
         self.graph.end_routine();
-        if self.routine.len() >= 2 {
-            self.previous = std::mem::take(&mut self.routine);
-        }
         self.routine.clear();
         self.moves.clear();
         self.assimilated = 0;
@@ -1278,7 +1238,7 @@ mod tests {
         assert!(shown < long.len(), "learned at waypoint {shown}");
         let n = t.noise();
         assert!((n.mm / truth.mm - 1.0).abs() < 0.35, "{n:?}");
-        assert!(t.template.is_some());
+        assert!(t.noisy());
         let whole = t.clone();
         // Back to two waypoints before the noise showed: the cell of that prefix.
         for _ in shown - 2..long.len() {
@@ -1287,7 +1247,7 @@ mod tests {
         let prefix = &states[shown - 2];
         assert_eq!(t.noise(), prefix.noise());
         assert_eq!(t.tolerance(), prefix.tolerance());
-        assert_eq!(t.template.is_some(), prefix.template.is_some());
+        assert_eq!(t.noisy(), prefix.noisy());
         assert_eq!(t.calibration(), prefix.calibration());
         same_model(&t, prefix);
         for w in &long[shown - 2..] {
@@ -1323,7 +1283,7 @@ mod tests {
         }
         assert!(t.noise().is_negligible(&Tolerance::SEED), "{:?}", t.noise());
         assert_eq!(t.tolerance(), Tolerance::SEED);
-        assert!(t.template.is_none());
+        assert!(!t.noisy());
     }
 
     /// A noise or tolerance set in the cell's settings is used as given: nothing is learned.
@@ -1334,6 +1294,6 @@ mod tests {
         let t = Teacher::new(config).unwrap();
         assert!(!t.learns_noise());
         assert_eq!(t.tolerance(), Noise { mm: 4.0, rad: 0.01 }.tolerance());
-        assert!(t.template.is_some());
+        assert!(t.noisy());
     }
 }

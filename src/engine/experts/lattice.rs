@@ -72,18 +72,58 @@
 //! [`MIN_FOLLOWS`] or more items did, that move is proposed from the newest waypoint. Slots
 //! need not be on a lattice.
 //!
-//! Its evidence: the walk's length, the station's visits or the items that moved alike (as a
-//! context: long from four); a station ([`STATION`] places), a follower ([`FOLLOWER`]), a grid
-//! or a layer laid like one before (two places), one row (one place); a new row only the
-//! layer's own rows foretell, or the guessed order, does not agree. The calibration starts each class from its counts on the pattern tuning set
+//! Its evidence ([`LatticeEvidence`]): a walk's next point (its points; a grid or a layer laid
+//! like one before, or one row; a new row only the layer's own rows foretell, or the guessed
+//! order, is not settled), a station (its visits) or a follower (the items that moved alike);
+//! each long from four. The calibration starts each class from its counts on the pattern tuning set
 //! (`calibration::LATTICE_PRIOR`) and learns the cell's own outcomes.
 //!
 //! Pure: no I/O; the expert reads the routine being taught and the previous one.
 
 use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 
-use super::{Candidate, Evidence, Expert};
+use super::frames::Frame;
+use super::{Candidate, Cell, Evidence, Expert, LatticeEvidence};
 use crate::engine::pose::{Move, Pose};
+
+/// The lattice expert: its walks, stations and followers over the routine being taught, and
+/// the last finished routine of two waypoints or more (whose layers a routine per layer is laid
+/// like).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LatticeExpert {
+    previous: Vec<Pose>,
+}
+
+impl LatticeExpert {
+    pub fn new() -> LatticeExpert {
+        LatticeExpert::default()
+    }
+}
+
+impl Expert for LatticeExpert {
+    fn learn(&mut self, routine: &[Pose]) {
+        if routine.len() >= 2 {
+            self.previous = routine.to_vec();
+        }
+    }
+
+    /// The follower first, then the walks' and stations' candidates: moves matched within the
+    /// tool frame's widened tolerance, a point against where the walk puts it within the pose
+    /// frame's, a step against a step within the work frame's.
+    fn propose(&self, routine: &[Pose], cell: &Cell) -> Vec<Candidate> {
+        let moves = cell.widened(Frame::Tool);
+        let mut out: Vec<Candidate> = follow(routine, moves.mm, moves.rad).into_iter().collect();
+        out.extend(propose(
+            routine,
+            &self.previous,
+            WalkTolerance {
+                point: cell.widened(Frame::Absolute).mm,
+                step: cell.widened(Frame::Work).mm,
+            },
+        ));
+        out
+    }
+}
 
 /// The shortest period of a routine's items the expert reads (every other waypoint).
 pub const MIN_PERIOD: usize = 2;
@@ -121,8 +161,9 @@ pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Vec<C
     let mut from = MIN_PERIOD;
     while let Some((c, period)) = propose_from(routine, previous, tol, from) {
         out.push(c);
-        if c.evidence.places != STATION || c.evidence.context >= STRONG_STATION {
-            break;
+        match c.evidence {
+            Evidence::Lattice(LatticeEvidence::Station { visits }) if visits < STRONG_STATION => {}
+            _ => break,
         }
         from = period + 1;
     }
@@ -143,13 +184,12 @@ fn propose_from(
     for period in from..=MAX_PERIOD.min(n) {
         let role = role_points(routine, period, period);
         let last = &routine[n - period];
-        let candidate = |position: Vector3<f64>, evidence: Evidence| Candidate {
-            expert: Expert::Lattice,
+        let candidate = |position: Vector3<f64>, evidence: LatticeEvidence| Candidate {
             pose: Pose::from_isometry(Isometry3::from_parts(
                 Translation3::from(position),
                 last.rotation(),
             )),
-            evidence,
+            evidence: Evidence::Lattice(evidence),
         };
         if let Some(visits) = station(&role, tol.point) {
             // The role stays: the station it keeps returning to — unless a role of the same
@@ -166,12 +206,8 @@ fn propose_from(
             return Some((
                 candidate(
                     mean,
-                    Evidence {
-                        context: visits.min(8),
-                        places: STATION,
-                        agreeing: STATION,
-                        in_routine: true,
-                        gated_in: false,
+                    LatticeEvidence::Station {
+                        visits: visits.min(8),
                     },
                 ),
                 period,
@@ -204,24 +240,17 @@ fn propose_from(
             // only on a grid.
             return None;
         }
-        let places = if walk.rows.is_some() { 2 } else { 1 };
         // A new row that only this layer's own rows foretell, and the second row's way guessed
         // from its first point, are guesses of their own class: the pattern may have ended
         // there, or gone the other way.
-        let agreeing = if (walk.starts_row() || walk.guessed) && layer.before.is_none() {
-            places - 1
-        } else {
-            places
-        };
+        let settled = !((walk.starts_row() || walk.guessed) && layer.before.is_none());
         return Some((
             candidate(
                 walk.next(),
-                Evidence {
-                    context: walk.indices.len().min(8),
-                    places,
-                    agreeing,
-                    in_routine: true,
-                    gated_in: false,
+                LatticeEvidence::Walk {
+                    points: walk.indices.len().min(8),
+                    grid: walk.rows.is_some(),
+                    settled,
                 },
             ),
             period,
@@ -233,7 +262,7 @@ fn propose_from(
 /// The move that followed the previous waypoint's role in the routine's items (module doc,
 /// "Followers"): for the shortest period whose newest [`MIN_FOLLOWS`] items or more moved alike
 /// from that role (within `mm` and `rad`, in its tool frame), the newest such move from the
-/// newest waypoint. The evidence's context is how many items moved alike (up to 8).
+/// newest waypoint, with how many items moved alike (up to 8).
 pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
     let n = routine.len();
     let last = routine.last()?;
@@ -258,15 +287,8 @@ pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
             .count();
         if alike >= MIN_FOLLOWS {
             return Some(Candidate {
-                expert: Expert::Lattice,
                 pose: last.then(newest),
-                evidence: Evidence {
-                    context: alike,
-                    places: FOLLOWER,
-                    agreeing: FOLLOWER,
-                    in_routine: true,
-                    gated_in: false,
-                },
+                evidence: Evidence::Lattice(LatticeEvidence::Follower { items: alike }),
             });
         }
     }
@@ -275,9 +297,6 @@ pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
 
 /// Items that must have moved alike for [`follow`].
 pub const MIN_FOLLOWS: usize = 2;
-
-/// The evidence's `places` of a [`follow`]er, beside a row's 1, a grid's 2 and a station's 3.
-pub const FOLLOWER: usize = 4;
 
 /// The positions of one role of a routine's items of `period` waypoints, oldest first: the
 /// waypoints `back`, `back + period`, … before the next one (the newest [`MAX_WALK_POINTS`]).
@@ -367,10 +386,6 @@ impl Layer {
         self.before.is_some_and(|b| self.walk.indices.len() >= b)
     }
 }
-
-/// The evidence's `places` of a station (a role that does not move), beside a row's 1 and a
-/// grid's 2.
-pub const STATION: usize = 3;
 
 /// How many of the newest `points` are one place (within `tol` of the newest), when at least
 /// [`MIN_POINTS`] are: the pick station of a pallet, returned to item after item.
@@ -803,6 +818,26 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// A candidate's lattice evidence.
+    fn lattice(c: &Candidate) -> LatticeEvidence {
+        match c.evidence {
+            Evidence::Lattice(e) => e,
+            other => panic!("not the lattice expert's evidence: {other:?}"),
+        }
+    }
+
+    /// A walk's evidence as `(grid, settled)`; None for a station or a follower.
+    fn walk_class(c: &Candidate) -> Option<(bool, bool)> {
+        match lattice(c) {
+            LatticeEvidence::Walk { grid, settled, .. } => Some((grid, settled)),
+            _ => None,
+        }
+    }
+
+    fn is_station(c: &Candidate) -> bool {
+        matches!(lattice(c), LatticeEvidence::Station { .. })
+    }
+
     /// The expert's first candidate (the shortest period's).
     fn propose1(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Option<Candidate> {
         propose(routine, previous, tol).into_iter().next()
@@ -1024,29 +1059,31 @@ mod tests {
         for n in 30..routine.len() {
             let c = propose1(&routine[..n], &[], tol)
                 .unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
-            assert_eq!(c.expert, Expert::Lattice);
             assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
             assert!(c.pose.angle_to(&routine[n]) < 1e-9);
             let slot_role = n % 6 >= 3;
-            let want = if slot_role { 2 } else { STATION };
-            assert_eq!(c.evidence.places, want, "waypoint {n}");
+            if slot_role {
+                assert_eq!(walk_class(&c).map(|w| w.0), Some(true), "waypoint {n}");
+            } else {
+                assert!(is_station(&c), "waypoint {n}");
+            }
         }
         // After the first row of three, one place: the row goes on (its end could not be seen
         // coming), 200 mm on from its last slot.
         let c = propose1(&routine[..21], &[], tol).expect("a row of three");
-        assert_eq!(c.evidence.places, 1);
+        assert_eq!(walk_class(&c), Some((false, true)));
         let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
         assert!((c.pose.position() - on).norm() < 1e-6);
         // The second row's first slot settles the order: its second is a grid's next point.
         let c = propose1(&routine[..27], &[], tol).expect("the second row's second slot");
         assert!(c.pose.distance_to(&routine[27]) < 1e-6);
-        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 2));
+        assert_eq!(walk_class(&c), Some((true, true)));
         // A new row foretold by the layer's own rows alone is a class of its own.
         let c = propose1(&routine[..39], &[], tol).expect("the third row's first slot");
         assert!(c.pose.distance_to(&routine[39]) < 1e-6);
-        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 1));
+        assert_eq!(walk_class(&c), Some((true, false)));
         // A pick station visited twice is no station yet.
-        assert!(propose1(&routine[..12], &[], tol).is_none_or(|c| c.evidence.places != STATION));
+        assert!(propose1(&routine[..12], &[], tol).is_none_or(|c| !is_station(&c)));
     }
 
     /// A first row and the second row's first point (the three corners a wizard asks for)
@@ -1228,8 +1265,7 @@ mod tests {
             let n = 6 * k + 4;
             let c = follow(&routine[..n], 1.0, 0.01)
                 .unwrap_or_else(|| panic!("item {k}: nothing follows"));
-            assert_eq!(c.expert, Expert::Lattice);
-            assert_eq!((c.evidence.places, c.evidence.context), (FOLLOWER, k));
+            assert_eq!(lattice(&c), LatticeEvidence::Follower { items: k });
             assert!(c.pose.distance_to(&routine[n]) < 1e-6, "item {k}");
             assert!(c.pose.angle_to(&routine[n]) < 1e-9);
         }
@@ -1283,10 +1319,7 @@ mod tests {
             let n = 8 * k + 1;
             let all = propose(&routine[..n], &[], tol);
             let first = all.first().expect("a candidate");
-            assert_eq!(
-                (first.evidence.places, first.evidence.context),
-                (STATION, 3)
-            );
+            assert_eq!(lattice(first), LatticeEvidence::Station { visits: 3 });
             assert!(
                 all.iter().any(|c| c.pose.distance_to(&routine[n]) < 1e-6),
                 "slot {k}: the tray's next slot is not proposed"
