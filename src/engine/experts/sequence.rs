@@ -234,16 +234,17 @@ mod tests {
 
     /// A sequence candidate's context, places, agreeing places and whether it is in the routine.
     fn evidence(c: &Candidate) -> (usize, usize, usize, bool) {
-        match c.evidence {
-            Evidence::Sequence {
-                context,
-                places,
-                agreeing,
-                in_routine,
-                ..
-            } => (context, places, agreeing, in_routine),
-            other => panic!("not a sequence expert's evidence: {other:?}"),
-        }
+        let Evidence::Sequence {
+            context,
+            places,
+            agreeing,
+            in_routine,
+            ..
+        } = c.evidence
+        else {
+            panic!("not a sequence expert's evidence: {:?}", c.evidence);
+        };
+        (context, places, agreeing, in_routine)
     }
 
     fn near(a: &Pose, b: &Pose) -> bool {

@@ -283,7 +283,7 @@ fn station(points: &[Vector3<f64>], tol: f64) -> Option<usize> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::super::walk::Order;
     use super::super::walk::tests::walk;
     use super::*;
@@ -437,7 +437,7 @@ mod tests {
     }
 
     /// A pose at `p`, the tool pointing down.
-    fn down_at(p: Vector3<f64>) -> Pose {
+    pub(crate) fn down_at(p: Vector3<f64>) -> Pose {
         Pose::from_isometry(Isometry3::from_parts(
             Translation3::from(p),
             nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),

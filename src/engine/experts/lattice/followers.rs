@@ -51,18 +51,11 @@ pub const MIN_FOLLOWS: usize = 2;
 
 #[cfg(test)]
 mod tests {
+    use super::super::expert::tests::down_at;
     use super::*;
     use nalgebra::{Isometry3, Translation3, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-
-    /// A pose at `p`, the tool pointing down.
-    fn down_at(p: Vector3<f64>) -> Pose {
-        Pose::from_isometry(Isometry3::from_parts(
-            Translation3::from(p),
-            nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),
-        ))
-    }
 
     /// The place under a slot's approach: the move into each new slot is new, so no context of
     /// moves foretells it, but the items before moved alike from their approach. Slots need
