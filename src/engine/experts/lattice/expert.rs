@@ -22,7 +22,7 @@
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 
-use super::followers::follow;
+use super::followers::{MAX_PERIOD, MIN_PERIOD, follow};
 use super::walk::{LatticeWalk, MIN_LAYER_POINTS, MIN_POINTS, WalkTolerance};
 use crate::engine::experts::frames::Frame;
 use crate::engine::experts::{Candidate, Cell, Evidence, Expert, LatticeEvidence};
@@ -67,10 +67,6 @@ impl Expert for LatticeExpert {
     }
 }
 
-/// The shortest period of a routine's items the expert reads (every other waypoint).
-pub const MIN_PERIOD: usize = 2;
-/// The longest (a machine-tending part is 11 waypoints).
-pub const MAX_PERIOD: usize = 12;
 /// The newest points of a role read as a walk (a layer of up to 32 slots; bounds the cost).
 pub const MAX_WALK_POINTS: usize = 48;
 
@@ -283,7 +279,8 @@ fn station(points: &[Vector3<f64>], tol: f64) -> Option<usize> {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
+    use super::super::followers::tests::down_at;
     use super::super::walk::Order;
     use super::super::walk::tests::walk;
     use super::*;
@@ -434,14 +431,6 @@ pub(crate) mod tests {
             at(-600.0, -500.0),
         ];
         assert!(propose1(&star, &[], 1.0.into()).is_none());
-    }
-
-    /// A pose at `p`, the tool pointing down.
-    pub(crate) fn down_at(p: Vector3<f64>) -> Pose {
-        Pose::from_isometry(Isometry3::from_parts(
-            Translation3::from(p),
-            nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),
-        ))
     }
 
     /// A machine-tending item goes back and forth at the machine, so its last waypoints, two

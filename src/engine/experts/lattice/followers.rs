@@ -6,7 +6,6 @@
 //! [`MIN_FOLLOWS`] or more items did, that move is proposed from the newest waypoint. Slots
 //! need not be on a lattice.
 
-use super::expert::{MAX_PERIOD, MIN_PERIOD};
 use crate::engine::experts::{Candidate, Evidence, LatticeEvidence};
 use crate::engine::pose::{Move, Pose};
 
@@ -46,16 +45,29 @@ pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
     None
 }
 
+/// The shortest period of a routine's items the lattice expert and the followers read (every
+/// other waypoint).
+pub const MIN_PERIOD: usize = 2;
+/// The longest (a machine-tending part is 11 waypoints).
+pub const MAX_PERIOD: usize = 12;
+
 /// Items that must have moved alike for [`follow`].
 pub const MIN_FOLLOWS: usize = 2;
 
 #[cfg(test)]
-mod tests {
-    use super::super::expert::tests::down_at;
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{Isometry3, Translation3, Vector3};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// A pose at `p`, the tool pointing down.
+    pub(crate) fn down_at(p: Vector3<f64>) -> Pose {
+        Pose::from_isometry(Isometry3::from_parts(
+            Translation3::from(p),
+            nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),
+        ))
+    }
 
     /// The place under a slot's approach: the move into each new slot is new, so no context of
     /// moves foretells it, but the items before moved alike from their approach. Slots need
