@@ -23,8 +23,9 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+use nextpose::engine::experts::Evidence;
 use nextpose::engine::experts::frames::{Frame, Tolerance, angle, distance};
-use nextpose::engine::experts::{Followers, SequenceExpert};
+use nextpose::engine::experts::sequence::{Followers, SequenceExpert};
 use nextpose::engine::{EngineConfig, Observation, Pose, Teacher};
 use nextpose::replay::load_paths;
 
@@ -192,7 +193,9 @@ fn main() -> anyhow::Result<()> {
                     let any_expert = proposals.iter().any(|c| right(&c.pose, truth));
                     let engine_useful = p.offered() && p.pose.is_some_and(|q| right(&q, truth));
                     for c in &proposals {
-                        let f = match c.expert.name() {
+                        let (context, places, agreeing, in_routine) =
+                            sequence_evidence(&c.evidence);
+                        let f = match c.proposer().name() {
                             "tool" => 0,
                             "work" => 1,
                             _ => 2,
@@ -211,18 +214,18 @@ fn main() -> anyhow::Result<()> {
                             .any(|e| exact.holds(e, &last_e));
                         let others = proposals
                             .iter()
-                            .filter(|d| d.expert != c.expert && right(&d.pose, &c.pose))
-                            .map(|d| d.expert)
+                            .filter(|d| d.proposer() != c.proposer() && right(&d.pose, &c.pose))
+                            .map(|d| d.proposer())
                             .collect::<std::collections::BTreeSet<_>>()
                             .len();
                         csv += &format!(
                             "{h},{program_index},{routine_index},{n},{},{},{},{},{},{:.4},{},{},{},{},{}\n",
-                            c.expert.name(),
-                            c.evidence.context,
-                            c.evidence.places,
-                            c.evidence.agreeing,
-                            u8::from(c.evidence.in_routine),
-                            teacher.calibration().p_useful(c.expert, &c.evidence),
+                            c.proposer().name(),
+                            context,
+                            places,
+                            agreeing,
+                            u8::from(in_routine),
+                            teacher.calibration().p_useful(&c.evidence),
                             u8::from(right(&c.pose, truth)),
                             u8::from(exact_last),
                             others,
@@ -380,7 +383,7 @@ fn main() -> anyhow::Result<()> {
                     let agree = proposals.iter().find(|c| {
                         proposals
                             .iter()
-                            .any(|d| d.expert != c.expert && right(&d.pose, &c.pose))
+                            .any(|d| d.proposer() != c.proposer() && right(&d.pose, &c.pose))
                     });
                     put(
                         &mut kinds,
@@ -547,13 +550,14 @@ fn dump_csv(programs: &[nextpose::replay::Program]) -> anyhow::Result<String> {
                     }
                     for e in &experts {
                         for c in e.proposals(taught, &tol, Followers::Newest) {
-                            let ev = c.evidence;
+                            let (context, places, agreeing, in_routine) =
+                                sequence_evidence(&c.evidence);
                             cands.push((
-                                c.expert.name().into(),
-                                ev.context,
-                                ev.places,
-                                ev.agreeing,
-                                ev.in_routine,
+                                c.proposer().name().into(),
+                                context,
+                                places,
+                                agreeing,
+                                in_routine,
                                 false,
                                 c.pose,
                             ));
@@ -643,4 +647,18 @@ fn dump_csv(programs: &[nextpose::replay::Program]) -> anyhow::Result<String> {
         }
     }
     Ok(out)
+}
+
+/// A sequence expert's evidence: context, places, agreeing places, in the routine.
+fn sequence_evidence(e: &Evidence) -> (usize, usize, usize, bool) {
+    match *e {
+        Evidence::Sequence {
+            context,
+            places,
+            agreeing,
+            in_routine,
+            ..
+        } => (context, places, agreeing, in_routine),
+        _ => (0, 0, 0, false),
+    }
 }

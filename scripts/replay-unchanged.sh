@@ -8,8 +8,9 @@
 #   bash scripts/replay-unchanged.sh DIR        # compares with reports saved earlier in DIR
 #   REPLAY_SAVE=DIR bash scripts/replay-unchanged.sh REV   # and keeps REV's reports in DIR
 #
-# Needs ../shared/corpus/json beside the checkout. Exits 1 and shows the first differences when
-# a report differs.
+# Needs ../shared/corpus/json beside the checkout; ../shared/corpus2/json too when present (its
+# reports are named corpus2-default.json, …). Exits 1 and shows the first differences when a
+# report differs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -30,13 +31,22 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# The reports of one binary into a directory.
+# The second corpus, when it is there: (directory, prefix of its reports' names).
+sets=("$corpus:")
+if [ -d ../shared/corpus2/json ]; then
+  sets+=("../shared/corpus2/json:corpus2-")
+fi
+
+# The reports of one binary into a directory, for every corpus.
 reports() {
-  local bin="$1" out="$2"
+  local bin="$1" out="$2" set dir prefix
   mkdir -p "$out"
-  "$bin" replay "$corpus" --quiet --json "$out/default.json" > /dev/null
-  "$bin" replay "$corpus" --quiet --profile seed --map --json "$out/seed.json" \
-    --map-json "$out/seed-map.json" > /dev/null
+  for set in "${sets[@]}"; do
+    dir="${set%%:*}" prefix="${set#*:}"
+    "$bin" replay "$dir" --quiet --json "$out/${prefix}default.json" > /dev/null
+    "$bin" replay "$dir" --quiet --profile seed --map --json "$out/${prefix}seed.json" \
+      --map-json "$out/${prefix}seed-map.json" > /dev/null
+  done
 }
 
 if [ -d "$1" ]; then
@@ -55,7 +65,17 @@ cargo build --release --locked --quiet
 reports "${CARGO_TARGET_DIR:-target}/release/nextpose" "$work/new"
 
 status=0
-for f in default.json seed.json seed-map.json; do
+files=()
+for set in "${sets[@]}"; do
+  for f in default.json seed.json seed-map.json; do
+    files+=("${set#*:}$f")
+  done
+done
+for f in "${files[@]}"; do
+  if [ ! -f "$base/$f" ]; then
+    echo "replay-unchanged: $f not in $base (saved before that corpus was compared): skipped" >&2
+    continue
+  fi
   if python3 - "$base/$f" "$work/new/$f" << 'EOF'; then
 import json, sys
 

@@ -8,13 +8,15 @@
 //! 2. [`cdhmm`], the dissertation's model: the learner merges the move into an observation graph,
 //!    read as a continuous-density HMM, and the prediction runs the forward recursion over the
 //!    last few moves and proposes the next move, with the figures its gates read.
-//! 3. [`experts`]: sequence experts in three frames (tool, work, absolute) and, in a cell with
-//!    teaching noise, the template expert propose candidates of their own, matched within the
-//!    cell's tolerance widened by that noise; the calibration gives every candidate, the model's
-//!    among them, `p_useful`, the probability that it is right, and the offer rule offers the
-//!    likeliest when that reaches the threshold.
+//! 3. [`experts`]: every expert behind one trait ([`experts::Expert`]): sequence experts in
+//!    three frames (tool, work, absolute), in a cell with teaching noise the template expert,
+//!    and the lattice expert propose candidates of their own, matched within the cell's
+//!    tolerance widened by that noise; the calibration gives every candidate, the model's among
+//!    them, `p_useful`, the probability that it is right.
 //! 4. [`teach`]: the [`Teacher`] ties these together for one cell (learning within the routine,
-//!    undo, the prediction kept ready for the next waypoint); [`config`] holds its settings and
+//!    undo, the prediction kept ready for the next waypoint) and applies the one offer rule to
+//!    every candidate: the likeliest is offered when it reaches the threshold; [`config`] holds
+//!    its settings and
 //!    the two profiles. `default` is all of the above; `seed`, the dissertation's engine, is the
 //!    CDHMM alone, learning finished routines, with φ as its only gate.
 //!

@@ -44,7 +44,7 @@
 
 use std::collections::HashMap;
 
-use super::{Evidence, Expert};
+use super::{Evidence, LatticeEvidence, Proposer};
 
 /// Weight (in outcomes) of the prior in a cell's coarse class.
 pub const COARSE_STRENGTH: f64 = 10.0;
@@ -90,10 +90,10 @@ pub struct Coarse {
     pub template: bool,
     /// Proposed by the lattice expert (a walk's next point: right in its own way too).
     pub lattice: bool,
-    /// … as the station its items keep returning to ([`super::lattice::STATION`]).
+    /// … as the station its items keep returning to ([`LatticeEvidence::Station`]).
     pub station: bool,
     /// … as the move that followed the same role in the items before
-    /// ([`super::lattice::FOLLOWER`]).
+    /// ([`LatticeEvidence::Follower`]).
     pub follower: bool,
     /// The model: its gates passed; a sequence expert: every earlier place agrees.
     pub agree: bool,
@@ -103,53 +103,114 @@ pub struct Coarse {
 }
 
 impl Coarse {
-    pub fn of(expert: Expert, e: &Evidence) -> Coarse {
-        match expert {
-            Expert::Model => Coarse {
+    pub fn of(e: &Evidence) -> Coarse {
+        let none = Coarse {
+            model: false,
+            template: false,
+            lattice: false,
+            station: false,
+            follower: false,
+            agree: false,
+            in_routine: false,
+            long_context: false,
+            several_places: false,
+        };
+        match *e {
+            Evidence::Model { gated_in, .. } => Coarse {
                 model: true,
-                template: false,
-                lattice: false,
-                station: false,
-                follower: false,
-                agree: e.gated_in,
-                in_routine: false,
-                long_context: false,
-                several_places: false,
+                agree: gated_in,
+                ..none
             },
-            _ => Coarse {
-                model: false,
-                template: expert == Expert::Template,
-                lattice: expert == Expert::Lattice,
-                station: expert == Expert::Lattice && e.places == super::lattice::STATION,
-                follower: expert == Expert::Lattice && e.places == super::lattice::FOLLOWER,
-                agree: e.agreeing == e.places,
-                in_routine: e.in_routine,
-                // A lattice walk has three points at least: long from four on (a station from
-                // four visits, which a back-and-forth inside one item does not reach).
-                long_context: e.context >= if expert == Expert::Lattice { 4 } else { 2 },
-                several_places: e.places >= 2,
+            Evidence::Sequence {
+                context,
+                places,
+                agreeing,
+                in_routine,
+                ..
+            } => Coarse {
+                agree: agreeing == places,
+                in_routine,
+                long_context: context >= 2,
+                several_places: places >= 2,
+                ..none
             },
+            Evidence::Template {
+                steps,
+                places,
+                agreeing,
+            } => Coarse {
+                template: true,
+                agree: agreeing == places,
+                long_context: steps >= 2,
+                several_places: places >= 2,
+                ..none
+            },
+            // A lattice walk has three points at least: long from four on (a station from
+            // four visits, which a back-and-forth inside one item does not reach).
+            Evidence::Lattice(l) => {
+                let lattice = Coarse {
+                    lattice: true,
+                    agree: true,
+                    in_routine: true,
+                    several_places: true,
+                    ..none
+                };
+                match l {
+                    LatticeEvidence::Walk {
+                        points,
+                        grid,
+                        settled,
+                    } => Coarse {
+                        agree: settled,
+                        long_context: points >= 4,
+                        several_places: grid,
+                        ..lattice
+                    },
+                    LatticeEvidence::Station { visits } => Coarse {
+                        station: true,
+                        long_context: visits >= 4,
+                        ..lattice
+                    },
+                    LatticeEvidence::Follower { items } => Coarse {
+                        follower: true,
+                        long_context: items >= 4,
+                        ..lattice
+                    },
+                }
+            }
         }
     }
 }
 
-/// A fine class: the coarse one, the expert, the context length and places (capped).
+/// A fine class: the coarse one, the expert, the context length (up to 4) and the places (up to
+/// 3: a station's and a follower's are 3, a grid's 2, a row's 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 struct Fine {
     coarse: Coarse,
-    expert: Expert,
+    proposer: Proposer,
     context: u8,
     places: u8,
 }
 
 impl Fine {
-    fn of(expert: Expert, e: &Evidence) -> Fine {
-        let model = expert == Expert::Model;
+    fn of(e: &Evidence) -> Fine {
+        let (context, places) = match *e {
+            Evidence::Model { .. } => (0, 0),
+            Evidence::Sequence {
+                context, places, ..
+            } => (context, places),
+            Evidence::Template { steps, places, .. } => (steps, places),
+            Evidence::Lattice(LatticeEvidence::Walk { points, grid, .. }) => {
+                (points, if grid { 2 } else { 1 })
+            }
+            Evidence::Lattice(LatticeEvidence::Station { visits }) => (visits, 3),
+            Evidence::Lattice(LatticeEvidence::Follower { items }) => (items, 3),
+        };
         Fine {
-            coarse: Coarse::of(expert, e),
-            expert,
-            context: if model { 0 } else { e.context.min(4) as u8 },
-            places: if model { 0 } else { e.places.min(3) as u8 },
+            coarse: Coarse::of(e),
+            proposer: e.proposer(),
+            context: context.min(4) as u8,
+            places: places.min(3) as u8,
         }
     }
 }
@@ -272,6 +333,11 @@ impl Calibration {
         }
     }
 
+    /// Whether it starts from 0.5 in every class (a noisy cell's, [`Calibration::uninformed`]).
+    pub fn is_uninformed(&self) -> bool {
+        self.uninformed
+    }
+
     /// The estimated probability that the candidate chosen is right, from its first-stage
     /// estimate (the likeliest candidate's [`Calibration::p_useful`]).
     ///
@@ -362,8 +428,8 @@ impl Calibration {
 
     /// The first-stage estimate: the probability that a candidate with this evidence is right,
     /// whether chosen or not.
-    pub fn p_useful(&self, expert: Expert, evidence: &Evidence) -> f64 {
-        let f = Fine::of(expert, evidence);
+    pub fn p_useful(&self, evidence: &Evidence) -> f64 {
+        let f = Fine::of(evidence);
         let p0 = if self.uninformed {
             0.5
         } else {
@@ -384,16 +450,16 @@ impl Calibration {
 
     /// Counts one outcome: how likely a candidate with this evidence was right (0 or 1 when
     /// known).
-    pub fn record(&mut self, expert: Expert, evidence: &Evidence, useful: f64) {
-        let f = Fine::of(expert, evidence);
+    pub fn record(&mut self, evidence: &Evidence, useful: f64) {
+        let f = Fine::of(evidence);
         self.coarse.entry(f.coarse).or_default().add(useful);
         self.fine.entry(f).or_default().add(useful);
     }
 
     /// Takes back an outcome [`Calibration::record`] counted. A class left with no outcome is
     /// dropped, so the calibration is equal to one that never counted it (what a rebuild gives).
-    pub fn forget(&mut self, expert: Expert, evidence: &Evidence, useful: f64) {
-        let f = Fine::of(expert, evidence);
+    pub fn forget(&mut self, evidence: &Evidence, useful: f64) {
+        let f = Fine::of(evidence);
         if let Some(c) = self.coarse.get_mut(&f.coarse) {
             c.remove(useful);
             if c.n == 0.0 {
@@ -425,14 +491,15 @@ impl Calibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::experts::frames::Frame;
 
-    fn evidence(agree: bool) -> Evidence {
-        Evidence {
+    fn evidence(frame: Frame, agree: bool) -> Evidence {
+        Evidence::Sequence {
+            frame,
             context: 2,
             places: 2,
             agreeing: if agree { 2 } else { 1 },
             in_routine: false,
-            gated_in: false,
         }
     }
 
@@ -444,22 +511,20 @@ mod tests {
         let mut c = Calibration::new();
         for i in 0..400u32 {
             c.record(
-                Expert::Work,
-                &evidence(true),
+                &evidence(Frame::Work, true),
                 f64::from(u8::from(i % 20 != 0)),
             );
             c.record(
-                Expert::Work,
-                &evidence(false),
+                &evidence(Frame::Work, false),
                 f64::from(u8::from(i % 5 == 0)),
             );
         }
-        let good = c.p_useful(Expert::Work, &evidence(true));
-        let bad = c.p_useful(Expert::Work, &evidence(false));
+        let good = c.p_useful(&evidence(Frame::Work, true));
+        let bad = c.p_useful(&evidence(Frame::Work, false));
         assert!((good - 0.95).abs() < 0.02, "{good}");
         assert!((bad - 0.20).abs() < 0.02, "{bad}");
         // Another expert with the same coarse class borrows it before it has its own outcomes.
-        let tool = c.p_useful(Expert::Tool, &evidence(true));
+        let tool = c.p_useful(&evidence(Frame::Tool, true));
         assert!((tool - good).abs() < 0.05, "{tool} vs {good}");
     }
 
@@ -494,19 +559,22 @@ mod tests {
     #[test]
     fn forget_takes_back_exactly_what_record_counted() {
         let mut c = Calibration::new();
-        c.record(Expert::Absolute, &evidence(true), 1.0);
+        let model = Evidence::Model {
+            window: 2,
+            gated_in: false,
+        };
+        c.record(&evidence(Frame::Absolute, true), 1.0);
         let before = c.clone();
-        c.record(Expert::Model, &evidence(false), 0.0);
-        c.record(Expert::Absolute, &evidence(true), 0.7);
-        c.forget(Expert::Absolute, &evidence(true), 0.7);
-        c.forget(Expert::Model, &evidence(false), 0.0);
-        for e in Expert::ALL {
-            for a in [true, false] {
-                assert_eq!(
-                    c.p_useful(e, &evidence(a)),
-                    before.p_useful(e, &evidence(a))
-                );
-            }
+        c.record(&model, 0.0);
+        c.record(&evidence(Frame::Absolute, true), 0.7);
+        c.forget(&evidence(Frame::Absolute, true), 0.7);
+        c.forget(&model, 0.0);
+        let all = [Frame::Tool, Frame::Work, Frame::Absolute]
+            .into_iter()
+            .flat_map(|f| [evidence(f, true), evidence(f, false)])
+            .chain([model]);
+        for e in all {
+            assert_eq!(c.p_useful(&e), before.p_useful(&e));
         }
         assert_eq!(c.outcomes(), 1.0);
     }

@@ -2,25 +2,27 @@
 //! CDHMM, simpler readers of the same history propose the next waypoint, and each proposal is
 //! offered by the probability that it is right rather than by its proposer's own gates.
 //!
-//! In the order a taught waypoint meets them: [`frames`] reads a routine three ways (tool-frame
-//! moves, work-frame moves, absolute poses), and the sequence experts below (one per frame) keep
-//! the finished routines in their frame; [`noise`] widens the cell's tolerance by its teaching
-//! noise, so contexts of noisy waypoints still match; [`template`], in a noisy cell only, fits one
-//! rigid transform to the last few waypoints and an earlier stretch of the same shape. Each
-//! proposal, the CDHMM's included ([`Expert::Model`]), is a [`Candidate`] with its
-//! [`Evidence`]; [`calibration`] turns that evidence into `p_useful`, and learns from every
-//! waypoint taught whether each candidate would have been right; [`acceptance`] reads the
-//! operator's verdicts on what was offered (a rejection counts as wrong, adjustments tighten
-//! the tolerance). [`lattice`] proposes the next point of a row or a grid the routine walks.
+//! Every expert is an [`Expert`]: it learns from each finished routine, proposes candidates for
+//! the routine being taught (none, one or several, each a [`Candidate`] with its typed
+//! [`Evidence`]), and takes back what a taught waypoint changed of it. The [`super::Teacher`]
+//! holds them as one list ([`experts`]), asks each in turn, and hands every candidate, the
+//! CDHMM's own among them ([`Proposer::Model`]), to the one offer rule.
 //!
-//! This file holds what they share and the sequence experts themselves: a [`SequenceExpert`] keeps
-//! the elements of every finished routine (tool-frame moves, work-frame moves or absolute
-//! poses). Asked about the routine being taught, it finds the longest context (up to
-//! [`MAX_CONTEXT`] elements) that ends the routine and occurred before, element by element within
-//! the cell's tolerance, in an earlier routine or earlier in this one, and proposes what followed
-//! its most recent occurrence, with the evidence: how long the context is, at how many places it
-//! occurred, how many of those agree on what followed, and whether the most recent one is in the
-//! routine being taught.
+//! In the order a taught waypoint meets them: [`frames`] reads a routine three ways (tool-frame
+//! moves, work-frame moves, absolute poses), and the [`sequence`] experts (one per frame) keep
+//! the finished routines in their frame; [`noise`] widens the cell's tolerance by its teaching
+//! noise, so contexts of noisy waypoints still match; [`template`], in a noisy cell only, fits
+//! one rigid transform to the last few waypoints and an earlier stretch of the same shape;
+//! [`lattice`] proposes the next point of a row or a grid the routine walks, the station its
+//! items return to and the move that followed the same role. [`calibration`] turns each
+//! candidate's evidence into `p_useful`, and learns from every waypoint taught whether each
+//! candidate would have been right; [`acceptance`] reads the operator's verdicts on what was
+//! offered (a rejection counts as wrong, adjustments tighten the tolerance).
+//!
+//! **Adding an expert**: a file with a type that implements [`Expert`], a variant of
+//! [`Evidence`] for what its candidates rest on (and of [`Proposer`], its name in predictions),
+//! and one line in [`experts`]; the calibration classes the new evidence
+//! (`calibration::Coarse::of`).
 
 pub mod acceptance;
 pub mod alignment;
@@ -28,23 +30,90 @@ pub mod calibration;
 pub mod frames;
 pub mod lattice;
 pub mod noise;
+pub mod sequence;
 pub mod template;
 
-use std::collections::HashMap;
-
-use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::engine::pose::{Observation, Pose};
+use crate::engine::pose::Pose;
 use frames::{Frame, Tolerance};
+use noise::Noise;
 
-/// Longest context a sequence expert matches.
-pub const MAX_CONTEXT: usize = 4;
+/// One expert: a reader of the cell's routines that proposes the next waypoint.
+///
+/// The [`super::Teacher`] calls [`Expert::learn`] with every finished routine,
+/// [`Expert::taught`] after every waypoint taught and [`Expert::undo`] when that waypoint is
+/// taken back (an expert that changes nothing while a routine is taught keeps the defaults),
+/// and [`Expert::propose`] whenever the routine being taught changed, or a completion or a
+/// prediction with other settings extends it hypothetically (so a proposal reads the routine
+/// it is given, never one of its own).
+pub trait Expert: ExpertClone + std::fmt::Debug + Send + Sync {
+    /// Remembers a finished routine (any length, empty included: the experts' histories stay
+    /// aligned with the cell's routines).
+    fn learn(&mut self, routine: &[Pose]);
 
-/// Who proposed a candidate.
+    /// The candidates for the waypoint after `routine` (not empty) in a cell as `cell` says,
+    /// in the order the offer rule is to meet them (the first of equals wins).
+    fn propose(&self, routine: &[Pose], cell: &Cell) -> Vec<Candidate>;
+
+    /// A waypoint was taught: `routine` is the routine being taught, ending with it.
+    fn taught(&mut self, _routine: &[Pose]) {}
+
+    /// Takes back what [`Expert::taught`] changed for the newest waypoint.
+    fn undo(&mut self) {}
+}
+
+/// Lets a list of boxed experts be cloned with the [`super::Teacher`] that holds it.
+pub trait ExpertClone {
+    fn clone_box(&self) -> Box<dyn Expert>;
+}
+
+impl<T: Expert + Clone + 'static> ExpertClone for T {
+    fn clone_box(&self) -> Box<dyn Expert> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn Expert> {
+    fn clone(&self) -> Box<dyn Expert> {
+        self.clone_box()
+    }
+}
+
+/// The experts of a cell, in the order they are asked: the sequence experts (tool, work,
+/// absolute), the template expert, the lattice expert.
+pub fn experts() -> Vec<Box<dyn Expert>> {
+    vec![
+        Box::new(sequence::SequenceExpert::new(Frame::Tool)),
+        Box::new(sequence::SequenceExpert::new(Frame::Work)),
+        Box::new(sequence::SequenceExpert::new(Frame::Absolute)),
+        Box::new(template::TemplateExpert::new()),
+        Box::new(lattice::LatticeExpert::new()),
+    ]
+}
+
+/// What an expert is told of the cell when asked for candidates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cell {
+    /// The cell's teaching noise: set, or learned so far.
+    pub noise: Noise,
+    /// What counts as right.
+    pub tolerance: Tolerance,
+    /// The noise matters: it widens the tolerance (a cell taught by hand).
+    pub noisy: bool,
+}
+
+impl Cell {
+    /// The cell's tolerance for elements of `frame`, widened by its noise ([`Noise::widen`]).
+    pub fn widened(&self, frame: Frame) -> Tolerance {
+        self.noise.widen(self.tolerance, frame)
+    }
+}
+
+/// Who proposed a candidate: the name a prediction reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Expert {
+pub enum Proposer {
     /// The CDHMM over tool-frame moves (the seed's engine).
     Model,
     /// An earlier tool-frame move after the same context.
@@ -60,375 +129,120 @@ pub enum Expert {
     Lattice,
 }
 
-impl Expert {
-    pub const ALL: [Expert; 6] = [
-        Expert::Model,
-        Expert::Tool,
-        Expert::Work,
-        Expert::Absolute,
-        Expert::Template,
-        Expert::Lattice,
+impl Proposer {
+    pub const ALL: [Proposer; 6] = [
+        Proposer::Model,
+        Proposer::Tool,
+        Proposer::Work,
+        Proposer::Absolute,
+        Proposer::Template,
+        Proposer::Lattice,
     ];
 
     pub fn name(self) -> &'static str {
         match self {
-            Expert::Model => "model",
-            Expert::Tool => "tool",
-            Expert::Work => "work",
-            Expert::Absolute => "absolute",
-            Expert::Template => "template",
-            Expert::Lattice => "lattice",
+            Proposer::Model => "model",
+            Proposer::Tool => "tool",
+            Proposer::Work => "work",
+            Proposer::Absolute => "absolute",
+            Proposer::Template => "template",
+            Proposer::Lattice => "lattice",
         }
     }
 
-    fn of(frame: Frame) -> Expert {
+    /// The sequence expert of a frame.
+    pub fn of(frame: Frame) -> Proposer {
         match frame {
-            Frame::Tool => Expert::Tool,
-            Frame::Work => Expert::Work,
-            Frame::Absolute => Expert::Absolute,
+            Frame::Tool => Proposer::Tool,
+            Frame::Work => Proposer::Work,
+            Frame::Absolute => Proposer::Absolute,
         }
     }
 }
 
-/// What a candidate rests on.
+/// What a candidate rests on, per kind of expert.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Evidence {
-    /// Elements of context matched (the model: moves in its window).
-    pub context: usize,
-    /// Places the context occurred at.
-    pub places: usize,
-    /// Of those, the places whose follower agrees with the proposal.
-    pub agreeing: usize,
-    /// The most recent place is in the routine being taught.
-    pub in_routine: bool,
-    /// The model only: its own gates would offer it.
-    pub gated_in: bool,
+pub enum Evidence {
+    /// The CDHMM's own prediction.
+    Model {
+        /// Moves in the window it conditioned on.
+        window: usize,
+        /// Its own gates would offer it.
+        gated_in: bool,
+    },
+    /// A sequence expert's: a context of the routine's newest elements that occurred before.
+    Sequence {
+        /// The frame the context was matched in (which sequence expert).
+        frame: Frame,
+        /// Elements of context matched.
+        context: usize,
+        /// Places the context occurred at.
+        places: usize,
+        /// Of those, the places whose follower agrees with the proposal.
+        agreeing: usize,
+        /// The most recent place is in the routine being taught.
+        in_routine: bool,
+    },
+    /// The template expert's: earlier stretches aligned with the routine's newest waypoints.
+    Template {
+        /// Steps aligned (the waypoints aligned less one).
+        steps: usize,
+        /// Earlier stretches aligned on that many waypoints.
+        places: usize,
+        /// Of those, the ones whose guess agrees with the best-fitting one's.
+        agreeing: usize,
+    },
+    /// The lattice expert's.
+    Lattice(LatticeEvidence),
 }
 
-/// Which translation a sequence expert's candidate takes from the followers of its context.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Followers {
-    /// The newest follower's (an exact program's moves that agree within the tolerance may
-    /// still differ on purpose, and the newest is the one meant now).
-    Newest,
-    /// The mean of every follower, of any context length, that agrees with the newest: in a
-    /// cell whose noise matters, a move taught by hand again and again averages out.
-    Mean,
+/// What a lattice expert's candidate rests on ([`lattice`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LatticeEvidence {
+    /// The next point of a walk.
+    Walk {
+        /// Points of the walk (up to 8).
+        points: usize,
+        /// The walk has rows (a grid, or a layer laid like one before); else one row goes on.
+        grid: bool,
+        /// False for a guess of its own class: a new row only the layer's own rows foretell,
+        /// or the second row's way guessed from its first point.
+        settled: bool,
+    },
+    /// The station a role of the routine's items keeps returning to.
+    Station {
+        /// Its newest visits (up to 8).
+        visits: usize,
+    },
+    /// The move that followed the same role in the items before.
+    Follower {
+        /// Items that moved alike (up to 8).
+        items: usize,
+    },
+}
+
+impl Evidence {
+    /// The expert that proposes on such evidence.
+    pub fn proposer(&self) -> Proposer {
+        match self {
+            Evidence::Model { .. } => Proposer::Model,
+            Evidence::Sequence { frame, .. } => Proposer::of(*frame),
+            Evidence::Template { .. } => Proposer::Template,
+            Evidence::Lattice(_) => Proposer::Lattice,
+        }
+    }
 }
 
 /// A proposal for the next waypoint.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
-    pub expert: Expert,
     pub pose: Pose,
     pub evidence: Evidence,
 }
 
-/// One frame's memory of the cell's finished routines, with a grid over the elements'
-/// translation parts so a context's places are found without scanning the history.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SequenceExpert {
-    frame: Frame,
-    history: Vec<Vec<Observation>>,
-    /// Grid cell (of side `cell_mm`) → (routine, index) of the elements in it.
-    grid: HashMap<[i64; 3], Vec<(u32, u32)>>,
-    cell_mm: f64,
-}
-
-/// Side of the grid's cells when the tolerance gives none (mm).
-const DEFAULT_CELL_MM: f64 = 1.0;
-
-fn cell_of(e: &Observation, side: f64) -> [i64; 3] {
-    // Saturating float-to-int casts: a far-away element lands in an edge cell, still correct.
-    [0, 1, 2].map(|i| (e[i] / side).floor() as i64)
-}
-
-impl SequenceExpert {
-    pub fn new(frame: Frame) -> SequenceExpert {
-        SequenceExpert {
-            frame,
-            history: Vec::new(),
-            grid: HashMap::new(),
-            cell_mm: DEFAULT_CELL_MM,
-        }
-    }
-
-    /// The three sequence experts, one per frame.
-    pub fn all() -> [SequenceExpert; 3] {
-        [Frame::Tool, Frame::Work, Frame::Absolute].map(SequenceExpert::new)
-    }
-
-    pub fn expert(&self) -> Expert {
-        Expert::of(self.frame)
-    }
-
-    /// The frame it reads routines in.
-    pub fn frame(&self) -> Frame {
-        self.frame
-    }
-
-    /// Remembers a finished routine.
-    pub fn learn(&mut self, routine: &[Pose]) {
-        let elements = self.frame.elements(routine);
-        if elements.is_empty() {
-            return;
-        }
-        let r = u32::try_from(self.history.len()).unwrap_or(u32::MAX);
-        for (i, e) in elements.iter().enumerate() {
-            let i = u32::try_from(i).unwrap_or(u32::MAX);
-            self.grid
-                .entry(cell_of(e, self.cell_mm))
-                .or_default()
-                .push((r, i));
-        }
-        self.history.push(elements);
-    }
-
-    /// The candidate for the waypoint after `routine` on its longest context (see the module
-    /// doc), or `None` when no context of it occurred before.
-    pub fn propose(&self, routine: &[Pose], tolerance: &Tolerance) -> Option<Candidate> {
-        self.proposals(routine, tolerance, Followers::Newest)
-            .into_iter()
-            .next()
-    }
-
-    /// One candidate per context length that occurred before, longest first: for each length,
-    /// what followed the most recent place it occurred at, with that length's evidence; its
-    /// translation as `followers` says.
-    pub fn proposals(
-        &self,
-        routine: &[Pose],
-        tolerance: &Tolerance,
-        followers: Followers,
-    ) -> Vec<Candidate> {
-        let Some(last) = routine.last() else {
-            return Vec::new();
-        };
-        let current = self.frame.elements(routine);
-        if current.is_empty() {
-            return Vec::new();
-        }
-        let reach = MAX_CONTEXT.min(current.len());
-        let matched = |seq: &[Observation], next: usize| {
-            let mut k = 0;
-            while k < reach.min(next)
-                && tolerance.holds(&current[current.len() - 1 - k], &seq[next - 1 - k])
-            {
-                k += 1;
-            }
-            k
-        };
-        // Earlier routines: the elements near the last one (the grid's cells around it; a
-        // tolerance wider than a cell falls back to every element), oldest first.
-        let last_element = &current[current.len() - 1];
-        let mut near: Vec<(u32, u32)> = if tolerance.mm <= self.cell_mm {
-            let c = cell_of(last_element, self.cell_mm);
-            let mut v = Vec::new();
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        // Saturating: an element in an edge cell (a saturated cast) has no
-                        // neighbour beyond it.
-                        let key = [
-                            c[0].saturating_add(dx),
-                            c[1].saturating_add(dy),
-                            c[2].saturating_add(dz),
-                        ];
-                        v.extend(self.grid.get(&key).into_iter().flatten().copied());
-                    }
-                }
-            }
-            v
-        } else {
-            self.grid.values().flatten().copied().collect()
-        };
-        near.sort_unstable();
-        // (matched context length, in the routine, follower), oldest first.
-        let mut places: Vec<(usize, bool, Observation)> = Vec::new();
-        for (r, i) in near {
-            let seq = &self.history[r as usize];
-            let next = i as usize + 1;
-            if next < seq.len() {
-                let k = matched(seq, next);
-                if k > 0 {
-                    places.push((k, false, seq[next]));
-                }
-            }
-        }
-        for next in 1..current.len() {
-            let k = matched(&current, next);
-            if k > 0 {
-                places.push((k, true, current[next]));
-            }
-        }
-        let longest = places.iter().map(|p| p.0).max().unwrap_or(0);
-        let mut out = Vec::new();
-        for context in (1..=longest).rev() {
-            let here: Vec<&(usize, bool, Observation)> =
-                places.iter().filter(|p| p.0 >= context).collect();
-            let Some(&&(_, in_routine, latest)) = here.last() else {
-                continue;
-            };
-            let agreeing = here
-                .iter()
-                .filter(|(_, _, f)| tolerance.holds(f, &latest))
-                .count();
-            let mut guess = latest;
-            if followers == Followers::Mean {
-                let agree: Vec<Vector3<f64>> = places
-                    .iter()
-                    .filter(|(_, _, f)| tolerance.holds(f, &latest))
-                    .map(|(_, _, f)| f.fixed_rows::<3>(0).into_owned())
-                    .collect();
-                let mean = agree.iter().sum::<Vector3<f64>>() / agree.len().max(1) as f64;
-                guess.fixed_rows_mut::<3>(0).copy_from(&mean);
-            }
-            if let Some(pose) = self.frame.apply(last, &guess) {
-                out.push(Candidate {
-                    expert: self.expert(),
-                    pose,
-                    evidence: Evidence {
-                        context,
-                        places: here.len(),
-                        agreeing,
-                        in_routine,
-                        gated_in: false,
-                    },
-                });
-            }
-        }
-        out
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use nalgebra::UnitQuaternion;
-
-    fn pose(p: [f64; 3], yaw: f64) -> Pose {
-        let q = UnitQuaternion::from_euler_angles(0.0, 0.0, yaw);
-        Pose::new(p, [q.w, q.i, q.j, q.k]).unwrap()
-    }
-
-    fn near(a: &Pose, b: &Pose) -> bool {
-        a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
-    }
-
-    /// Every routine works somewhere else, then retracts to one point and returns home: the
-    /// absolute expert proposes home after the retract point, the tool-frame expert has no
-    /// context for it (the move into the retract point is new every time).
-    #[test]
-    fn the_absolute_expert_returns_home() {
-        let home = pose([0.0, 0.0, 800.0], 0.0);
-        let above = pose([500.0, 0.0, 400.0], 0.5);
-        let retract = pose([700.0, 50.0, 600.0], 0.1);
-        let routine = |x: f64| {
-            vec![
-                home,
-                above,
-                pose([500.0 + x, 100.0, 300.0], 0.2),
-                retract,
-                home,
-            ]
-        };
-        let mut abs = SequenceExpert::new(Frame::Absolute);
-        let mut tool = SequenceExpert::new(Frame::Tool);
-        for e in [&mut abs, &mut tool] {
-            e.learn(&routine(0.0));
-        }
-        let taught = &routine(70.0)[..4];
-        let c = abs.propose(taught, &Tolerance::SEED).expect("a candidate");
-        assert!(near(&c.pose, &home), "{:?}", c.pose);
-        assert_eq!(c.expert, Expert::Absolute);
-        assert_eq!(
-            c.evidence.context, 1,
-            "the pose before the retract point differs"
-        );
-        let t = tool.propose(taught, &Tolerance::SEED);
-        assert!(t.is_none_or(|t| !near(&t.pose, &home)));
-    }
-
-    /// A seam approached from 100 mm above, under a torch that turns from seam to seam: the
-    /// work-frame expert continues it, the tool-frame one cannot.
-    #[test]
-    fn the_work_frame_expert_repeats_offsets_under_a_turning_tool() {
-        let seam = |x: f64, yaw: f64| {
-            vec![
-                pose([x, 0.0, 500.0], yaw),
-                pose([x, 0.0, 400.0], yaw),
-                pose([x + 50.0, 0.0, 400.0], yaw),
-                pose([x + 50.0, 0.0, 500.0], yaw),
-            ]
-        };
-        let mut work = SequenceExpert::new(Frame::Work);
-        let mut tool = SequenceExpert::new(Frame::Tool);
-        for e in [&mut work, &mut tool] {
-            e.learn(&seam(0.0, 0.0));
-        }
-        let next = seam(300.0, 1.2);
-        let c = work
-            .propose(&next[..2], &Tolerance::SEED)
-            .expect("a candidate");
-        assert!(near(&c.pose, &next[2]), "{:?}", c.pose);
-        assert_eq!((c.evidence.places, c.evidence.agreeing), (1, 1));
-        assert!(!c.evidence.in_routine);
-        let t = tool.propose(&next[..2], &Tolerance::SEED);
-        assert!(t.is_none_or(|t| !near(&t.pose, &next[2])));
-    }
-
-    /// A grid row: the same step again and again inside one routine is found in the routine
-    /// itself, and every earlier place agrees.
-    #[test]
-    fn a_grid_is_continued_from_the_routine_itself() {
-        let row: Vec<Pose> = (0..6)
-            .map(|i| pose([40.0 * i as f64, 0.0, 0.0], 0.0))
-            .collect();
-        let e = SequenceExpert::new(Frame::Work);
-        let c = e.propose(&row[..5], &Tolerance::SEED).expect("a candidate");
-        assert!(near(&c.pose, &row[5]));
-        assert!(c.evidence.in_routine);
-        assert_eq!(c.evidence.context, 3, "the longest context with a follower");
-        assert_eq!(c.evidence.places, c.evidence.agreeing);
-        // Nothing taught before and one move: no context occurred before.
-        assert!(e.propose(&row[..2], &Tolerance::SEED).is_none());
-    }
-
-    /// A row taught by hand, its steps 40 mm with a few millimetres' error each: the work-frame
-    /// expert proposes the last point plus the newest step again, or, asked for the mean
-    /// (a cell whose noise matters), plus the mean of the steps that agree.
-    #[test]
-    fn agreeing_noisy_moves_are_averaged() {
-        let steps = [
-            [41.5, -2.0, 1.0],
-            [38.0, 1.5, -0.5],
-            [40.5, 0.5, 2.0],
-            [39.0, -1.0, -1.5],
-        ];
-        let mut at = Vector3::zeros();
-        let mut row = vec![pose([0.0; 3], 0.0)];
-        for s in steps {
-            at += Vector3::from(s);
-            row.push(pose([at.x, at.y, at.z], 0.0));
-        }
-        let tol = Tolerance { mm: 6.0, rad: 0.1 };
-        let expert = SequenceExpert::new(Frame::Work);
-        let newest = expert.propose(&row, &tol).expect("a candidate");
-        assert!((newest.pose.position() - (at + Vector3::from(steps[3]))).norm() < 1e-9);
-        let c = expert
-            .proposals(&row, &tol, Followers::Mean)
-            .into_iter()
-            .next()
-            .expect("a candidate");
-        assert_eq!(c.evidence.context, 3, "the longest context with a follower");
-        // The followers of the matched contexts (of any length) are steps 2, 3 and 4; their
-        // mean, after the last point.
-        let mean = steps[1..]
-            .iter()
-            .map(|s| Vector3::from(*s))
-            .sum::<Vector3<f64>>()
-            / 3.0;
-        let want = at + mean;
-        assert!((c.pose.position() - want).norm() < 1e-9, "{:?}", c.pose);
+impl Candidate {
+    /// Who proposed it.
+    pub fn proposer(&self) -> Proposer {
+        self.evidence.proposer()
     }
 }

@@ -27,7 +27,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use super::alignment::rigid_fit;
 use super::frames::{Frame, Tolerance};
 use super::noise::Noise;
-use super::{Candidate, Evidence, Expert};
+use super::{Candidate, Cell, Evidence, Expert};
 use crate::engine::pose::Pose;
 
 /// Most waypoints aligned at once.
@@ -156,16 +156,31 @@ impl TemplateExpert {
         let guess = crate::engine::pose::mean(agree.iter().map(|p| &p.guess), &best.guess)
             .unwrap_or(best.guess);
         Some(Candidate {
-            expert: Expert::Template,
             pose: guess,
-            evidence: Evidence {
-                context: poses - 1,
+            evidence: Evidence::Template {
+                steps: poses - 1,
                 places: places.len(),
                 agreeing: agree.len(),
-                in_routine: false,
-                gated_in: false,
             },
         })
+    }
+}
+
+impl Expert for TemplateExpert {
+    fn learn(&mut self, routine: &[Pose]) {
+        TemplateExpert::learn(self, routine);
+    }
+
+    /// Its candidate in a cell whose noise matters only: on exact waypoints it finds what a
+    /// long tool-frame context finds. It learns every routine all the same, so it is ready
+    /// when the cell's noise begins to matter.
+    fn propose(&self, routine: &[Pose], cell: &Cell) -> Vec<Candidate> {
+        if !cell.noisy {
+            return Vec::new();
+        }
+        TemplateExpert::propose(self, routine, &cell.noise, &cell.tolerance)
+            .into_iter()
+            .collect()
     }
 }
 
@@ -243,8 +258,16 @@ mod tests {
                 .expect("a candidate");
             assert!(c.pose.distance_to(&placed[m]) < 1e-6, "at {m}");
             assert!(c.pose.angle_to(&placed[m]) < 1e-6, "at {m}");
-            assert_eq!(c.evidence.context, m.min(MAX_POSES) - 1);
-            assert_eq!((c.evidence.places, c.evidence.agreeing), (1, 1));
+            let Evidence::Template {
+                steps,
+                places,
+                agreeing,
+            } = c.evidence
+            else {
+                panic!("{:?}", c.evidence);
+            };
+            assert_eq!(steps, m.min(MAX_POSES) - 1);
+            assert_eq!((places, agreeing), (1, 1));
         }
         // Another shape does not match.
         let other: Vec<Pose> = task(0.0, 0.0, 0.0)

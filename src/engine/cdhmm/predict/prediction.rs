@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use crate::engine::experts::Expert;
+use crate::engine::experts::Proposer;
 use crate::engine::pose::{Move, Observation, Pose};
 
 /// Why a prediction was not offered.
@@ -87,7 +87,7 @@ pub struct Prediction {
     /// proposal is within the cell's tolerance of the next waypoint ([`crate::engine::experts::calibration`]).
     pub p_useful: Option<f64>,
     /// With the experts' offer rule: who proposed it.
-    pub expert: Option<Expert>,
+    pub expert: Option<Proposer>,
 }
 
 impl Prediction {

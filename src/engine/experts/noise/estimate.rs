@@ -299,8 +299,8 @@ impl NoiseEstimator {
     /// Whether `pose`, taught by hand after `before` in the routine being taught, is an exact
     /// revisit (module doc) of a finished routine's waypoint or of one of `before`.
     pub fn is_revisit(&self, pose: &Pose, before: &[Pose]) -> bool {
-        let key = place(pose);
-        self.places.contains(&key) || before.iter().any(|w| place(w) == key)
+        let key = revisit_cell(pose);
+        self.places.contains(&key) || before.iter().any(|w| revisit_cell(w) == key)
     }
 
     /// The noise the finished routines and the routine being taught show so far: with its
@@ -320,7 +320,7 @@ impl NoiseEstimator {
             all.extend_from_slice(&self.pairs);
             all.extend_from_slice(open.pairs);
             let over = all.len().saturating_sub(MAX_SAMPLES);
-            fit(&all[over..], self.mixture).0
+            fit_mixture(&all[over..], self.mixture).0
         };
         fitted.or_else(|| {
             let gaps = (
@@ -352,7 +352,7 @@ impl NoiseEstimator {
             }
         }
         for (i, w) in routine.iter().enumerate() {
-            let fresh = self.places.insert(place(w));
+            let fresh = self.places.insert(revisit_cell(w));
             if !fresh && !suggested.get(i).copied().unwrap_or(false) {
                 self.exact_revisits += 1;
             }
@@ -401,7 +401,7 @@ impl NoiseEstimator {
         self.by_length.sort_by(|a, b| a.0.total_cmp(&b.0));
         self.routines.push(routine.to_vec());
         if self.pairs.len() != before || over > 0 {
-            let (estimate, mixture) = fit(&self.pairs, self.mixture);
+            let (estimate, mixture) = fit_mixture(&self.pairs, self.mixture);
             self.estimate = estimate;
             self.mixture = mixture.or(self.mixture);
         }
@@ -440,12 +440,12 @@ impl NoiseEstimator {
         own: &[(f64, u32, u32)],
     ) -> Vec<(u32, usize)> {
         let last = stretch[STRETCH - 1].distance_to(&stretch[STRETCH - 2]);
-        let earlier = near(&self.by_length, last)
+        let earlier = moves_as_long_as(&self.by_length, last)
             .take(MAX_EXAMINED)
             .filter(|&(r, e)| {
                 steps_match(&self.routines[r as usize][e + 1 - STRETCH..=e], stretch)
             });
-        let within = near(own, last)
+        let within = moves_as_long_as(own, last)
             .filter(|&(_, e)| e + STRETCH <= j)
             .take(MAX_EXAMINED)
             .filter(|&(_, e)| steps_match(&routine[e + 1 - STRETCH..=e], stretch));
@@ -455,14 +455,17 @@ impl NoiseEstimator {
 
 /// A waypoint's place on the grid of [`EXACT_REVISIT_MM`]. Positions beyond i64's range are not
 /// a robot's; they saturate and count as one.
-fn place(w: &Pose) -> [i64; 3] {
+fn revisit_cell(w: &Pose) -> [i64; 3] {
     let p = w.position() / EXACT_REVISIT_MM;
     [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64]
 }
 
 /// The entries of `index` (sorted by length) whose move is within [`STEP_GATE_MM`] of `last`:
 /// (routine, end).
-fn near(index: &[(f64, u32, u32)], last: f64) -> impl Iterator<Item = (u32, usize)> + '_ {
+fn moves_as_long_as(
+    index: &[(f64, u32, u32)],
+    last: f64,
+) -> impl Iterator<Item = (u32, usize)> + '_ {
     let lo = index.partition_point(|e| e.0 < last - STEP_GATE_MM);
     index[lo..]
         .iter()
@@ -494,7 +497,7 @@ fn steps_match(a: &[Pose], b: &[Pose]) -> bool {
     lengths
         && a.windows(3)
             .zip(b.windows(3))
-            .all(|(x, y)| match (turn(x), turn(y)) {
+            .all(|(x, y)| match (turn_angle(x), turn_angle(y)) {
                 (Some(tx), Some(ty)) => (tx - ty).abs() <= TURN_GATE_RAD,
                 _ => true,
             })
@@ -502,7 +505,7 @@ fn steps_match(a: &[Pose], b: &[Pose]) -> bool {
 
 /// The angle between the steps into and out of the middle of three poses; `None` when a step
 /// is too short to have a direction under the noise.
-fn turn(p: &[Pose]) -> Option<f64> {
+fn turn_angle(p: &[Pose]) -> Option<f64> {
     let (a, b) = (
         p[1].position() - p[0].position(),
         p[2].position() - p[1].position(),
@@ -538,8 +541,6 @@ fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
     })
 }
 
-/// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
-/// mixture fitted (σ², share of repeats), starting from `start` when given.
 /// The noise `returns` returns show by their summed squared gaps `(mm², rad²)`: two placements
 /// of one meant pose differ by `σ·√2` per axis, so the mean squared gap is `6σ²`. Used while no
 /// repeats were fitted (module doc, "Returns"); `None` before [`MIN_RETURNS`].
@@ -553,7 +554,9 @@ fn from_returns(returns: usize, (mm2, rad2): (f64, f64)) -> Option<Noise> {
     })
 }
 
-fn fit(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64, f64)>) {
+/// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
+/// mixture fitted (σ², share of repeats), starting from `start` when given.
+fn fit_mixture(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64, f64)>) {
     if (pairs.len() as f64) < MIN_REPEATS {
         return (None, None);
     }

@@ -1,6 +1,4 @@
-//! Lattice walks: points visited one after another on a row or a grid (the slots of a pallet's
-//! layer, a tray, a grid of screws), found from the points themselves, and the next point of
-//! the walk (issue 30, item 1).
+//! The lattice walk fitted to taught points.
 //!
 //! **The model.** A layer's points are `o + i·a + j·b` for integer `i` along the row and `j`
 //! across it; the walk visits `i = 0 … n − 1` along a row, then steps to the next row, which it
@@ -45,52 +43,8 @@
 //! first point alone gives the order by how far back along the row it lies: settled when the
 //! row pitch that gives is square to the rows and the other order's is not ([`SQUARE_COS`],
 //! [`SKEWED_COS`]: the three corners a pallet wizard asks for), else a guess.
-//!
-//! **The expert** ([`propose`]). A palletising routine repeats its moves item by item, and only
-//! some of them move with the item: the waypoints of one *role* (the slot's approach, the place,
-//! the retract) walk the lattice, the others (the pick station) stay. So for each period `P`
-//! from [`MIN_PERIOD`] to [`MAX_PERIOD`] the waypoints `P`, `2P`, … before the next one are
-//! read (the newest [`MAX_WALK_POINTS`]): a role whose newest [`MIN_POINTS`] or more are one
-//! place is a *station*, proposed again (at its visits' mean); else the role's last layer,
-//! when it ends at the newest point, proposes its next point, turned as the waypoint one
-//! period back. The shortest period that gives either wins, except that a station of fewer
-//! than [`STRONG_STATION`] visits (a machine's back-and-forth inside one item gives three)
-//! lets the longer periods propose too: a tending item's tray slots walk beside it. The layer
-//! before is the role's own, or (a routine per layer) a layer of the previous routine's roles
-//! of the same period. Where the pattern ends: once a layer is complete, nothing of that period
-//! or a longer one is proposed, and a station is not proposed once another role of its items
-//! has completed its layer (the routine goes on elsewhere); nothing either after a new layer's
-//! first point (where its rows go is not known yet), nor for any role of an item one of whose
-//! roles has just left its layer for a new one (the place under a new layer's first approach
-//! is not the old layer's next place). The first layer's end cannot be known: its new rows are
-//! proposed from six points on (two rows of two zigzag in any star), and the cell's outcomes
-//! (below) learn how often they hold.
-//!
-//! **Followers** ([`follow`]). The move into a new slot is new each time, so no context of
-//! moves foretells what follows it; but the items before moved alike from the same role (the
-//! place 150 mm under the approach, in the tool frame). For the shortest period whose newest
-//! [`MIN_FOLLOWS`] or more items did, that move is proposed from the newest waypoint. Slots
-//! need not be on a lattice.
-//!
-//! Its evidence: the walk's length, the station's visits or the items that moved alike (as a
-//! context: long from four); a station ([`STATION`] places), a follower ([`FOLLOWER`]), a grid
-//! or a layer laid like one before (two places), one row (one place); a new row only the
-//! layer's own rows foretell, or the guessed order, does not agree. The calibration starts each class from its counts on the pattern tuning set
-//! (`calibration::LATTICE_PRIOR`) and learns the cell's own outcomes.
-//!
-//! Pure: no I/O; the expert reads the routine being taught and the previous one.
 
-use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
-
-use super::{Candidate, Evidence, Expert};
-use crate::engine::pose::{Move, Pose};
-
-/// The shortest period of a routine's items the expert reads (every other waypoint).
-pub const MIN_PERIOD: usize = 2;
-/// The longest (a machine-tending part is 11 waypoints).
-pub const MAX_PERIOD: usize = 12;
-/// The newest points of a role read as a walk (a layer of up to 32 slots; bounds the cost).
-pub const MAX_WALK_POINTS: usize = 48;
+use nalgebra::{Matrix3, Vector3};
 
 /// The tolerances a walk is matched with: `point`, between a taught point and where the walk
 /// puts it (two placements' error when taught by hand: the pose frame's widened tolerance);
@@ -110,278 +64,6 @@ impl From<f64> for WalkTolerance {
             step: tol,
         }
     }
-}
-
-/// The lattice expert's candidates for the waypoint after `routine` (module doc, "The expert"),
-/// with steps matched within `tolerance`: the shortest period's, and while that is a station of
-/// fewer than [`STRONG_STATION`] visits (what a back-and-forth inside one item gives too), the
-/// next period's as well.
-pub fn propose(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Vec<Candidate> {
-    let mut out = Vec::new();
-    let mut from = MIN_PERIOD;
-    while let Some((c, period)) = propose_from(routine, previous, tol, from) {
-        out.push(c);
-        if c.evidence.places != STATION || c.evidence.context >= STRONG_STATION {
-            break;
-        }
-        from = period + 1;
-    }
-    out
-}
-
-/// Visits from which a station is read as one without looking at longer periods.
-pub const STRONG_STATION: usize = 4;
-
-/// The candidate of the shortest period from `from` on that gives one, and that period.
-fn propose_from(
-    routine: &[Pose],
-    previous: &[Pose],
-    tol: WalkTolerance,
-    from: usize,
-) -> Option<(Candidate, usize)> {
-    let n = routine.len();
-    for period in from..=MAX_PERIOD.min(n) {
-        let role = role_points(routine, period, period);
-        let last = &routine[n - period];
-        let candidate = |position: Vector3<f64>, evidence: Evidence| Candidate {
-            expert: Expert::Lattice,
-            pose: Pose::from_isometry(Isometry3::from_parts(
-                Translation3::from(position),
-                last.rotation(),
-            )),
-            evidence,
-        };
-        if let Some(visits) = station(&role, tol.point) {
-            // The role stays: the station it keeps returning to — unless a role of the same
-            // items has just completed its layer (the pattern is done; the routine goes on
-            // elsewhere).
-            if (1..period).any(|back| {
-                Layer::of(&role_points(routine, period, back), tol, previous, period)
-                    .is_some_and(|l| l.complete())
-            }) {
-                return None;
-            }
-            // Its visits' mean: a hand-taught station's scatter averages out.
-            let mean = role[role.len() - visits..].iter().sum::<Vector3<f64>>() / visits as f64;
-            return Some((
-                candidate(
-                    mean,
-                    Evidence {
-                        context: visits.min(8),
-                        places: STATION,
-                        agreeing: STATION,
-                        in_routine: true,
-                        gated_in: false,
-                    },
-                ),
-                period,
-            ));
-        }
-        let Some(layer) = Layer::of(&role, tol, previous, period) else {
-            if Layer::starting(&role, tol) {
-                // A layer has just ended and the next has one point: where its rows go is not
-                // known yet, and no longer period knows better (its walk would skip items).
-                return None;
-            }
-            continue;
-        };
-        if layer.complete() {
-            // Nothing of this period is proposed, and no longer period either (its walk would
-            // skip items).
-            return None;
-        }
-        if (1..period).any(|back| {
-            let other = role_points(routine, period, back);
-            Layer::of(&other, tol, previous, period).is_none() && Layer::starting(&other, tol)
-        }) {
-            // A role of the same items has just left its layer for a new one: this item is off
-            // this role's walk too (the place under a new layer's first approach).
-            return None;
-        }
-        let walk = &layer.walk;
-        if walk.starts_row() && layer.before.is_none() && walk.indices.len() < MIN_LAYER_POINTS {
-            // A new row after two rows of two: four points zigzag in any star or weave, not
-            // only on a grid.
-            return None;
-        }
-        let places = if walk.rows.is_some() { 2 } else { 1 };
-        // A new row that only this layer's own rows foretell, and the second row's way guessed
-        // from its first point, are guesses of their own class: the pattern may have ended
-        // there, or gone the other way.
-        let agreeing = if (walk.starts_row() || walk.guessed) && layer.before.is_none() {
-            places - 1
-        } else {
-            places
-        };
-        return Some((
-            candidate(
-                walk.next(),
-                Evidence {
-                    context: walk.indices.len().min(8),
-                    places,
-                    agreeing,
-                    in_routine: true,
-                    gated_in: false,
-                },
-            ),
-            period,
-        ));
-    }
-    None
-}
-
-/// The move that followed the previous waypoint's role in the routine's items (module doc,
-/// "Followers"): for the shortest period whose newest [`MIN_FOLLOWS`] items or more moved alike
-/// from that role (within `mm` and `rad`, in its tool frame), the newest such move from the
-/// newest waypoint. The evidence's context is how many items moved alike (up to 8).
-pub fn follow(routine: &[Pose], mm: f64, rad: f64) -> Option<Candidate> {
-    let n = routine.len();
-    let last = routine.last()?;
-    for period in MIN_PERIOD..=MAX_PERIOD {
-        let moves: Vec<Move> = (1..)
-            .map_while(|k| {
-                let to = n.checked_sub(k * period)?;
-                let from = to.checked_sub(1)?;
-                Some(Move::between(&routine[from], &routine[to]))
-            })
-            .take(8)
-            .collect();
-        let Some(newest) = moves.first() else {
-            break;
-        };
-        let alike = moves
-            .iter()
-            .take_while(|m| {
-                let d = m.isometry().inverse() * newest.isometry();
-                d.translation.vector.norm() <= mm && d.rotation.angle() <= rad
-            })
-            .count();
-        if alike >= MIN_FOLLOWS {
-            return Some(Candidate {
-                expert: Expert::Lattice,
-                pose: last.then(newest),
-                evidence: Evidence {
-                    context: alike,
-                    places: FOLLOWER,
-                    agreeing: FOLLOWER,
-                    in_routine: true,
-                    gated_in: false,
-                },
-            });
-        }
-    }
-    None
-}
-
-/// Items that must have moved alike for [`follow`].
-pub const MIN_FOLLOWS: usize = 2;
-
-/// The evidence's `places` of a [`follow`]er, beside a row's 1, a grid's 2 and a station's 3.
-pub const FOLLOWER: usize = 4;
-
-/// The positions of one role of a routine's items of `period` waypoints, oldest first: the
-/// waypoints `back`, `back + period`, … before the next one (the newest [`MAX_WALK_POINTS`]).
-fn role_points(routine: &[Pose], period: usize, back: usize) -> Vec<Vector3<f64>> {
-    let n = routine.len();
-    let mut role: Vec<Vector3<f64>> = (0..MAX_WALK_POINTS)
-        .map_while(|k| n.checked_sub(back + k * period))
-        .map(|i| routine[i].position())
-        .collect();
-    role.reverse();
-    role
-}
-
-/// The layer a role's newest point is on, and the number of points of the layer before it.
-struct Layer {
-    walk: LatticeWalk,
-    /// Points of the layer before (walked in rows), if there is one.
-    before: Option<usize>,
-}
-
-impl Layer {
-    /// The role's last layer ([`LatticeWalk::layers`]) when it ends at the newest point. The
-    /// layer before it is the role's layer before, else the newest layer of the `previous`
-    /// routine's roles of the same `period` this one is laid like (a routine per layer).
-    fn of(
-        points: &[Vector3<f64>],
-        tol: WalkTolerance,
-        previous: &[Pose],
-        period: usize,
-    ) -> Option<Layer> {
-        let own = Layer::last(points, tol, None);
-        if own.as_ref().is_none_or(|l| l.before.is_none()) {
-            // A layer of the previous routine this one is laid like (a routine per layer).
-            for back in 1..=period.min(previous.len()) {
-                let earlier = LatticeWalk::layers(&role_points(previous, period, back), tol, None);
-                for (_, e) in earlier.iter().rev().filter(|(_, e)| e.is_a_layer()) {
-                    if let Some(laid) = Layer::last(points, tol, Some(e))
-                        && laid.before.is_some()
-                    {
-                        return Some(laid);
-                    }
-                }
-            }
-        }
-        own
-    }
-
-    /// The last of `points`' layers when it ends at the newest point, with the layer before it:
-    /// the one before it in `points`, else `earlier` when the first layer was laid like it.
-    fn last(
-        points: &[Vector3<f64>],
-        tol: WalkTolerance,
-        earlier: Option<&LatticeWalk>,
-    ) -> Option<Layer> {
-        let mut layers = LatticeWalk::layers(points, tol, earlier);
-        let (start, walk) = layers.pop()?;
-        if start + walk.indices.len() != points.len() {
-            return None;
-        }
-        let before = match layers.last() {
-            Some((s, w)) if w.is_a_layer() && s + w.indices.len() == start => Some(w.indices.len()),
-            Some(_) => None,
-            None => earlier
-                .filter(|e| {
-                    [e.a.norm(), e.b.norm()]
-                        .iter()
-                        .any(|p| (p - walk.a.norm()).abs() <= tol.step)
-                })
-                .map(|e| e.indices.len()),
-        };
-        Some(Layer { walk, before })
-    }
-
-    /// Whether the role's newest point follows a layer (of [`MIN_LAYER_POINTS`] or more, in
-    /// rows) that ended at the point before it: a new layer's first point.
-    fn starting(points: &[Vector3<f64>], tol: WalkTolerance) -> bool {
-        let Some(before) = points.len().checked_sub(1) else {
-            return false;
-        };
-        LatticeWalk::layers(&points[..before], tol, None)
-            .last()
-            .is_some_and(|(s, w)| w.is_a_layer() && s + w.indices.len() == before)
-    }
-
-    /// As many points as the layer before: the layer is done.
-    fn complete(&self) -> bool {
-        self.before.is_some_and(|b| self.walk.indices.len() >= b)
-    }
-}
-
-/// The evidence's `places` of a station (a role that does not move), beside a row's 1 and a
-/// grid's 2.
-pub const STATION: usize = 3;
-
-/// How many of the newest `points` are one place (within `tol` of the newest), when at least
-/// [`MIN_POINTS`] are: the pick station of a pallet, returned to item after item.
-fn station(points: &[Vector3<f64>], tol: f64) -> Option<usize> {
-    let newest = points.last()?;
-    let visits = points
-        .iter()
-        .rev()
-        .take_while(|p| (*p - newest).norm() <= tol)
-        .count();
-    (visits >= MIN_POINTS).then_some(visits)
 }
 
 /// How a walk goes from row to row.
@@ -590,7 +272,7 @@ impl LatticeWalk {
 
     /// Whether a new walk may be laid like this one: it has rows, and at least
     /// [`MIN_LAYER_POINTS`] points (four corners of a frame are no layer).
-    fn is_a_layer(&self) -> bool {
+    pub(super) fn is_a_layer(&self) -> bool {
         self.rows.is_some() && self.indices.len() >= MIN_LAYER_POINTS
     }
 
@@ -722,13 +404,16 @@ impl LatticeWalk {
     }
 }
 
-/// The normal equations of a lattice `o + i·a + j·b` fitted to points by least squares, per
-/// coordinate, summed point by point (so a walk checks each point against the fit so far).
+/// A lattice `o + i·a + j·b` fitted to points by least squares: the normal equations `XᵀX` and
+/// `XᵀP` of the design matrix (rows `x = (1, i, j)`) and the points (rows `p`), summed point by
+/// point so a walk checks each point against the fit so far, and solved by nalgebra for the
+/// three coordinates at once.
 #[derive(Default)]
 struct Normal {
-    /// Σ xxᵀ for x = (1, i, j), and Σ p·x per unknown.
-    m: Matrix3<f64>,
-    rhs: [Vector3<f64>; 3],
+    /// `Σ x xᵀ`.
+    xtx: Matrix3<f64>,
+    /// `Σ x pᵀ`: row `r` is the points summed with weight `x_r`.
+    xtp: Matrix3<f64>,
     /// Points summed.
     count: usize,
     /// Some point is off the first row (`j ≠ 0`).
@@ -737,13 +422,9 @@ struct Normal {
 
 impl Normal {
     fn add(&mut self, p: &Vector3<f64>, (i, j): (i64, i64)) {
-        let x = [1.0, i as f64, j as f64];
-        for r in 0..3 {
-            for c in 0..3 {
-                self.m[(r, c)] += x[r] * x[c];
-            }
-            self.rhs[r] += p * x[r];
-        }
+        let x = Vector3::new(1.0, i as f64, j as f64);
+        self.xtx += x * x.transpose();
+        self.xtp += x * p.transpose();
         self.count += 1;
         self.rows |= j != 0;
     }
@@ -763,25 +444,21 @@ impl Normal {
             return None;
         }
         if let Some((a, b)) = fixed {
-            let n = self.m[(0, 0)];
-            let o = (self.rhs[0] - a * self.m[(0, 1)] - b * self.m[(0, 2)]) / n;
+            let n = self.xtx[(0, 0)];
+            let sum = self.xtp.row(0).transpose();
+            let o = (sum - a * self.xtx[(0, 1)] - b * self.xtx[(0, 2)]) / n;
             return Some((o, a, b));
         }
-        let mut m = self.m;
+        let mut xtx = self.xtx;
         if !self.rows {
             // One row: every `j` is 0, so b's row and column are zero; solve for (o, a).
-            m[(2, 2)] = 1.0;
+            xtx[(2, 2)] = 1.0;
         }
-        let inv = m.try_inverse()?;
-        let solve = |r: usize| {
-            self.rhs[0] * inv[(r, 0)] + self.rhs[1] * inv[(r, 1)] + self.rhs[2] * inv[(r, 2)]
-        };
-        let b = if self.rows {
-            solve(2)
-        } else {
-            Vector3::zeros()
-        };
-        Some((solve(0), solve(1), b))
+        // Rows: o, a, b.
+        let fitted = xtx.try_inverse()? * self.xtp;
+        let row = |r: usize| fitted.row(r).transpose();
+        let b = if self.rows { row(2) } else { Vector3::zeros() };
+        Some((row(0), row(1), b))
     }
 }
 
@@ -798,18 +475,19 @@ fn step((i, j): (i64, i64), n: usize, order: Order) -> (i64, i64) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The expert's first candidate (the shortest period's).
-    fn propose1(routine: &[Pose], previous: &[Pose], tol: WalkTolerance) -> Option<Candidate> {
-        propose(routine, previous, tol).into_iter().next()
-    }
-
     /// The points of an `n × m` layer at pitches `a`, `b` from `o`, in `order`, first axis `a`.
-    fn walk(n: i64, m: i64, a: Vector3<f64>, b: Vector3<f64>, order: Order) -> Vec<Vector3<f64>> {
+    pub(crate) fn walk(
+        n: i64,
+        m: i64,
+        a: Vector3<f64>,
+        b: Vector3<f64>,
+        order: Order,
+    ) -> Vec<Vector3<f64>> {
         let o = Vector3::new(900.0, -300.0, 200.0);
         (0..m)
             .flat_map(|j| {
@@ -1012,43 +690,6 @@ mod tests {
         );
     }
 
-    /// The expert reads the slot's waypoints as walks with the item's period: once the second
-    /// row has two items, it proposes every later slot approach, place and retract exactly, as
-    /// a grid (two places), and the pick station's approach, pick and retract as a station.
-    #[test]
-    fn the_expert_proposes_each_waypoint_of_a_pallet() {
-        // A 3 × 4 pallet as one routine: per item the pick station's approach, pick and
-        // retract, then the slot's approach, place and retract.
-        let routine = crate::engine::experts::noise::estimate::tests::pallet();
-        let tol = WalkTolerance::from(1.0);
-        for n in 30..routine.len() {
-            let c = propose1(&routine[..n], &[], tol)
-                .unwrap_or_else(|| panic!("nothing proposed for waypoint {n}"));
-            assert_eq!(c.expert, Expert::Lattice);
-            assert!(c.pose.distance_to(&routine[n]) < 1e-6, "waypoint {n}");
-            assert!(c.pose.angle_to(&routine[n]) < 1e-9);
-            let slot_role = n % 6 >= 3;
-            let want = if slot_role { 2 } else { STATION };
-            assert_eq!(c.evidence.places, want, "waypoint {n}");
-        }
-        // After the first row of three, one place: the row goes on (its end could not be seen
-        // coming), 200 mm on from its last slot.
-        let c = propose1(&routine[..21], &[], tol).expect("a row of three");
-        assert_eq!(c.evidence.places, 1);
-        let on = routine[15].position() + Vector3::new(200.0, 0.0, 0.0);
-        assert!((c.pose.position() - on).norm() < 1e-6);
-        // The second row's first slot settles the order: its second is a grid's next point.
-        let c = propose1(&routine[..27], &[], tol).expect("the second row's second slot");
-        assert!(c.pose.distance_to(&routine[27]) < 1e-6);
-        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 2));
-        // A new row foretold by the layer's own rows alone is a class of its own.
-        let c = propose1(&routine[..39], &[], tol).expect("the third row's first slot");
-        assert!(c.pose.distance_to(&routine[39]) < 1e-6);
-        assert_eq!((c.evidence.places, c.evidence.agreeing), (2, 1));
-        // A pick station visited twice is no station yet.
-        assert!(propose1(&routine[..12], &[], tol).is_none_or(|c| c.evidence.places != STATION));
-    }
-
     /// A first row and the second row's first point (the three corners a wizard asks for)
     /// settle the order when one order's row pitch is square to the rows and the other's is
     /// not; a second row starting half way back is only a guess.
@@ -1083,73 +724,6 @@ mod tests {
         );
     }
 
-    /// Per item: the pick station's approach, pick and retract, then the slot's.
-    fn items(slots: &[Vector3<f64>]) -> Vec<Pose> {
-        let at = |p: Vector3<f64>| {
-            Pose::from_isometry(Isometry3::from_parts(
-                Translation3::from(p),
-                nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0),
-            ))
-        };
-        let (pick, up) = (
-            Vector3::new(600.0, -700.0, 400.0),
-            Vector3::new(0.0, 0.0, 150.0),
-        );
-        slots
-            .iter()
-            .flat_map(|s| [pick + up, pick, pick + up, s + up, *s, s + up].map(at))
-            .collect()
-    }
-
-    /// A second layer laid like the first (120 mm up, its rows as long), or turned a quarter
-    /// (the boxes turned: rows of the first layer's row count at its row pitch): every slot of
-    /// it after its first two is proposed exactly, the first row change included, and once it
-    /// has as many slots as the first, nothing more (the routine goes home) — neither the next
-    /// slot nor the pick station. The same when each layer is a routine of its own.
-    #[test]
-    fn a_second_layer_is_laid_like_the_first_and_ends_where_it_does() {
-        let (x, y) = (Vector3::new(200.0, 0.0, 0.0), Vector3::new(0.0, 250.0, 0.0));
-        let up = Vector3::new(0.0, 0.0, 120.0);
-        let first = walk(3, 4, x, y, Order::Serpentine);
-        let same: Vec<_> = first.iter().map(|p| p + up).collect();
-        let turned: Vec<_> = walk(4, 3, x * 1.25, y * 0.8, Order::Serpentine)
-            .iter()
-            .map(|p| p + up)
-            .collect();
-        let tol = WalkTolerance::from(1.0);
-        for second in [&same, &turned] {
-            let one = items(
-                &first
-                    .iter()
-                    .chain(second.iter())
-                    .copied()
-                    .collect::<Vec<_>>(),
-            );
-            let (l1, l2) = (items(&first), items(second));
-            let home = |r: &[Pose]| [r.to_vec(), vec![r[0]]].concat();
-            // One routine; a routine per layer (the first finished, with a home at its end).
-            let cases = [
-                (one.clone(), Vec::new(), first.len() * 6),
-                (l2, home(&l1), 0),
-            ];
-            for (routine, previous, start) in cases {
-                for k in 2..second.len() {
-                    for role in 3..6 {
-                        let n = start + 6 * k + role;
-                        let c = propose1(&routine[..n], &previous, tol)
-                            .unwrap_or_else(|| panic!("slot {k}, waypoint {n}: nothing"));
-                        let err = c.pose.distance_to(&routine[n]);
-                        assert!(err < 1e-6, "slot {k}, waypoint {n}: {err} mm off");
-                    }
-                }
-                assert!(
-                    propose1(&routine, &previous, tol).is_none(),
-                    "the pattern is done"
-                );
-            }
-        }
-    }
-
     /// A pattern that stops early and goes elsewhere is a walk up to where it stops, not after;
     /// scattered points and a path with one long and one short step are not walks.
     #[test]
@@ -1174,145 +748,11 @@ mod tests {
             assert!(LatticeWalk::fit(&scattered, 1.0).is_none());
             assert!(LatticeWalk::layers(&scattered, 1.0, None).is_empty());
         }
-        // Two rows of two zigzag in any star or weave: no new row is foretold from them.
-        let at = |x: f64, y: f64| Pose::from_isometry(Isometry3::translation(x, y, 300.0));
-        let star = [
-            at(0.0, 0.0),
-            at(500.0, 900.0),
-            at(180.0, 0.0),
-            at(-400.0, 700.0),
-            at(180.0, 150.0),
-            at(800.0, -300.0),
-            at(0.0, 150.0),
-            at(-600.0, -500.0),
-        ];
-        assert!(propose1(&star, &[], 1.0.into()).is_none());
         let path = [
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(100.0, 0.0, 0.0),
             Vector3::new(130.0, 0.0, 0.0),
         ];
         assert!(LatticeWalk::fit(&path, 1.0).is_none());
-    }
-
-    /// A pose at `p`, the tool pointing down.
-    fn down_at(p: Vector3<f64>) -> Pose {
-        Pose::from_isometry(Isometry3::from_parts(
-            Translation3::from(p),
-            nalgebra::UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.2),
-        ))
-    }
-
-    /// The place under a slot's approach: the move into each new slot is new, so no context of
-    /// moves foretells it, but the items before moved alike from their approach. Slots need
-    /// not be on a lattice; one item before is not enough; random poses follow nothing.
-    #[test]
-    fn the_place_under_a_new_slot_follows_the_items_before() {
-        let (pick, lift, depth) = (
-            Vector3::new(600.0, -700.0, 400.0),
-            Vector3::new(0.0, 0.0, 100.0),
-            Vector3::new(0.0, 0.0, 150.0),
-        );
-        let slots: Vec<_> = (0..6)
-            .map(|i| Vector3::new(900.0 + 170.0 * f64::from(i), 40.0 * f64::from(i * i), 200.0))
-            .collect();
-        let routine: Vec<Pose> = slots
-            .iter()
-            .flat_map(|s| [pick + lift, pick, pick + lift, s + depth, *s, s + depth].map(down_at))
-            .collect();
-        assert!(
-            follow(&routine[..10], 1.0, 0.01).is_none(),
-            "one item before"
-        );
-        for k in 2..slots.len() {
-            let n = 6 * k + 4;
-            let c = follow(&routine[..n], 1.0, 0.01)
-                .unwrap_or_else(|| panic!("item {k}: nothing follows"));
-            assert_eq!(c.expert, Expert::Lattice);
-            assert_eq!((c.evidence.places, c.evidence.context), (FOLLOWER, k));
-            assert!(c.pose.distance_to(&routine[n]) < 1e-6, "item {k}");
-            assert!(c.pose.angle_to(&routine[n]) < 1e-9);
-        }
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let scattered: Vec<Pose> = (0..60)
-            .map(|_| {
-                let p = Vector3::new(
-                    rng.random_range(0.0..900.0),
-                    rng.random_range(0.0..900.0),
-                    rng.random_range(0.0..900.0),
-                );
-                Pose::from_isometry(Isometry3::from_parts(
-                    Translation3::from(p),
-                    nalgebra::UnitQuaternion::from_euler_angles(
-                        rng.random_range(-3.0..3.0),
-                        rng.random_range(-1.5..1.5),
-                        rng.random_range(-3.0..3.0),
-                    ),
-                ))
-            })
-            .collect();
-        for n in 1..scattered.len() {
-            assert!(follow(&scattered[..n], 1.0, 0.01).is_none(), "after {n}");
-        }
-    }
-
-    /// A machine-tending item goes back and forth at the machine, so its last waypoints, two
-    /// apart, are a station of three visits at every item's start: that short station does not
-    /// hide the tray's slots, which walk with the item's longer period.
-    #[test]
-    fn a_short_station_does_not_hide_a_longer_periods_walk() {
-        let (m1, m2, up) = (
-            Vector3::new(450.0, 840.0, 700.0),
-            Vector3::new(600.0, 860.0, 700.0),
-            Vector3::new(0.0, 0.0, 150.0),
-        );
-        let slots = walk(
-            3,
-            3,
-            Vector3::new(80.0, 0.0, 0.0),
-            Vector3::new(0.0, 80.0, 0.0),
-            Order::Raster,
-        );
-        let routine: Vec<Pose> = slots
-            .iter()
-            .flat_map(|s| [s + up, *s, s + up, m1, m2, m1, m2, m1].map(down_at))
-            .collect();
-        let tol = WalkTolerance::from(1.0);
-        // From the second row's second slot on (the first row's end could not be seen coming).
-        for k in 4..slots.len() {
-            let n = 8 * k + 1;
-            let all = propose(&routine[..n], &[], tol);
-            let first = all.first().expect("a candidate");
-            assert_eq!(
-                (first.evidence.places, first.evidence.context),
-                (STATION, 3)
-            );
-            assert!(
-                all.iter().any(|c| c.pose.distance_to(&routine[n]) < 1e-6),
-                "slot {k}: the tray's next slot is not proposed"
-            );
-        }
-    }
-
-    /// When a role of an item leaves its layer for a new one (the first approach of a new
-    /// layer, somewhere the first layer's rows do not go), the item's other roles leave theirs
-    /// too: the place under that approach is not the first layer's next place.
-    #[test]
-    fn a_new_layers_first_approach_ends_the_other_roles_walks() {
-        let (x, y) = (Vector3::new(200.0, 0.0, 0.0), Vector3::new(0.0, 250.0, 0.0));
-        let first = walk(3, 4, x, y, Order::Raster);
-        let second: Vec<_> = walk(4, 3, y, x, Order::Raster)
-            .iter()
-            .map(|p| p + Vector3::new(0.0, 0.0, 120.0))
-            .collect();
-        let routine = items(&[first.clone(), second].concat());
-        let tol = WalkTolerance::from(1.0);
-        // The first layer's last place is still proposed as its walk's.
-        let n = 6 * (first.len() - 1) + 4;
-        let c = propose1(&routine[..n], &[], tol).expect("the first layer's last place");
-        assert!(c.pose.distance_to(&routine[n]) < 1e-6);
-        // The second layer's first place is not.
-        let n = 6 * first.len() + 4;
-        assert!(propose(&routine[..n], &[], tol).is_empty());
     }
 }

@@ -1,0 +1,632 @@
+//! One work cell's engine while an operator teaches: routines arrive one waypoint at a time,
+//! predictions are asked for between waypoints, and finished routines are learned.
+//!
+//! **Learning within the routine.** With `learn_within_routine`, each taught move is assimilated
+//! as the routine grows, so a pattern repeated *inside* a long routine (a palletising grid, weld
+//! stitches) is predicted from its earlier repetitions. Moves are assimilated with a lag of
+//! `within_lag` moves (default `horizon`). The window a prediction conditions on must only match
+//! *earlier* evidence (otherwise every window would match its own fresh path perfectly and the
+//! match-quality gate would mean nothing): with a lag shorter than the window, the predictor
+//! discounts the window's own transitions (`predict`). The newest assimilated move is
+//! *pending*: what follows it is not known yet, which is not the same as the routine ending
+//! there. When the routine finishes, the remaining moves are assimilated and the routine is
+//! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
+//!
+//! **Undo.** The operator may delete the last waypoint of the routine being taught. When that
+//! takes back a move that was already assimilated, the model is rolled back to where it was
+//! before the routine's first move was assimilated (the graph's journal, whose cost is that of
+//! the routine's moves, not of the model) and the remaining settled moves are learned again, so
+//! the model after an undo is exactly the model a rebuild from the stored waypoints gives. Each
+//! part of the cell undoes its own: the experts theirs ([`super::experts::Expert::undo`]), the
+//! offer rule the outcomes a waypoint counted ([`offer_rule`]), the learned noise what the
+//! waypoint showed of it ([`learned_noise`]).
+//!
+//! Here: the [`Teacher`] (teach, predict, complete, undo, finish; the CDHMM learning within the
+//! routine); [`offer_rule`]: the candidates' outcomes, the likeliest candidate and whether it is
+//! offered, the operator's verdicts; [`learned_noise`]: the cell's noise and tolerance learned
+//! while it is taught.
+
+mod learned_noise;
+mod offer_rule;
+
+use super::cdhmm::hmm::Hmm;
+use super::cdhmm::learner::{ModelStats, ObservationGraph};
+use super::cdhmm::predict::scale;
+use super::cdhmm::predict::{Prediction, Withheld, predict_move};
+use super::config::{EngineConfig, PredictOptions};
+use super::error::ConfigError;
+use super::experts::acceptance::{Acceptance, Verdict};
+use super::experts::calibration::Calibration;
+use super::experts::frames::Tolerance;
+use super::experts::noise::Noise;
+use super::experts::noise::estimate::{NoiseEstimator, Pair};
+use super::experts::{Candidate, Cell, Evidence, Expert};
+use super::metric::Metric;
+use super::pose::{Move, Observation, Pose, scale_translation};
+use learned_noise::Before;
+
+/// The engine for one work cell.
+#[derive(Debug, Clone)]
+pub struct Teacher {
+    config: EngineConfig,
+    graph: ObservationGraph,
+    routine: Vec<Pose>,
+    moves: Vec<Observation>,
+    /// Moves of the current routine already assimilated (within-routine learning only).
+    assimilated: usize,
+    /// The experts besides the model ([`super::experts::experts`]), asked in turn.
+    experts: Vec<Box<dyn Expert>>,
+    /// What the cell learned of its candidates' outcomes (with an offer rule).
+    calibration: Calibration,
+    /// What the finished routines show of the teaching noise (a cell whose noise is not set).
+    estimator: Option<NoiseEstimator>,
+    /// The cell's teaching noise: set, or learned so far.
+    noise: Noise,
+    /// What counts as right (with an offer rule): set, or what the noise and the operator's
+    /// verdicts imply.
+    tolerance: Tolerance,
+    /// The verdicts of the finished routines' suggestions (with an offer rule).
+    acceptance: Acceptance,
+    /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
+    outcomes: Vec<Counted>,
+    /// What follows the current routine with the cell's settings: computed once when the routine
+    /// or the model changes, answered by [`Teacher::predict`] and judged by the next
+    /// [`Teacher::teach`].
+    ahead: Ahead,
+}
+
+/// The candidates after a routine and the prediction they give.
+#[derive(Debug, Clone)]
+struct Ahead {
+    candidates: Vec<Candidate>,
+    prediction: Prediction,
+}
+
+/// The outcomes one taught waypoint counted: every candidate's, and the chosen one's by its
+/// first-stage estimate; and the suggestion offered for it, with the operator's verdict.
+#[derive(Debug, Clone, Default)]
+struct Counted {
+    candidates: Vec<(Evidence, f64)>,
+    chosen: Option<(f64, f64)>,
+    /// The waypoint was taught as the cell offered it (a suggestion taken as is).
+    suggested: bool,
+    /// The pose the cell offered for this waypoint, if it offered one, and which of
+    /// `candidates` stand at it (the chosen one is the offered one).
+    offered: Option<(Pose, Vec<usize>)>,
+    /// The operator's verdict on that suggestion ([`Teacher::feedback`]).
+    verdict: Option<Verdict>,
+    /// An adjusted suggestion's distance to this waypoint (mm).
+    adjusted_mm: Option<f64>,
+    /// What the waypoint showed of the noise while the routine is taught: the pairs its stretch
+    /// made, and whether it was an exact revisit ([`NoiseEstimator::estimate_with`]).
+    pairs: Vec<Pair>,
+    revisit: bool,
+    /// … and whether it was a return, with its gap to the pose it returned to
+    /// ([`NoiseEstimator::return_gap`]).
+    returned: Option<(f64, f64)>,
+    /// The cell as it was before the waypoint changed its noise, for undo.
+    before: Option<Box<Before>>,
+}
+
+/// Two poses are the same suggestion: equal to what storing them leaves.
+fn same_pose(a: &Pose, b: &Pose) -> bool {
+    a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
+}
+
+impl Teacher {
+    pub fn new(config: EngineConfig) -> Result<Teacher, ConfigError> {
+        config.validate()?;
+        let metric = Metric::diagonal(config.sigma_t, config.sigma_q)?;
+        let graph = ObservationGraph::new(metric, config.delta, config.merge)?
+            .with_recency(config.recency)?;
+        let ahead = Ahead {
+            candidates: Vec::new(),
+            prediction: Prediction::withheld(Withheld::NothingTaught, 0),
+        };
+        let noise = config.noise.unwrap_or(Noise::EXACT);
+        let mut t = Teacher {
+            estimator: (config.noise.is_none() && config.offer.is_some()).then(NoiseEstimator::new),
+            tolerance: Teacher::tolerance_for(&config, &noise, &Acceptance::default()),
+            acceptance: Acceptance::default(),
+            noise,
+            config,
+            graph,
+            routine: Vec::new(),
+            moves: Vec::new(),
+            assimilated: 0,
+            experts: super::experts::experts(),
+            calibration: Calibration::new(),
+            outcomes: Vec::new(),
+            ahead,
+        };
+        t.become_noisy_if_it_matters();
+        Ok(t)
+    }
+
+    /// The cell's teaching noise: set, or learned so far (exact until its repeats show some).
+    pub fn noise(&self) -> Noise {
+        self.noise
+    }
+
+    /// Whether the noise is learned (not set).
+    pub fn learns_noise(&self) -> bool {
+        self.estimator.is_some()
+    }
+
+    /// What counts as right: the tolerance set, or the one the noise implies.
+    pub fn tolerance(&self) -> Tolerance {
+        self.tolerance
+    }
+
+    pub fn config(&self) -> &EngineConfig {
+        &self.config
+    }
+
+    pub fn graph(&self) -> &ObservationGraph {
+        &self.graph
+    }
+
+    /// The waypoints of the routine being taught.
+    pub fn routine(&self) -> &[Pose] {
+        &self.routine
+    }
+
+    pub fn stats(&self) -> ModelStats {
+        self.graph.stats()
+    }
+
+    /// The cell's calibration of its experts' candidates.
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
+    }
+
+    /// Appends a taught waypoint to the current routine. With an offer rule, the waypoint first
+    /// tells every candidate proposed for it whether it was right ([`Calibration::record`]).
+    pub fn teach(&mut self, pose: Pose) {
+        let mut counted = self.count_outcomes(&pose);
+        if let Some(last) = self.routine.last() {
+            self.moves.push(Move::between(last, &pose).observation());
+        }
+        self.routine.push(pose);
+        for e in &mut self.experts {
+            e.taught(&self.routine);
+        }
+        self.learn_open_noise(&mut counted);
+        self.outcomes.push(counted);
+        self.settle();
+        self.look_ahead();
+    }
+
+    /// Recomputes [`Teacher::ahead`] after the routine or the model changed.
+    fn look_ahead(&mut self) {
+        self.ahead = self.ahead_of(&self.routine, &self.moves, &self.config.predict);
+    }
+
+    /// Within-routine learning: assimilates the moves older than the lag (`within_lag`).
+    fn settle(&mut self) {
+        if !self.config.learn_within_routine {
+            return;
+        }
+        let settled = self.moves.len().saturating_sub(self.config.within_lag());
+        if self.assimilated < settled {
+            // Undo may take these moves back (`restore_routine_start`).
+            self.graph.begin_journal();
+        }
+        while self.assimilated < settled {
+            self.graph.push(&self.moves[self.assimilated]);
+            self.assimilated += 1;
+        }
+    }
+
+    /// Removes the last waypoint of the current routine and returns it (None when the routine
+    /// is empty). The model goes back to what it was before that waypoint was taught.
+    pub fn undo(&mut self) -> Option<Pose> {
+        let pose = self.routine.pop()?;
+        self.forget_last_outcomes();
+        self.moves.truncate(self.routine.len().saturating_sub(1));
+        let settled = self.moves.len().saturating_sub(self.config.within_lag());
+        if self.config.learn_within_routine && settled < self.assimilated {
+            self.restore_routine_start();
+            self.settle();
+        }
+        self.look_ahead();
+        Some(pose)
+    }
+
+    /// Drops the current routine without learning it; the model is as it was before.
+    pub fn abandon_routine(&mut self) {
+        while !self.outcomes.is_empty() {
+            self.forget_last_outcomes();
+        }
+        self.routine.clear();
+        self.moves.clear();
+        self.restore_routine_start();
+        self.look_ahead();
+    }
+
+    /// The model's (the CDHMM's) own prediction after `routine` (not empty).
+    fn model_prediction(
+        &self,
+        routine: &[Pose],
+        moves: &[Observation],
+        opts: &PredictOptions,
+    ) -> Prediction {
+        match routine.last() {
+            Some(last) => predict_move(&self.graph, moves, opts).place(last),
+            None => Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len()),
+        }
+    }
+
+    /// Every expert's candidates after `routine`: the model's proposal (whatever its gates
+    /// said), then each expert's in turn.
+    fn candidates(&self, routine: &[Pose], model: &Prediction) -> Vec<Candidate> {
+        let mut out = Vec::with_capacity(8);
+        if let Some(pose) = model.pose {
+            out.push(Candidate {
+                pose,
+                evidence: Evidence::Model {
+                    window: model.window,
+                    gated_in: model.offered(),
+                },
+            });
+        }
+        let cell = Cell {
+            noise: self.noise,
+            tolerance: self.tolerance,
+            noisy: self.noisy(),
+        };
+        for e in &self.experts {
+            out.extend(e.propose(routine, &cell));
+        }
+        out
+    }
+
+    /// The prediction after `routine`: the model's alone without an offer rule (the seed);
+    /// with one, the likeliest candidate, offered when its `p_useful` reaches the threshold.
+    fn choose(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Prediction {
+        self.ahead_of(routine, moves, opts).prediction
+    }
+
+    /// The candidates after `routine` (none without an offer rule) and the prediction they give.
+    fn ahead_of(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Ahead {
+        let model = self.model_prediction(routine, moves, opts);
+        let (Some(rule), Some(last)) = (self.config.offer, routine.last()) else {
+            return Ahead {
+                candidates: Vec::new(),
+                prediction: model,
+            };
+        };
+        let candidates = self.candidates(routine, &model);
+        let prediction = self.decide(model, &candidates, &rule, last);
+        Ahead {
+            candidates,
+            prediction,
+        }
+    }
+
+    /// The model as it was before the current routine's first move was assimilated.
+    fn restore_routine_start(&mut self) {
+        self.graph.rollback();
+        self.assimilated = 0;
+    }
+
+    /// Predicts the next waypoint of the current routine with the cell's settings (computed
+    /// when the routine last changed).
+    pub fn predict(&self) -> Prediction {
+        self.ahead.prediction.clone()
+    }
+
+    /// Predicts with per-request settings.
+    pub fn predict_with(&self, opts: &PredictOptions) -> Prediction {
+        if *opts == self.config.predict {
+            return self.predict();
+        }
+        self.choose(&self.routine, &self.moves, opts)
+    }
+
+    /// Open-loop completion: predicts the next waypoint, assumes it is taught as predicted,
+    /// predicts again, and so on, up to `k` predictions. Stops after the first prediction that
+    /// is not offered (it is included, so the caller sees why the completion stopped). The
+    /// model is not changed: proposed moves are conditioned on, never learned.
+    pub fn complete(&self, k: usize, opts: &PredictOptions) -> Vec<Prediction> {
+        self.complete_with(k, opts, |p| (p, true))
+    }
+
+    /// [`Teacher::complete`] with a further gate of the caller's (e.g. the arm reaches it):
+    /// `gate` gets every prediction in turn, and returns what to keep of it and whether the
+    /// completion may go on from it. It goes on only from a prediction that is offered and that
+    /// the gate lets pass; the one it stops at is the last one kept.
+    pub fn complete_with<T>(
+        &self,
+        k: usize,
+        opts: &PredictOptions,
+        mut gate: impl FnMut(Prediction) -> (T, bool),
+    ) -> Vec<T> {
+        let mut out = Vec::with_capacity(k.min(64));
+        if self.routine.is_empty() {
+            if k > 0 {
+                let nothing =
+                    Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
+                out.push(gate(nothing).0);
+            }
+            return out;
+        }
+        let mut routine = self.routine.clone();
+        let mut moves = self.moves.clone();
+        for _ in 0..k {
+            let p = self.choose(&routine, &moves, opts);
+            let next = match (&p.pose, &p.relative) {
+                (Some(pose), Some(x)) if p.offered() => Some((*pose, *x)),
+                _ => None,
+            };
+            let (kept, go_on) = gate(p);
+            out.push(kept);
+            let Some((pose, x)) = next.filter(|_| go_on) else {
+                break;
+            };
+            moves.push(x);
+            routine.push(pose);
+        }
+        out
+    }
+
+    /// Teaches a whole routine, waypoint by waypoint, and finishes it (an imported routine).
+    pub fn learn_routine(&mut self, waypoints: &[Pose]) {
+        for pose in waypoints {
+            self.teach(*pose);
+        }
+        self.finish_routine();
+    }
+
+    /// Finishes the current routine and learns it. A routine of fewer than two waypoints has no
+    /// move and teaches nothing.
+    pub fn finish_routine(&mut self) {
+        for e in &mut self.experts {
+            e.learn(&self.routine);
+        }
+        for mm in self.outcomes.iter().filter_map(|c| c.adjusted_mm) {
+            self.acceptance.add(mm);
+        }
+        let noise = match self.estimator.as_mut() {
+            Some(e) => {
+                let suggested: Vec<bool> = self.outcomes.iter().map(|c| c.suggested).collect();
+                e.learn_taught(&self.routine, &suggested);
+                e.estimate().unwrap_or(Noise::EXACT)
+            }
+            None => self.noise,
+        };
+        let tolerance = Teacher::tolerance_for(&self.config, &noise, &self.acceptance);
+        if noise != self.noise || tolerance != self.tolerance {
+            self.noise = noise;
+            self.tolerance = tolerance;
+            self.become_noisy_if_it_matters();
+        }
+        self.outcomes.clear();
+        self.graph.commit();
+        if self.config.learn_within_routine {
+            for x in &self.moves[self.assimilated..] {
+                self.graph.push(x);
+            }
+        } else if !self.moves.is_empty() {
+            let psi = if self.config.predict.scale.learn_scaled {
+                self.routine_scale_estimate()
+            } else {
+                1.0
+            };
+            for x in &self.moves {
+                self.graph.push(&scale_translation(x, psi));
+            }
+        }
+        self.graph.end_routine();
+        self.routine.clear();
+        self.moves.clear();
+        self.assimilated = 0;
+        self.look_ahead();
+    }
+
+    /// Learn-Scaled-HMM: ψ of the finished routine against the current model, when the routine is
+    /// no longer than the model's depth; 1 unless the gain is material.
+    fn routine_scale_estimate(&self) -> f64 {
+        let stats = self.graph.stats();
+        if stats.states < 2 || self.moves.len() > stats.depth {
+            return 1.0;
+        }
+        let hmm = Hmm::new(&self.graph);
+        let sc = &self.config.predict.scale;
+        let opts = PredictOptions {
+            horizon: self.moves.len(),
+            ..self.config.predict.clone()
+        };
+        let objective = |psi: f64| {
+            let scaled: Vec<Observation> = self
+                .moves
+                .iter()
+                .map(|x| scale_translation(x, psi))
+                .collect();
+            super::cdhmm::predict::forward::window_log_likelihood(&hmm, &scaled, &opts)
+        };
+        let base = objective(1.0);
+        match scale::maximise(sc.psi_min, sc.psi_max, objective) {
+            Some(est) if est.objective - base >= sc.min_gain => est.psi,
+            _ => 1.0,
+        }
+    }
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use super::*;
+    use crate::engine::config::Profile;
+    use nalgebra::UnitQuaternion;
+
+    pub(super) fn pose(p: [f64; 3], yaw: f64) -> Pose {
+        let q = UnitQuaternion::from_euler_angles(0.0, 0.0, yaw);
+        Pose::new(p, [q.w, q.i, q.j, q.k]).unwrap()
+    }
+
+    /// A stitch pattern repeated along x: the same three moves again and again.
+    pub(super) fn stitches(n: usize, at: f64) -> Vec<Pose> {
+        (0..n)
+            .map(|i| {
+                let k = (i / 3) as f64;
+                match i % 3 {
+                    0 => pose([at + 50.0 * k, 0.0, 0.0], 0.0),
+                    1 => pose([at + 50.0 * k + 20.0, 10.0, 0.0], 0.3),
+                    _ => pose([at + 50.0 * k + 30.0, 0.0, 15.0], 0.1),
+                }
+            })
+            .collect()
+    }
+
+    pub(super) fn same_model(a: &Teacher, b: &Teacher) {
+        assert_eq!(a.graph().nodes(), b.graph().nodes());
+        assert_eq!(a.graph().pending(), b.graph().pending());
+        assert_eq!(a.stats(), b.stats());
+        assert_eq!(a.routine(), b.routine());
+        assert_eq!(a.predict(), b.predict());
+    }
+
+    /// The engine taught poses at the ends of the floats, which the service refuses where poses
+    /// enter (issue 46: −1e308 reached the k-d tree, whose leaf sort panicked on the NaN of a
+    /// move between two such poses): no panic, nothing non-finite offered, and the cell still
+    /// learns and predicts an ordinary pattern afterwards.
+    #[test]
+    fn poses_at_the_ends_of_the_floats_are_taught_without_a_panic() {
+        let extreme: Vec<Vec<Pose>> = vec![
+            vec![
+                pose([-1e308, 0.0, 0.0], 0.0),
+                pose([1e308, 0.0, 0.0], 0.3),
+                pose([1e308, 1e308, -1e308], 1.2),
+                pose([0.0, 0.0, 0.0], 0.0),
+            ],
+            vec![
+                pose([f64::MAX, -f64::MAX, f64::MAX], 0.7),
+                pose([-f64::MAX, f64::MAX, -f64::MAX], 2.0),
+                pose([1e154, 1e154, 1e154], 0.1),
+                pose([-1e154, 0.0, 1e154], 0.2),
+            ],
+            vec![pose([1e308, 0.0, 0.0], 0.0); 5],
+            vec![
+                pose([1e300, -1e300, 5.0], 0.4),
+                pose([1e300, -1e300, 6.0], 0.4),
+            ],
+        ];
+        for profile in [Profile::Seed, Profile::Default] {
+            let mut t = Teacher::new(EngineConfig::profile(profile)).unwrap();
+            let finite = |p: &Prediction| {
+                p.pose.is_none_or(|q| {
+                    let v = q.values();
+                    [v.x, v.y, v.z, v.qw, v.qx, v.qy, v.qz]
+                        .iter()
+                        .all(|x| x.is_finite())
+                })
+            };
+            for _ in 0..3 {
+                for routine in &extreme {
+                    for w in routine {
+                        t.teach(*w);
+                        let p = t.predict();
+                        assert!(!p.offered() || finite(&p), "{profile:?}: {p:?}");
+                    }
+                    t.finish_routine();
+                }
+            }
+            // Undo over the extreme poses, then a routine of them abandoned.
+            extreme[0].iter().for_each(|w| t.teach(*w));
+            while t.undo().is_some() {}
+            extreme[1].iter().for_each(|w| t.teach(*w));
+            t.abandon_routine();
+            assert_eq!(t.stats().routines, 12, "{profile:?}");
+            // An ordinary pattern is still learned and predicted.
+            t.learn_routine(&stitches(15, 0.0));
+            t.learn_routine(&stitches(15, 700.0));
+            let copy = stitches(15, 2000.0);
+            copy[..8].iter().for_each(|w| t.teach(*w));
+            let p = t.predict();
+            assert!(p.offered(), "{profile:?}: {:?}", p.withheld);
+            let got = p.pose.unwrap();
+            assert!(
+                got.distance_to(&copy[8]) < 1e-6,
+                "{profile:?}: {} mm off",
+                got.distance_to(&copy[8])
+            );
+        }
+    }
+
+    #[test]
+    fn undo_gives_the_model_of_the_shorter_routine() {
+        for profile in [Profile::Default, Profile::Seed] {
+            let config = EngineConfig::profile(profile);
+            let first = stitches(12, 0.0);
+            let second = stitches(14, 1000.0);
+            let mut a = Teacher::new(config.clone()).unwrap();
+            let mut b = Teacher::new(config).unwrap();
+            for t in [&mut a, &mut b] {
+                first.iter().for_each(|w| t.teach(*w));
+                t.finish_routine();
+            }
+            second.iter().for_each(|w| a.teach(*w));
+            for _ in 0..5 {
+                assert!(a.undo().is_some());
+            }
+            second[..9].iter().for_each(|w| b.teach(*w));
+            same_model(&a, &b);
+            // Teaching on after the undo keeps them identical.
+            second[9..].iter().for_each(|w| {
+                a.teach(*w);
+                b.teach(*w);
+            });
+            same_model(&a, &b);
+            a.finish_routine();
+            b.finish_routine();
+            same_model(&a, &b);
+        }
+    }
+
+    #[test]
+    fn undo_of_an_empty_routine_is_none_and_abandon_restores_the_model() {
+        let mut t = Teacher::new(EngineConfig::default()).unwrap();
+        assert!(t.undo().is_none());
+        stitches(12, 0.0).iter().for_each(|w| t.teach(*w));
+        t.finish_routine();
+        let before = t.clone();
+        stitches(15, 500.0).iter().for_each(|w| t.teach(*w));
+        assert_ne!(t.graph().nodes(), before.graph().nodes());
+        t.abandon_routine();
+        same_model(&t, &before);
+        while t.undo().is_some() {}
+        same_model(&t, &before);
+    }
+
+    #[test]
+    fn completion_continues_a_known_pattern_without_learning() {
+        let mut t = Teacher::new(EngineConfig::default()).unwrap();
+        let routine = stitches(15, 0.0);
+        routine.iter().for_each(|w| t.teach(*w));
+        t.finish_routine();
+        let copy = stitches(15, 2000.0);
+        copy[..5].iter().for_each(|w| t.teach(*w));
+        let nodes = t.graph().nodes().to_vec();
+        let opts = t.config().predict.clone();
+        let completion = t.complete(4, &opts);
+        assert_eq!(t.graph().nodes(), &nodes[..]);
+        assert!(!completion.is_empty());
+        assert_eq!(completion[0], t.predict());
+        for (i, p) in completion.iter().enumerate().filter(|(_, p)| p.offered()) {
+            let got = p.pose.unwrap();
+            let want = &copy[5 + i];
+            assert!(
+                got.distance_to(want) < 1e-6,
+                "step {i}: {} mm",
+                got.distance_to(want)
+            );
+        }
+        assert!(completion[0].offered(), "{:?}", completion[0].withheld);
+        // Nothing taught: one prediction saying why.
+        let empty = Teacher::new(EngineConfig::default()).unwrap();
+        let c = empty.complete(3, &opts);
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].withheld, Some(Withheld::NothingTaught));
+        assert!(t.complete(0, &opts).is_empty());
+    }
+}
