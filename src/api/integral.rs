@@ -16,8 +16,8 @@ pub fn parse<T: TryFrom<i64>>(text: &str) -> Option<T> {
     }
     let n: serde_json::Number = serde_json::from_str(text).ok()?;
     let value = if text.bytes().all(|b| b.is_ascii_digit() || b == b'-') {
-        // Digits only: exact, or out of range.
-        n.as_i64()?
+        // Digits only: exact, or out of range (`-0` is 0).
+        text.parse().ok()?
     } else {
         // A fraction or an exponent: a float, within the range floats of i64 hold exactly
         // enough (the ends of i64 are not floats).
@@ -75,6 +75,7 @@ mod tests {
     fn any_json_number_of_integral_value_is_an_integer() {
         assert_eq!(parse::<i64>("12"), Some(12));
         assert_eq!(parse::<i64>("-3"), Some(-3));
+        assert_eq!(parse::<i64>("-0"), Some(0));
         assert_eq!(parse::<i64>("12.0"), Some(12));
         assert_eq!(parse::<i64>("1e3"), Some(1000));
         assert_eq!(parse::<i64>("1E+16"), Some(10_000_000_000_000_000));

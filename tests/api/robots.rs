@@ -405,7 +405,7 @@ async fn a_placement_found_for_a_program_reaches_it_when_the_base_is_put_there()
             "abb_irb140",
             json!({"targets": []}),
             StatusCode::UNPROCESSABLE_ENTITY,
-            "no waypoints",
+            "targets is empty",
         ),
         (
             "abb_irb140",
