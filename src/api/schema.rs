@@ -102,9 +102,11 @@ pub(crate) mod mirror {
     #[derive(Debug, Serialize, Deserialize, ToSchema)]
     #[serde(deny_unknown_fields)]
     pub struct Noise {
-        /// Position, mm per axis.
+        /// Position, mm per axis (at most 100).
+        #[schema(minimum = 0.0, maximum = 100.0)]
         pub mm: f64,
-        /// Rotation, rad per axis.
+        /// Rotation, rad per axis (at most 0.5).
+        #[schema(minimum = 0.0, maximum = 0.5)]
         pub rad: f64,
     }
 
@@ -114,8 +116,10 @@ pub(crate) mod mirror {
     #[serde(deny_unknown_fields)]
     pub struct Tolerance {
         /// mm
+        #[schema(minimum = 0.0)]
         pub mm: f64,
         /// rad
+        #[schema(minimum = 0.0)]
         pub rad: f64,
     }
 

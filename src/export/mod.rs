@@ -129,12 +129,18 @@ pub struct ExportProgram {
 #[serde(default, deny_unknown_fields)]
 pub struct ExportSettings {
     /// TCP speed of linear and circular moves, mm/s (`v100`, `$VEL.CP`, `100mm/sec`).
+    #[schema(exclusive_minimum = 0.0, maximum = 7000.0)]
     pub speed_mm_s: f64,
     /// Zone (approximation distance), mm; 0 is an exact stop (`fine`, no `C_DIS`, `FINE`).
+    #[schema(minimum = 0.0, maximum = 1000.0)]
     pub zone_mm: f64,
     /// Work object (RAPID `\WObj`); its trailing number is the KRL base and FANUC user frame.
+    /// A RAPID identifier (not a reserved word).
+    #[schema(pattern = r"^[A-Za-z][A-Za-z0-9_]{0,31}$")]
     pub work_object: String,
-    /// Tool (RAPID tooldata); its trailing number is the KRL tool and FANUC user tool.
+    /// Tool (RAPID tooldata); its trailing number is the KRL tool and FANUC user tool. A RAPID
+    /// identifier (not a reserved word).
+    #[schema(pattern = r"^[A-Za-z][A-Za-z0-9_]{0,31}$")]
     pub tool: String,
 }
 
