@@ -11,6 +11,7 @@ mod durability;
 mod editing;
 mod errors;
 mod export;
+mod export_pinned;
 mod feedback;
 mod grpc;
 mod helpers;
