@@ -6,6 +6,7 @@ use utoipa::ToSchema;
 
 use super::predictions::Prediction;
 use super::{PoseValues, present};
+use crate::program::Motion;
 
 /// How the arm moves to a waypoint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -16,21 +17,23 @@ pub enum MotionType {
     Circular,
 }
 
-impl MotionType {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            MotionType::Joint => "joint",
-            MotionType::Linear => "linear",
-            MotionType::Circular => "circular",
+/// The wire's motion type is the program model's [`Motion`], mapped here and only here.
+impl From<Motion> for MotionType {
+    fn from(m: Motion) -> MotionType {
+        match m {
+            Motion::Joint => MotionType::Joint,
+            Motion::Linear => MotionType::Linear,
+            Motion::Circular => MotionType::Circular,
         }
     }
+}
 
-    pub fn parse(s: &str) -> Option<MotionType> {
-        match s {
-            "joint" => Some(MotionType::Joint),
-            "linear" => Some(MotionType::Linear),
-            "circular" => Some(MotionType::Circular),
-            _ => None,
+impl From<MotionType> for Motion {
+    fn from(m: MotionType) -> Motion {
+        match m {
+            MotionType::Joint => Motion::Joint,
+            MotionType::Linear => Motion::Linear,
+            MotionType::Circular => Motion::Circular,
         }
     }
 }
@@ -168,4 +171,18 @@ pub struct WaypointEdit {
     pub waypoint: Option<Waypoint>,
     pub previous: Option<Waypoint>,
     pub model_version: i64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wire_names_a_motion_as_the_program_model_does() {
+        for m in Motion::ALL {
+            let wire = MotionType::from(m);
+            assert_eq!(serde_json::to_value(wire).unwrap(), m.as_str());
+            assert_eq!(Motion::from(wire), m);
+        }
+    }
 }

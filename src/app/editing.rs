@@ -14,7 +14,7 @@
 
 use super::error::AppError;
 use super::registry::{Locked, lock_map};
-use super::rows::{program, routine, waypoint};
+use super::rows::{motion_to_store, program, routine, waypoint};
 use super::{App, Result, check_name};
 use crate::api::{
     Cell, CellPatch, InsertWaypoint, NewWaypoint, PoseValues, Program, Rename, RoutineEdit,
@@ -95,7 +95,7 @@ impl App {
         Ok(WaypointValues {
             pose: stored,
             joints,
-            motion: input.motion.map(|m| m.as_str().to_string()),
+            motion: motion_to_store(input.motion),
             name: input.name.as_ref().map(|n| n.trim().to_string()),
             reachable: model
                 .arm

@@ -4,22 +4,21 @@
 //! when the pendant sent them, else the solution nearest the previous target's, as the preview
 //! of a prediction chooses it), so the controller takes the branch the pendant showed.
 
-use std::str::FromStr;
-
 use super::cell_model::{stored_joint_values, stored_pose_values};
 use super::error::AppError;
 use super::registry::blocking;
 use super::settings::parse_settings;
 use super::{App, Result};
-use crate::api::{ExportQuery, ExportedFile, MotionType, ProgramExport};
-use crate::export::{self, ExportProgram, ExportRoutine, ExportWaypoint, Format, Motion};
+use crate::api::{ExportQuery, ExportedFile, ProgramExport};
+use crate::export;
 use crate::kinematics::{self, Joints};
+use crate::program::{Motion, Program, Routine, Waypoint};
 use crate::storage::WaypointState;
 
 impl App {
     pub async fn export_program(&self, id: i64, query: ExportQuery) -> Result<ProgramExport> {
         let format =
-            Format::from_str(&query.format).map_err(|e| AppError::Invalid(e.to_string()))?;
+            export::language_named(&query.format).map_err(|e| AppError::Invalid(e.to_string()))?;
         let p = self.program_row(id).await?;
         let settings = parse_settings(&self.cell_row(p.cell_id).await?)?;
         let arm = self.cell_arm(&settings)?;
@@ -34,7 +33,7 @@ impl App {
                 (name, r.waypoints)
             })
             .collect();
-        let program_name = p.name.clone();
+        let (program_name, cell_id) = (p.name.clone(), p.cell_id);
         blocking(move || -> Result<ProgramExport> {
             let mut unreachable = Vec::new();
             let mut out = Vec::with_capacity(routines.len());
@@ -57,29 +56,25 @@ impl App {
                     }
                     previous = joints.or(previous);
                     let configuration = match (&arm, &joints) {
-                        (Some(arm), Some(q)) => kinematics::configuration(arm.robot(), q).ok(),
+                        (Some(arm), Some(q)) => kinematics::configuration(arm.robot(), q)
+                            .ok()
+                            .map(|c| c.written(format)),
                         _ => None,
                     };
                     let v = &w.values;
-                    waypoints.push(ExportWaypoint {
+                    waypoints.push(Waypoint {
                         name: v.name.clone(),
                         pose,
-                        motion: match v.motion.as_deref().and_then(MotionType::parse) {
-                            Some(MotionType::Joint) => Motion::Joint,
-                            Some(MotionType::Circular) => Motion::Circular,
-                            // A taught waypoint without a motion type: a straight move.
-                            Some(MotionType::Linear) | None => Motion::Linear,
-                        },
+                        // One without a motion type (or with one the service does not know)
+                        // is moved to linearly by the exporter.
+                        motion: v.motion.as_deref().and_then(Motion::parse),
                         configuration,
                         reachable,
                     });
                 }
-                out.push(ExportRoutine { name, waypoints });
+                out.push(Routine { name, waypoints });
             }
-            let program = ExportProgram {
-                name: program_name,
-                routines: out,
-            };
+            let program = Program::stored(program_name, cell_id, out);
             let exported = export::export(&program, format, &settings.export)
                 .map_err(|e| AppError::Invalid(e.to_string()))?;
             Ok(ProgramExport {

@@ -6,29 +6,12 @@ use super::registry::blocking;
 use super::rows::program;
 use super::{App, MAX_NAME, Result, check_name};
 use crate::api::{
-    ImportRequest, ImportResult, ImportedProgram, ModelInfo, MotionType, PoseValues, Program,
-    Skipped,
+    ImportRequest, ImportResult, ImportedProgram, ModelInfo, PoseValues, Program, Skipped,
 };
 use crate::engine::Pose;
 use crate::import;
+use crate::program::Waypoint;
 use crate::storage::{NewImportedRoutine, WaypointValues};
-
-/// The motion type of an imported instruction (`MoveL`, `ArcCStart`, `PTP`, `L`, `C`, ...).
-fn motion_of(instruction: &str) -> MotionType {
-    let m = instruction.to_ascii_lowercase();
-    if m == "j" || m == "ptp" || m.starts_with("ptp_") || m.starts_with("movej") {
-        MotionType::Joint
-    } else if m == "c"
-        || m.starts_with("movec")
-        || m.starts_with("arcc")
-        || m.starts_with("circ")
-        || m.starts_with("triggc")
-    {
-        MotionType::Circular
-    } else {
-        MotionType::Linear
-    }
-}
 
 impl App {
     /// Imports offline programs (RAPID, KRL, FANUC TP) into a cell as new programs whose
@@ -152,6 +135,7 @@ impl Upload {
         let mut programs = Vec::with_capacity(report.programs.len());
         let mut poses = Vec::new();
         for p in &report.programs {
+            let p = &p.program;
             let mut routines = Vec::with_capacity(p.routines.len());
             for r in &p.routines {
                 let (waypoints, taught) = r
@@ -176,12 +160,12 @@ impl Upload {
 }
 
 /// The stored values of an imported waypoint.
-fn waypoint(w: &import::ImportedWaypoint, pose: PoseValues) -> WaypointValues {
+fn waypoint(w: &Waypoint, pose: PoseValues) -> WaypointValues {
     WaypointValues {
         pose,
         joints: None,
-        motion: Some(motion_of(&w.motion).as_str().to_string()),
-        name: Some(truncated(&w.name)),
+        motion: w.motion.map(|m| m.as_str().to_string()),
+        name: w.name.as_deref().map(truncated),
         reachable: None,
     }
 }
@@ -191,13 +175,14 @@ fn truncated(name: &str) -> String {
     name.chars().take(MAX_NAME).collect()
 }
 
-fn imported(program: Program, p: &import::ImportedProgram) -> ImportedProgram {
+/// The wire's imported program, from the stored program's row and the program read.
+fn imported(program: Program, p: &import::Imported) -> ImportedProgram {
     ImportedProgram {
         program,
-        language: p.language.as_str().to_string(),
-        source: p.source.clone(),
-        routines: p.routines.len(),
-        waypoints: p.routines.iter().map(|r| r.waypoints.len()).sum(),
+        language: p.program.language_name().to_string(),
+        source: p.source(),
+        routines: p.program.routines.len(),
+        waypoints: p.program.waypoint_count(),
     }
 }
 

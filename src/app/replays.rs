@@ -59,14 +59,7 @@ impl App {
                             waypoints,
                         });
                     }
-                    out.push(ReplayProgram {
-                        name: p.name,
-                        source: std::path::PathBuf::from(format!("cell {cell}")),
-                        language: "stored".into(),
-                        repo: None,
-                        arm: None,
-                        routines,
-                    });
+                    out.push(ReplayProgram::stored(p.name, cell, routines));
                 }
                 out
             }

@@ -4,6 +4,7 @@ use super::Result;
 use super::cell_model;
 use super::error::AppError;
 use crate::api::{MotionType, Program, Routine, Waypoint};
+use crate::program::Motion;
 use crate::storage::{ProgramRow, RoutineRow, WaypointRow};
 
 /// A stored waypoint as clients see it. Its joints and motion were validated when taught, so
@@ -24,15 +25,21 @@ pub(super) fn waypoint(w: WaypointRow) -> Result<Waypoint> {
     })
 }
 
-/// The motion type of waypoint `id` as stored.
+/// The motion type of waypoint `id` as stored (the program model's name of it).
 pub(super) fn stored_motion(id: i64, motion: &Option<String>) -> Result<Option<MotionType>> {
     motion
         .as_deref()
         .map(|m| {
-            MotionType::parse(m)
+            Motion::parse(m)
+                .map(MotionType::from)
                 .ok_or_else(|| AppError::Internal(format!("stored motion {m:?} of waypoint {id}")))
         })
         .transpose()
+}
+
+/// A motion type as it is stored.
+pub(super) fn motion_to_store(motion: Option<MotionType>) -> Option<String> {
+    motion.map(|m| Motion::from(m).as_str().to_string())
 }
 
 pub(super) fn routine(r: RoutineRow) -> Routine {

@@ -5,7 +5,7 @@ use super::cell_model::Verdicts;
 use super::error::AppError;
 use super::offer;
 use super::registry::{Locked, OpenRoutine, blocking, stale_check};
-use super::rows::waypoint;
+use super::rows::{motion_to_store, waypoint};
 use super::settings::MAX_HORIZON;
 use super::{App, MAX_COMPLETION, Result, check_joints_finite, check_name};
 use crate::api::{self, PoseValues, PredictQuery, PredictionSet, Taught, Undone};
@@ -77,7 +77,7 @@ impl App {
             seq: count + 1,
             pose: stored,
             joints,
-            motion: input.motion.map(|m| m.as_str().to_string()),
+            motion: motion_to_store(input.motion),
             name: input.name.map(|n| n.trim().to_string()),
             reachable: None,
         };

@@ -37,10 +37,10 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 
 use super::names::{self, Namespace, name_routines};
 use super::{
-    ExportError, ExportProgram, ExportRoutine, ExportSettings, ExportWarning, ExportWaypoint,
-    ExportedFile, FANUC_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_index,
-    position_text, steps, unreachable_targets,
+    ExportError, ExportSettings, ExportWarning, ExportedFile, FANUC_ANGLE_DECIMALS, Step,
+    configuration, euler_zyx_deg, fixed, frame_index, position_text, steps, unreachable_targets,
 };
+use crate::program::{Configuration, Language, Motion, Program, Routine, Waypoint};
 
 const MAX_USER_FRAME: u32 = 9;
 const MAX_USER_TOOL: u32 = 10;
@@ -83,13 +83,14 @@ fn folder_name(name: &str) -> String {
 }
 
 /// The `/POS` body of group 1 for a waypoint (without the `P[n]{` line).
-fn position(w: &ExportWaypoint, uf: u32, ut: u32) -> String {
+fn position(w: &Waypoint, uf: u32, ut: u32) -> String {
     let [x, y, z] = position_text(&w.pose).map(|v| format!("{v:>9}"));
     let [a, b, c] =
         euler_zyx_deg(&w.pose.rotation()).map(|v| format!("{:>9}", fixed(v, FANUC_ANGLE_DECIMALS)));
-    let config = w
-        .configuration
-        .map_or(DEFAULT_CONFIG.to_string(), |c| c.fanuc());
+    let config = match configuration(w, Language::Fanuc) {
+        Some(Configuration::Fanuc(c)) => c.as_str(),
+        _ => DEFAULT_CONFIG,
+    };
     format!(
         "   GP1:\n\tUF : {uf}, UT : {ut},\t\tCONFIG : '{config}',\n\tX = {x}  mm,\tY = {y}  mm,\tZ = {z}  mm,\n\tW = {c} deg,\tP = {b} deg,\tR = {a} deg\n"
     )
@@ -97,9 +98,9 @@ fn position(w: &ExportWaypoint, uf: u32, ut: u32) -> String {
 
 /// Position numbers for a routine's waypoints.
 fn numbers(
-    routine: &ExportRoutine,
+    routine: &Routine<Waypoint>,
     name: &str,
-    value: impl Fn(&ExportWaypoint) -> String,
+    value: impl Fn(&Waypoint) -> String,
     warnings: &mut Vec<ExportWarning>,
 ) -> Vec<u64> {
     let owned: HashSet<u64> = routine
@@ -146,7 +147,7 @@ fn numbers(
 
 /// One listing per routine.
 pub(crate) fn write(
-    program: &ExportProgram,
+    program: &Program<Waypoint>,
     settings: &ExportSettings,
     warnings: &mut Vec<ExportWarning>,
 ) -> Result<Vec<ExportedFile>, ExportError> {
@@ -181,13 +182,13 @@ pub(crate) fn write(
         format!("CNT{cnt}")
     };
     let mut ns = Namespace::new(names::FANUC_PROGRAM);
-    let routines = name_routines(&mut ns, program, warnings);
+    let routines = name_routines(&mut ns, &program.routines, warnings);
     let mut files = Vec::with_capacity(program.routines.len());
     for (r, routine) in program.routines.iter().enumerate() {
         let name = routines
             .get(r)
             .map_or(routine.name.as_str(), String::as_str);
-        let value = |w: &ExportWaypoint| position(w, uf, ut);
+        let value = |w: &Waypoint| position(w, uf, ut);
         let numbers = numbers(routine, name, value, warnings);
         let number = |i: usize| numbers.get(i).copied().unwrap_or(0);
         let mut mn: Vec<String> = vec![format!("UFRAME_NUM={uf} ;"), format!("UTOOL_NUM={ut} ;")];

@@ -40,23 +40,27 @@
 
 use super::names::{self, Namespace, name_routines, name_targets};
 use super::{
-    ExportError, ExportProgram, ExportSettings, ExportWarning, ExportWaypoint, ExportedFile,
-    KRL_ANGLE_DECIMALS, Motion, Step, euler_zyx_deg, fixed, frame_index, position_text, steps,
-    unreachable_targets,
+    ExportError, ExportSettings, ExportWarning, ExportedFile, KRL_ANGLE_DECIMALS, Step,
+    configuration, euler_zyx_deg, fixed, frame_index, position_text, steps, unreachable_targets,
 };
+use crate::program::{Configuration, Language, Motion, Program, Waypoint};
 
 /// `BASE_DATA` has 32 entries and `TOOL_DATA` 16 on a KRC.
 const MAX_BASE: u32 = 32;
 const MAX_TOOL: u32 = 16;
 
 /// The `E6POS` aggregate of a waypoint.
-fn e6pos(w: &ExportWaypoint) -> String {
+fn e6pos(w: &Waypoint) -> String {
     let [x, y, z] = position_text(&w.pose);
     let [a, b, c] = euler_zyx_deg(&w.pose.rotation()).map(|v| fixed(v, KRL_ANGLE_DECIMALS));
-    let st = w.configuration.map_or(String::new(), |c| {
-        let k = c.krl();
-        format!(",S {},T {}", k.status, k.turn)
-    });
+    let st = match configuration(w, Language::Krl) {
+        Some(Configuration::Krl(k)) => {
+            let s = k.status.map_or(String::new(), |s| format!(",S {s}"));
+            let t = k.turn.map_or(String::new(), |t| format!(",T {t}"));
+            s + &t
+        }
+        _ => String::new(),
+    };
     format!("{{X {x},Y {y},Z {z},A {a},B {b},C {c}{st},E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}}")
 }
 
@@ -78,7 +82,7 @@ fn frame(table: &str, n: u32) -> String {
 
 /// The `.src` and `.dat` files.
 pub(crate) fn write(
-    program: &ExportProgram,
+    program: &Program<Waypoint>,
     settings: &ExportSettings,
     warnings: &mut Vec<ExportWarning>,
 ) -> Result<Vec<ExportedFile>, ExportError> {
@@ -97,13 +101,10 @@ pub(crate) fn write(
         .first()
         .is_some_and(|r| r.name.eq_ignore_ascii_case(&module) && names::KRL.is_valid(&r.name));
     let routines: Vec<String> = if first_is_main {
-        let rest = ExportProgram {
-            name: program.name.clone(),
-            routines: program.routines.get(1..).unwrap_or(&[]).to_vec(),
-        };
+        let rest = program.routines.get(1..).unwrap_or(&[]);
         let mut renamed = Vec::new();
         let mut all = vec![program.routines[0].name.clone()];
-        all.extend(name_routines(&mut ns, &rest, &mut renamed));
+        all.extend(name_routines(&mut ns, rest, &mut renamed));
         warnings.extend(renamed.into_iter().map(|w| match w {
             ExportWarning::RenamedRoutine { position, from, to } => ExportWarning::RenamedRoutine {
                 position: position + 1,
@@ -114,7 +115,7 @@ pub(crate) fn write(
         }));
         all
     } else {
-        name_routines(&mut ns, program, warnings)
+        name_routines(&mut ns, &program.routines, warnings)
     };
     let targets = name_targets(&mut ns, program, &routines, "XP", e6pos, warnings);
 

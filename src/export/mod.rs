@@ -1,8 +1,9 @@
 //! Exporting programs as controller programs: ABB RAPID, KUKA KRL and FANUC TP listings.
 //!
-//! The converse of [`crate::import`]: a program → routines → waypoints (poses in the work frame,
-//! mm, with a motion class, an optional arm configuration and whether the arm can reach it)
-//! becomes the text of the files a controller loads. Pure: it builds strings; writing files,
+//! The converse of [`crate::import`]: a program of the program model ([`Program`] →
+//! [`Routine`]s → [`Waypoint`]s: poses in the work frame, mm, with a motion class, an optional
+//! arm configuration and whether the arm can reach it) becomes the text of the files a
+//! controller loads, in a [`Language`]. Pure: it builds strings; writing files,
 //! choosing the robot and checking reach belong to the callers.
 //!
 //! - [`rapid`]: one `.mod` module, `CONST robtarget` declarations and one `PROC` per routine.
@@ -23,15 +24,18 @@
 //!
 //! **Precision.** Positions are printed in mm with 3 decimals; RAPID quaternions with 8
 //! decimals; KRL `A B C` with 4 decimals and FANUC `W P R` with 3 (the FANUC listing format), in
-//! degrees. [`Format::position_tolerance_mm`] and [`Format::orientation_tolerance_rad`] give the
+//! degrees. [`position_tolerance_mm`] and [`orientation_tolerance_rad`] give the
 //! round-trip error these allow. Angles are ZYX Euler angles (`R = Rz(A)·Ry(B)·Rx(C)`; FANUC
 //! `A = R, B = P, C = W`) in `(−180°, 180°]`; the extraction keeps the composed rotation exact
 //! also at gimbal lock (`B = ±90°`), where only `A ∓ C` is determined.
 //!
-//! **Configuration.** A waypoint's [`ArmConfiguration`] is written as RAPID `confdata`, KRL
-//! `S`/`T` and FANUC `CONFIG` (see [`crate::kinematics::configuration`]); without one, RAPID gets
-//! `[0,0,0,0]`, KRL no `S`/`T` and FANUC `'N U T, 0, 0, 0'`, with one
-//! [`ExportWarning::UnknownConfiguration`] per file set.
+//! **Configuration.** A waypoint's [`Configuration`] in the language's notation is written as
+//! RAPID `confdata`, KRL `S`/`T` and FANUC `CONFIG` (the service computes it from the joints
+//! it chose: [`crate::kinematics::ArmConfiguration::written`]); without one (or with one in
+//! another language's notation), RAPID gets `[0,0,0,0]`, KRL no `S`/`T` and FANUC
+//! `'N U T, 0, 0, 0'`, with one [`ExportWarning::UnknownConfiguration`] per file set.
+//!
+//! **Motion.** A waypoint without a motion class is moved to linearly.
 
 pub mod fanuc;
 pub mod krl;
@@ -39,13 +43,14 @@ pub mod names;
 pub mod rapid;
 
 use std::fmt;
-use std::str::FromStr;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::engine::Pose;
-use crate::kinematics::ArmConfiguration;
+use crate::program::{
+    Configuration, Language, Motion, Program, Routine, UnknownLanguage, Waypoint,
+};
 
 /// Decimals of positions (mm) in all three formats.
 pub const POSITION_DECIMALS: usize = 3;
@@ -62,67 +67,6 @@ pub const MAX_COORDINATE_MM: f64 = 1.0e6;
 pub const MAX_SPEED_MM_S: f64 = 7000.0;
 /// Largest accepted zone (approximation distance), mm.
 pub const MAX_ZONE_MM: f64 = 1000.0;
-
-/// How the arm moves to a waypoint.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Motion {
-    /// Joint interpolation (`MoveJ`, `PTP`, `J`).
-    Joint,
-    /// Linear TCP path (`MoveL`, `LIN`, `L`).
-    Linear,
-    /// Circular arc: two consecutive circular waypoints are the via point and the end point
-    /// (`MoveC`, `CIRC`, `C`).
-    Circular,
-}
-
-impl Motion {
-    /// The motion class of an imported instruction (`MoveJ`, `ArcL`, `PTP`, `LIN_REL`, `J`, …);
-    /// `circular` when the importer gave it a via/to role. Joint for RAPID `MoveJ*`, `TriggJ*`,
-    /// `SpotJ`, KRL `PTP*`/`SPTP*` and FANUC `J`; linear for everything else (`MoveL`, `ArcL`,
-    /// `SearchL`, `LIN`, FANUC `L` and `A`).
-    pub fn of_instruction(instruction: &str, circular: bool) -> Motion {
-        if circular {
-            return Motion::Circular;
-        }
-        let upper = instruction.to_ascii_uppercase();
-        let joint = upper == "J"
-            || upper.starts_with("PTP")
-            || upper.starts_with("SPTP")
-            || ["MOVEJ", "TRIGGJ", "SPOTJ", "ARCJ"]
-                .iter()
-                .any(|p| upper.starts_with(p));
-        if joint { Motion::Joint } else { Motion::Linear }
-    }
-}
-
-/// One waypoint to export.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ExportWaypoint {
-    /// The name as taught or imported (`p10`, `Offs(p10,0,0,50)`, `P[3]`), if any.
-    pub name: Option<String>,
-    /// Pose of the TCP in the work frame, mm.
-    pub pose: Pose,
-    pub motion: Motion,
-    /// The arm configuration to reach it with, when known.
-    pub configuration: Option<ArmConfiguration>,
-    /// Whether the arm can reach it (`None`: not checked).
-    pub reachable: Option<bool>,
-}
-
-/// One routine: a RAPID `PROC`, a KRL `DEF`, a FANUC TP program.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ExportRoutine {
-    pub name: String,
-    pub waypoints: Vec<ExportWaypoint>,
-}
-
-/// One program: a RAPID module, a KRL `.src`/`.dat` pair, a folder of FANUC listings.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ExportProgram {
-    pub name: String,
-    pub routines: Vec<ExportRoutine>,
-}
 
 /// The motion parameters written into every move (a cell's settings).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -180,63 +124,28 @@ impl ExportSettings {
     }
 }
 
-/// The controller language to write.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Format {
-    Rapid,
-    Krl,
-    Fanuc,
+/// Largest position error (mm) a round trip through the printed text of `language` can give:
+/// half a unit of the last printed decimal on each axis.
+pub fn position_tolerance_mm(_language: Language) -> f64 {
+    3f64.sqrt() * 0.5 * 10f64.powi(-(POSITION_DECIMALS as i32)) * (1.0 + 1e-6)
 }
 
-impl Format {
-    pub const ALL: [Format; 3] = [Format::Rapid, Format::Krl, Format::Fanuc];
-
-    /// `rapid`, `krl`, `fanuc`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Format::Rapid => "rapid",
-            Format::Krl => "krl",
-            Format::Fanuc => "fanuc",
-        }
-    }
-
-    /// Largest position error (mm) a round trip through the printed text can give: half a
-    /// unit of the last printed decimal on each axis.
-    pub fn position_tolerance_mm(self) -> f64 {
-        3f64.sqrt() * 0.5 * 10f64.powi(-(POSITION_DECIMALS as i32)) * (1.0 + 1e-6)
-    }
-
-    /// Largest rotation error (rad) a round trip through the printed text can give: for
-    /// quaternions, half a unit of the last decimal on each of the four components (the angle
-    /// error is at most twice the component error's norm, normalisation included, rounded up
-    /// to 4·|δq|); for Euler angles half a unit on each of the three angles.
-    pub fn orientation_tolerance_rad(self) -> f64 {
-        match self {
-            Format::Rapid => 4.0 * 2.0 * 0.5 * 10f64.powi(-(QUATERNION_DECIMALS as i32)),
-            Format::Krl => 3.0 * 0.5 * 10f64.powi(-(KRL_ANGLE_DECIMALS as i32)).to_radians(),
-            Format::Fanuc => 3.0 * 0.5 * 10f64.powi(-(FANUC_ANGLE_DECIMALS as i32)).to_radians(),
-        }
+/// Largest rotation error (rad) a round trip through the printed text of `language` can give:
+/// for quaternions, half a unit of the last decimal on each of the four components (the angle
+/// error is at most twice the component error's norm, normalisation included, rounded up to
+/// 4·|δq|); for Euler angles half a unit on each of the three angles.
+pub fn orientation_tolerance_rad(language: Language) -> f64 {
+    match language {
+        Language::Rapid => 4.0 * 2.0 * 0.5 * 10f64.powi(-(QUATERNION_DECIMALS as i32)),
+        Language::Krl => 3.0 * 0.5 * 10f64.powi(-(KRL_ANGLE_DECIMALS as i32)).to_radians(),
+        Language::Fanuc => 3.0 * 0.5 * 10f64.powi(-(FANUC_ANGLE_DECIMALS as i32)).to_radians(),
     }
 }
 
-impl fmt::Display for Format {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl FromStr for Format {
-    type Err = ExportError;
-    /// `rapid`, `krl` or `fanuc` (case-insensitive).
-    fn from_str(s: &str) -> Result<Format, ExportError> {
-        match s.to_ascii_lowercase().as_str() {
-            "rapid" => Ok(Format::Rapid),
-            "krl" => Ok(Format::Krl),
-            "fanuc" => Ok(Format::Fanuc),
-            _ => Err(ExportError::UnknownFormat(s.to_string())),
-        }
-    }
+/// The language an export asks for by name (`rapid`, `krl` or `fanuc`, in any case).
+pub fn language_named(name: &str) -> Result<Language, ExportError> {
+    name.parse()
+        .map_err(|e: UnknownLanguage| ExportError::UnknownFormat(e.0))
 }
 
 /// One file of an export: its name (a relative path) and its text.
@@ -378,8 +287,8 @@ pub enum ExportError {
 /// ([`ExportSettings::validate`]) and poses too far away to print; everything the format can
 /// express differently (names, unpaired circles, unknown configurations) is a warning.
 pub fn export(
-    program: &ExportProgram,
-    format: Format,
+    program: &Program<Waypoint>,
+    format: Language,
     settings: &ExportSettings,
 ) -> Result<Exported, ExportError> {
     settings.validate()?;
@@ -399,20 +308,33 @@ pub fn export(
     }
     let mut warnings = Vec::new();
     let files = match format {
-        Format::Rapid => rapid::write(program, settings, &mut warnings),
-        Format::Krl => krl::write(program, settings, &mut warnings)?,
-        Format::Fanuc => fanuc::write(program, settings, &mut warnings)?,
+        Language::Rapid => rapid::write(program, settings, &mut warnings),
+        Language::Krl => krl::write(program, settings, &mut warnings)?,
+        Language::Fanuc => fanuc::write(program, settings, &mut warnings)?,
     };
     let unknown = program
         .routines
         .iter()
         .flat_map(|r| &r.waypoints)
-        .filter(|w| w.configuration.is_none())
+        .filter(|w| configuration(w, format).is_none())
         .count();
     if unknown > 0 {
         warnings.push(ExportWarning::UnknownConfiguration { count: unknown });
     }
     Ok(Exported { files, warnings })
+}
+
+/// The waypoint's configuration when it is in `language`'s notation (one in another notation
+/// cannot be written: the default is, as for none).
+pub(crate) fn configuration(w: &Waypoint, language: Language) -> Option<&Configuration> {
+    w.configuration
+        .as_ref()
+        .filter(|c| c.language() == language)
+}
+
+/// How the arm moves to the waypoint: a waypoint without a motion class is moved to linearly.
+fn motion(w: &Waypoint) -> Motion {
+    w.motion.unwrap_or(Motion::Linear)
 }
 
 /// One move of a routine: a single target, or a circle's via and end point.
@@ -424,14 +346,14 @@ pub(crate) enum Step {
 
 /// The moves of a routine: consecutive circular waypoints pair as (via, end); a circular one
 /// left without a partner becomes a linear move, with a warning.
-pub(crate) fn steps(routine: &ExportRoutine, warnings: &mut Vec<ExportWarning>) -> Vec<Step> {
+pub(crate) fn steps(routine: &Routine<Waypoint>, warnings: &mut Vec<ExportWarning>) -> Vec<Step> {
     let w = &routine.waypoints;
     let mut out = Vec::with_capacity(w.len());
     let mut i = 0;
     while i < w.len() {
-        let motion = w.get(i).map(|x| x.motion);
+        let motion = w.get(i).map(motion);
         if motion == Some(Motion::Circular) {
-            if w.get(i + 1).map(|x| x.motion) == Some(Motion::Circular) {
+            if w.get(i + 1).map(self::motion) == Some(Motion::Circular) {
                 out.push(Step::Circle { via: i, to: i + 1 });
                 i += 2;
                 continue;
@@ -501,7 +423,7 @@ pub(crate) fn frame_index(what: &'static str, name: &str, max: u32) -> Result<u3
 /// The waypoints of a move that the arm does not reach, as `(index, target)`, each with its
 /// [`ExportWarning::Unreachable`]; the writer puts its language's comment before the move.
 pub(crate) fn unreachable_targets(
-    routine: &ExportRoutine,
+    routine: &Routine<Waypoint>,
     name: &str,
     step: &Step,
     target: impl Fn(usize) -> String,
@@ -554,15 +476,17 @@ mod tests {
     }
 
     #[test]
-    fn formats_parse_and_print() {
-        for f in Format::ALL {
-            assert_eq!(f.as_str().parse::<Format>().unwrap(), f);
+    fn languages_are_asked_for_by_name() {
+        for l in Language::ALL {
+            assert_eq!(language_named(l.as_str()), Ok(l));
         }
-        assert_eq!("RAPID".parse::<Format>().unwrap(), Format::Rapid);
-        assert!(matches!(
-            "gcode".parse::<Format>(),
-            Err(ExportError::UnknownFormat(_))
-        ));
+        assert_eq!(language_named("RAPID"), Ok(Language::Rapid));
+        let err = language_named("gcode").unwrap_err();
+        assert_eq!(err, ExportError::UnknownFormat("gcode".into()));
+        assert_eq!(
+            err.to_string(),
+            "unknown export format \"gcode\" (rapid, krl or fanuc)"
+        );
     }
 
     #[test]
@@ -597,26 +521,6 @@ mod tests {
             ..ExportSettings::default()
         };
         assert!(matches!(s.validate(), Err(ExportError::FrameName { .. })));
-    }
-
-    #[test]
-    fn instructions_classify() {
-        for (i, m) in [
-            ("MoveJ", Motion::Joint),
-            ("MoveJDO", Motion::Joint),
-            ("TriggJ", Motion::Joint),
-            ("PTP", Motion::Joint),
-            ("PTP_REL", Motion::Joint),
-            ("J", Motion::Joint),
-            ("MoveL", Motion::Linear),
-            ("ArcLStart", Motion::Linear),
-            ("SearchL", Motion::Linear),
-            ("LIN", Motion::Linear),
-            ("L", Motion::Linear),
-        ] {
-            assert_eq!(Motion::of_instruction(i, false), m, "{i}");
-        }
-        assert_eq!(Motion::of_instruction("MoveC", true), Motion::Circular);
     }
 
     #[test]

@@ -12,7 +12,8 @@
 
 use std::collections::{HashMap, HashSet};
 
-use super::{ExportProgram, ExportWarning, ExportWaypoint};
+use super::ExportWarning;
+use crate::program::{Program, Routine, Waypoint};
 
 /// What one language accepts as a name.
 #[derive(Debug, Clone, Copy)]
@@ -328,10 +329,10 @@ impl Targets {
 /// waypoint's 1-based number), with a warning. `routines` are the routines' exported names.
 pub(crate) fn name_targets(
     ns: &mut Namespace,
-    program: &ExportProgram,
+    program: &Program<Waypoint>,
     routines: &[String],
     unnamed: &str,
-    value: impl Fn(&ExportWaypoint) -> String,
+    value: impl Fn(&Waypoint) -> String,
     warnings: &mut Vec<ExportWarning>,
 ) -> Targets {
     // Valid names are claimed first, so a made-up name never takes one a later waypoint has.
@@ -393,11 +394,10 @@ pub(crate) fn name_targets(
 /// The exported names of the routines (claimed in `ns`), with a warning for each one changed.
 pub(crate) fn name_routines(
     ns: &mut Namespace,
-    program: &ExportProgram,
+    routines: &[Routine<Waypoint>],
     warnings: &mut Vec<ExportWarning>,
 ) -> Vec<String> {
-    program
-        .routines
+    routines
         .iter()
         .enumerate()
         .map(|(index, r)| {

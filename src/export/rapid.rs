@@ -24,9 +24,10 @@
 
 use super::names::{self, Namespace, name_routines, name_targets};
 use super::{
-    ExportProgram, ExportSettings, ExportWarning, ExportWaypoint, ExportedFile, Motion,
-    QUATERNION_DECIMALS, Step, fixed, position_text, steps, unreachable_targets,
+    ExportSettings, ExportWarning, ExportedFile, QUATERNION_DECIMALS, Step, configuration, fixed,
+    position_text, steps, unreachable_targets,
 };
+use crate::program::{Configuration, Language, Motion, Program, Waypoint};
 
 /// Standard `speeddata` TCP speeds, mm/s.
 const SPEEDS: [u32; 25] = [
@@ -45,12 +46,14 @@ fn standard(v: f64, table: &[u32]) -> Option<u32> {
 }
 
 /// The robtarget aggregate of a waypoint.
-fn robtarget(w: &ExportWaypoint) -> String {
+fn robtarget(w: &Waypoint) -> String {
     let [x, y, z] = position_text(&w.pose);
     let q = w.pose.values();
     let [qw, qx, qy, qz] = [q.qw, q.qx, q.qy, q.qz].map(|v| fixed(v, QUATERNION_DECIMALS));
-    let c = w.configuration.map(|c| c.rapid());
-    let [cf1, cf4, cf6, cfx] = c.map_or([0; 4], |c| [c.cf1, c.cf4, c.cf6, c.cfx]);
+    let [cf1, cf4, cf6, cfx] = match configuration(w, Language::Rapid) {
+        Some(Configuration::Rapid(c)) => [c.cf1, c.cf4, c.cf6, c.cfx],
+        _ => [0; 4],
+    };
     format!(
         "[[{x},{y},{z}],[{qw},{qx},{qy},{qz}],[{cf1},{cf4},{cf6},{cfx}],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]]"
     )
@@ -58,7 +61,7 @@ fn robtarget(w: &ExportWaypoint) -> String {
 
 /// The module file.
 pub(crate) fn write(
-    program: &ExportProgram,
+    program: &Program<Waypoint>,
     settings: &ExportSettings,
     warnings: &mut Vec<ExportWarning>,
 ) -> Vec<ExportedFile> {
@@ -89,7 +92,7 @@ pub(crate) fn write(
             to: module.clone(),
         });
     }
-    let routines = name_routines(&mut ns, program, warnings);
+    let routines = name_routines(&mut ns, &program.routines, warnings);
     let targets = name_targets(&mut ns, program, &routines, "p", robtarget, warnings);
 
     let speed = match standard(settings.speed_mm_s, &SPEEDS) {

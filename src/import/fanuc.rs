@@ -18,10 +18,11 @@ use nalgebra::Vector3;
 
 use super::tokens::{Cursor, Kind, tokens};
 use super::{
-    CircleRole, Configuration, Frame, ImportError, ImportReport, ImportedProgram, ImportedRoutine,
-    ImportedWaypoint, Language, LineIndex, Location, SkipReason, Skipped, SourceFile, directory_of,
-    drop_short_routines, pose_of, rotation_zyx_deg,
+    CircleRole, Frame, ImportError, ImportReport, Imported, LineIndex, Location, ReadRoutine,
+    SkipReason, Skipped, SourceFile, WaypointOrigin, directory_of, drop_short_routines, pose_of,
+    rotation_zyx_deg,
 };
+use crate::program::{Configuration, Language, Motion, Waypoint};
 
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq)]
 #[logos(skip r"[ \t\r\f]+")]
@@ -79,8 +80,10 @@ enum Position {
 }
 
 /// A motion instruction of `/MN`.
-struct Motion {
-    motion: &'static str,
+struct Move {
+    /// `J`, `L`, `C` or `A`.
+    instruction: &'static str,
+    motion: Motion,
     /// `P[n]` index, or `None` for a position register / indirect reference.
     index: Option<u64>,
     text: String,
@@ -118,25 +121,19 @@ pub(crate) fn parse(
             .next()
             .filter(|s| !s.is_empty())
             .unwrap_or("fanuc");
-        report.programs.push(ImportedProgram {
-            name: name.to_string(),
-            source: dir.to_string(),
-            language: Language::Fanuc,
-            routines,
-        });
+        report
+            .programs
+            .push(Imported::of(name, dir, Language::Fanuc, routines));
     }
     Ok(())
 }
 
-fn parse_file(
-    f: SourceFile<'_>,
-    skipped: &mut Vec<Skipped>,
-) -> Result<ImportedRoutine, ImportError> {
+fn parse_file(f: SourceFile<'_>, skipped: &mut Vec<Skipped>) -> Result<ReadRoutine, ImportError> {
     let index = LineIndex::new(f.text);
     let err = |at: usize, msg: &str| ImportError::syntax(f.name, index.locate(f.text, at), msg);
     let mut name: Option<String> = None;
     let mut section = "";
-    let mut motions: Vec<Motion> = Vec::new();
+    let mut moves: Vec<Move> = Vec::new();
     let mut pos_tokens: Vec<Tok<'_>> = Vec::new();
     let mut pending_circle = false;
     let mut offset = 0;
@@ -180,8 +177,9 @@ fn parse_file(
                     // The end point of `C P[n]` is on the next line: `: P[m] speed term ;`.
                     let (index, text) = position_ref(toks.get(1..).unwrap_or(&[]));
                     let role = Some(CircleRole::To);
-                    motions.push(Motion {
-                        motion: "C",
+                    moves.push(Move {
+                        instruction: "C",
+                        motion: Motion::Circular,
                         index,
                         text,
                         line: line_no,
@@ -197,20 +195,23 @@ fn parse_file(
                 if num.k != K::Num || colon.k != K::Colon || kind.k != K::Ident {
                     continue;
                 }
-                let motion = match kind.s {
-                    "J" => "J",
-                    "L" => "L",
-                    "C" => "C",
-                    "A" => "A",
+                // `A` (a circular arc through the following points) is moved to as a
+                // linear target, as the service has stored it since imports began.
+                let (instruction, motion) = match kind.s {
+                    "J" => ("J", Motion::Joint),
+                    "L" => ("L", Motion::Linear),
+                    "C" => ("C", Motion::Circular),
+                    "A" => ("A", Motion::Linear),
                     _ => continue,
                 };
                 let (index, text) = position_ref(toks.get(3..).unwrap_or(&[]));
                 if text.is_empty() {
                     continue;
                 }
-                pending_circle = motion == "C";
+                pending_circle = instruction == "C";
                 let role = pending_circle.then_some(CircleRole::Via);
-                motions.push(Motion {
+                moves.push(Move {
+                    instruction,
                     motion,
                     index,
                     text,
@@ -230,8 +231,8 @@ fn parse_file(
         ));
     };
     let positions = positions(&pos_tokens, &err)?;
-    let mut waypoints = Vec::new();
-    for m in motions {
+    let mut routine = ReadRoutine::new(name.clone(), f.name, 1);
+    for m in moves {
         let skip = |skipped: &mut Vec<Skipped>, reason| {
             skipped.push(Skipped {
                 file: f.name.to_string(),
@@ -252,23 +253,24 @@ fn parse_file(
                 frame,
                 config,
                 uframe,
-            }) => waypoints.push(ImportedWaypoint {
-                name: format!("P[{i}]"),
-                pose: pose_of(frame),
-                motion: m.motion.to_string(),
-                role: m.role,
-                line: m.line,
-                configuration: config.clone().map(|config| Configuration::Fanuc { config }),
-                frame: uframe.clone(),
-            }),
+            }) => routine.push(
+                Waypoint {
+                    name: Some(format!("P[{i}]")),
+                    pose: pose_of(frame),
+                    motion: Some(m.motion),
+                    configuration: config.clone().map(Configuration::Fanuc),
+                    reachable: None,
+                },
+                WaypointOrigin {
+                    line: m.line,
+                    instruction: m.instruction,
+                    role: m.role,
+                    frame: uframe.clone(),
+                },
+            ),
         }
     }
-    Ok(ImportedRoutine {
-        name,
-        file: f.name.to_string(),
-        line: 1,
-        waypoints,
-    })
+    Ok(routine)
 }
 
 /// `P[n]`, `P[n:comment]`, `PR[n]` at the start of `toks`: the index (None for registers and
@@ -416,17 +418,35 @@ mod tests {
     fn reads_positions_moves_and_skips() {
         let report = parse_files(&[("backup/DEMO.LS", LS)]).unwrap();
         let prog = &report.programs[0];
-        assert_eq!(prog.name, "backup");
-        let r = &prog.routines[0];
+        assert_eq!(prog.program.name, "backup");
+        assert_eq!(prog.source(), "backup");
+        let (r, at) = (&prog.program.routines[0], &prog.origins[0]);
         assert_eq!(r.name, "DEMO");
         let names: Vec<_> = r
             .waypoints
             .iter()
-            .map(|w| (w.name.as_str(), w.motion.as_str()))
+            .zip(&at.waypoints)
+            .map(|(w, o)| (w.name.as_deref().unwrap_or(""), o.instruction, w.motion))
             .collect();
+        let (j, l, c) = (Motion::Joint, Motion::Linear, Motion::Circular);
         assert_eq!(
             names,
-            [("P[1]", "J"), ("P[2]", "L"), ("P[1]", "C"), ("P[2]", "C")]
+            [
+                ("P[1]", "J", Some(j)),
+                ("P[2]", "L", Some(l)),
+                ("P[1]", "C", Some(c)),
+                ("P[2]", "C", Some(c))
+            ]
+        );
+        let roles: Vec<_> = at.waypoints.iter().map(|o| o.role).collect();
+        assert_eq!(
+            roles,
+            [None, None, Some(CircleRole::Via), Some(CircleRole::To)]
+        );
+        assert_eq!(at.waypoints[0].frame.as_deref(), Some("UF1"));
+        assert_eq!(
+            r.waypoints[0].configuration,
+            Some(Configuration::Fanuc("F U T, 0, 1, 0".into()))
         );
         assert!((r.waypoints[0].pose.position().y + 0.5).abs() < 1e-12);
         // W=180, R=90: tool z points down, tool x along base y.

@@ -7,7 +7,8 @@
 //! ([`Elbow`]), and axis 5 positive or negative ([`Wrist`]). Axes with more than 360° of range
 //! add multi-turn variants, which controllers tell apart by the quadrant or the turn of axes 1,
 //! 4 and 6. [`ArmConfiguration`] holds the three branch flags, the quadrants `⌊q/90°⌋` of axes
-//! 1, 4, 6 and the sign of every axis, so that each controller's notation follows from it:
+//! 1, 4, 6 and the sign of every axis, so that each controller's notation (the program
+//! model's [`Configuration`], [`ArmConfiguration::written`]) follows from it:
 //!
 //! - **ABB RAPID `confdata`** ([`ArmConfiguration::rapid`]): `cf1`, `cf4`, `cf6` are the
 //!   quadrant numbers of axes 1, 4, 6 (`0` for 0…90°, `1` for 90…180°, `-1` for −90…0°, …);
@@ -54,6 +55,7 @@ use serde::{Deserialize, Serialize};
 
 use super::urdf::{DOF, Joints};
 use super::{Robot, SolverKind};
+use crate::program::{Configuration, KrlStatusTurn, Language, RapidConfdata};
 
 /// Where the wrist centre is relative to axis 1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -95,22 +97,6 @@ pub struct ArmConfiguration {
     pub quadrants: [i32; 3],
     /// Bit `i` set when axis `i + 1` is negative (KUKA's Turn needs all six).
     pub negative_axes: u8,
-}
-
-/// ABB RAPID `confdata`: `[cf1, cf4, cf6, cfx]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct RapidConfdata {
-    pub cf1: i32,
-    pub cf4: i32,
-    pub cf6: i32,
-    pub cfx: i32,
-}
-
-/// KUKA KRL Status (`S`) and Turn (`T`) of an `E6POS`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct KrlStatusTurn {
-    pub status: u8,
-    pub turn: u8,
 }
 
 /// Why a configuration cannot be computed.
@@ -226,14 +212,14 @@ impl ArmConfiguration {
         }
     }
 
-    /// KRL Status and Turn.
+    /// KRL Status and Turn (both given).
     pub fn krl(&self) -> KrlStatusTurn {
-        let status = u8::from(self.shoulder == Shoulder::Back)
-            | (u8::from(self.elbow == Elbow::Up) << 1)
-            | (u8::from(self.wrist == Wrist::Flip) << 2);
+        let status = i32::from(self.shoulder == Shoulder::Back)
+            | (i32::from(self.elbow == Elbow::Up) << 1)
+            | (i32::from(self.wrist == Wrist::Flip) << 2);
         KrlStatusTurn {
-            status,
-            turn: self.negative_axes & 0b11_1111,
+            status: Some(status),
+            turn: Some(i32::from(self.negative_axes & 0b11_1111)),
         }
     }
 
@@ -254,6 +240,15 @@ impl ArmConfiguration {
         };
         let [t1, t4, t6] = self.quadrants.map(turn_of_quadrant);
         format!("{wrist} {elbow} {arm}, {t1}, {t4}, {t6}")
+    }
+
+    /// The configuration in `language`'s notation, as a program in it states it.
+    pub fn written(&self, language: Language) -> Configuration {
+        match language {
+            Language::Rapid => Configuration::Rapid(self.rapid()),
+            Language::Krl => Configuration::Krl(self.krl()),
+            Language::Fanuc => Configuration::Fanuc(self.fanuc()),
+        }
     }
 }
 
@@ -344,14 +339,20 @@ mod tests {
         // KUKA's home (A2 −90°, A3 +90°) with A5 positive: basic area, A3 ≥ φ: S 2;
         // A2 negative: T 2.
         let c = configuration(&kuka, &deg([0.0, -90.0, 90.0, 0.0, 30.0, 0.0])).unwrap();
-        assert_eq!(c.krl(), KrlStatusTurn { status: 2, turn: 2 });
+        assert_eq!(
+            c.krl(),
+            KrlStatusTurn {
+                status: Some(2),
+                turn: Some(2)
+            }
+        );
         // A5 negative, A1 and A6 negative too: S 6, T 1 + 2 + 16 + 32.
         let c = configuration(&kuka, &deg([-20.0, -90.0, 90.0, 0.0, -30.0, -5.0])).unwrap();
         assert_eq!(
             c.krl(),
             KrlStatusTurn {
-                status: 6,
-                turn: 51
+                status: Some(6),
+                turn: Some(51)
             }
         );
 

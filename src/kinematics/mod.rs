@@ -56,8 +56,7 @@ use crate::engine::Pose;
 pub use bundled::{bundled_catalog, bundled_files, bundled_robot, bundled_robots};
 pub use catalog::{ArmFacts, computed_reach_mm, load_catalog, parse_catalog};
 pub use configuration::{
-    ArmConfiguration, ConfigurationError, Elbow, KrlStatusTurn, RapidConfdata, Shoulder, Wrist,
-    configuration, pick_solution,
+    ArmConfiguration, ConfigurationError, Elbow, Shoulder, Wrist, configuration, pick_solution,
 };
 pub use error::KinematicsError;
 pub use layout::{

@@ -1,23 +1,49 @@
-//! The recorded-program type every part shares: a program is ordered routines, a routine is
-//! the waypoints visited, in order. Import produces it, replay scores it, the simulated
-//! operator teaches it and the application stores it. A leaf: it needs only the engine's pose.
-//! A program's revisions (what each change takes back) are [`revisions`].
+//! The program model every part shares: a program is ordered routines, a routine is the
+//! waypoints visited, in order. The importer gives it, the exporter writes it, replay scores
+//! it, the simulated operator teaches it, and the application maps the stored program and the
+//! wire types to and from it. Pure, and a leaf: it needs only the engine's pose.
+//!
+//! - [`Program`], [`Routine`] ([`routines`]) and [`Waypoint`] ([`waypoints`]): a waypoint is a
+//!   pose alone (`Program<Pose>`, what replay and the simulation read) or a pose with its name,
+//!   motion, configuration and reach ([`Waypoint`], what the importer gives and the exporter
+//!   writes); `Program<Waypoint>::to_poses` is the one from the other.
+//! - [`Language`] ([`language`]): RAPID, KRL, FANUC TP. [`Motion`] ([`motion`]): joint,
+//!   linear, circular. [`Configuration`] ([`configuration`]): RAPID `confdata`, KRL Status and
+//!   Turn, FANUC `CONFIG`.
+//! - A program's revisions, as the changes that take them back: [`revisions`].
 
+pub mod configuration;
+pub mod language;
+pub mod motion;
 pub mod revisions;
+pub mod routines;
+pub mod waypoints;
 
 use std::path::PathBuf;
 
 use crate::engine::Pose;
 
-/// One recorded program: its routines in program (file) order.
+pub use configuration::{Configuration, KrlStatusTurn, RapidConfdata};
+pub use language::{Language, UnknownLanguage};
+pub use motion::Motion;
+pub use routines::Routine;
+pub use waypoints::{Posed, Waypoint};
+
+/// The language name reports give a program whose language is not known: a cell's stored
+/// program (the language of the files it was imported from is not kept).
+pub const STORED_LANGUAGE: &str = "stored";
+
+/// One program: its routines in program (file) order; a waypoint is a [`Pose`] or a
+/// [`Waypoint`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct Program {
-    /// The file stem (`ravenorb__abb-robot-welder__RAPID__PROGMOD__ProgSide1.mod`).
+pub struct Program<W = Pose> {
+    /// The module, file stem or folder (`ravenorb__abb-robot-welder__RAPID__PROGMOD__ProgSide1`),
+    /// or the stored program's name.
     pub name: String,
     /// Where the program was read from.
     pub source: PathBuf,
-    /// Source language as recorded in the corpus: `rapid`, `krl` or `fanuc`.
-    pub language: String,
+    /// The language it is written in; `None` for a cell's stored program.
+    pub language: Option<Language>,
     /// The repository the program comes from, when its file says so (corpus JSON
     /// `source.repo`, e.g. `owner/name`); `None` for other readers.
     pub repo: Option<String>,
@@ -25,7 +51,7 @@ pub struct Program {
     /// read by the corpus loader from the program file, its repository's other files and the
     /// corpus notes; `None` for other readers.
     pub arm: Option<NamedArm>,
-    pub routines: Vec<Routine>,
+    pub routines: Vec<Routine<W>>,
 }
 
 /// An arm model designation found in a program's sources, and where.
@@ -37,21 +63,14 @@ pub struct NamedArm {
     pub found_in: String,
 }
 
-/// One routine (RAPID `PROC`, KRL `DEF`, a FANUC TP file): waypoints in the order visited.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Routine {
-    pub name: String,
-    pub waypoints: Vec<Pose>,
-}
-
 impl Program {
     /// A constructed program (tests, examples): routines named `r0`, `r1`, … read from
-    /// `<name>.json`, in the RAPID dialect, from no repository.
+    /// `<name>.json`, in RAPID, from no repository.
     pub fn of_routines(name: &str, routines: Vec<Vec<Pose>>) -> Program {
         Program {
             name: name.to_string(),
             source: PathBuf::from(format!("{name}.json")),
-            language: "rapid".into(),
+            language: Some(Language::Rapid),
             repo: None,
             arm: None,
             routines: routines
@@ -64,10 +83,34 @@ impl Program {
                 .collect(),
         }
     }
+}
 
-    /// Every waypoint, routine after routine.
-    pub fn poses(&self) -> impl Iterator<Item = &Pose> {
-        self.routines.iter().flat_map(|r| &r.waypoints)
+impl<W> Program<W> {
+    /// Program `name` of `routines`, read from a source of its name, in a language not known,
+    /// from no repository and naming no arm.
+    pub fn new(name: impl Into<String>, routines: Vec<Routine<W>>) -> Program<W> {
+        let name = name.into();
+        Program {
+            source: PathBuf::from(&name),
+            name,
+            language: None,
+            repo: None,
+            arm: None,
+            routines,
+        }
+    }
+
+    /// A cell's stored program `name` (of cell `cell`): its language is not known.
+    pub fn stored(name: String, cell: i64, routines: Vec<Routine<W>>) -> Program<W> {
+        Program {
+            source: PathBuf::from(format!("cell {cell}")),
+            ..Program::new(name, routines)
+        }
+    }
+
+    /// The language's name (`rapid`, `krl`, `fanuc`; [`STORED_LANGUAGE`] when not known).
+    pub fn language_name(&self) -> &'static str {
+        self.language.map_or(STORED_LANGUAGE, Language::as_str)
     }
 
     /// The designation of the arm the program names (`None`: it names none).
@@ -78,5 +121,24 @@ impl Program {
     /// Number of waypoints over all routines.
     pub fn waypoint_count(&self) -> usize {
         self.routines.iter().map(|r| r.waypoints.len()).sum()
+    }
+}
+
+impl<W: Posed> Program<W> {
+    /// Every waypoint's pose, routine after routine.
+    pub fn poses(&self) -> impl Iterator<Item = &Pose> {
+        self.routines.iter().flat_map(Routine::poses)
+    }
+
+    /// The program with only its poses (what replay reads).
+    pub fn to_poses(&self) -> Program {
+        Program {
+            name: self.name.clone(),
+            source: self.source.clone(),
+            language: self.language,
+            repo: self.repo.clone(),
+            arm: self.arm.clone(),
+            routines: self.routines.iter().map(Routine::to_poses).collect(),
+        }
     }
 }

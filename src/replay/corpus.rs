@@ -21,9 +21,9 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::engine::{Pose, PoseError};
-use crate::import::{self, ImportError, Language};
+use crate::import::{self, ImportError};
 use crate::kinematics::designation::find_designation;
-use crate::program::NamedArm;
+use crate::program::{Language, NamedArm};
 
 pub use crate::program::{Program, Routine};
 
@@ -77,7 +77,8 @@ struct RawProgram {
     /// lead to the raw files that may name the arm ([`named_arm`]).
     #[serde(default)]
     source: Option<RawSource>,
-    language: String,
+    /// `rapid`, `krl` or `fanuc`: another is an error naming the file.
+    language: Language,
     routines: Vec<RawRoutine>,
 }
 
@@ -375,7 +376,7 @@ pub fn parse_program(path: &Path, text: &str) -> Result<Program, CorpusError> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default(),
         source: path.to_path_buf(),
-        language: raw.language,
+        language: Some(raw.language),
         repo: raw.source.and_then(|s| s.repo),
         arm: None,
         routines,
@@ -400,7 +401,7 @@ mod tests {
     fn parses_and_ignores_unknown_fields() {
         let p = parse_program(Path::new("dir/prog.mod.json"), ONE).unwrap();
         assert_eq!(p.name, "prog.mod");
-        assert_eq!(p.language, "rapid");
+        assert_eq!(p.language, Some(Language::Rapid));
         assert_eq!(p.repo.as_deref(), Some("r"));
         assert_eq!(p.routines.len(), 1);
         assert_eq!(p.routines[0].name, "main");
@@ -490,7 +491,7 @@ mod tests {
         // B only declares A's target: it resolves it, and (with no routine) is no program.
         assert_eq!(programs.len(), 1);
         assert_eq!(programs[0].name, "A");
-        assert_eq!(programs[0].language, "rapid");
+        assert_eq!(programs[0].language, Some(Language::Rapid));
         assert_eq!(programs[0].waypoint_count(), 2);
         let from_dir = load_paths(&[dir.path()]).unwrap();
         assert_eq!(from_dir, programs);

@@ -128,7 +128,7 @@ pub fn replay_program(program: &Program, method: &mut dyn Method) -> ProgramReco
     }
     ProgramRecord {
         program: program.name.clone(),
-        language: program.language.clone(),
+        language: program.language_name().to_string(),
         method: method.name().to_string(),
         waypoints,
         summary: method.summary(),

@@ -269,7 +269,7 @@ pub fn replay_all(
             .iter()
             .map(|p| {
                 let poses: Vec<Pose> = p.poses().copied().collect();
-                let (language, named) = (&p.language, p.arm_designation());
+                let (language, named) = (p.language_name(), p.arm_designation());
                 match &cache {
                     Some(cache) => cache.place(check, language, named, &poses, &mut used),
                     None => check.place(language, named, &poses),
@@ -339,7 +339,7 @@ pub fn replay_all(
         .enumerate()
         .map(|(p, program)| ProgramReport {
             program: program.name.clone(),
-            language: program.language.clone(),
+            language: program.language_name().to_string(),
             arm: arms[p].as_ref().map(|a| a.arm.clone()),
             methods: ByMethod(
                 names

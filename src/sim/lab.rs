@@ -72,7 +72,7 @@ use rand_chacha::ChaCha8Rng;
 use super::arm::JogLimits;
 use super::operator::{OperatorModel, SEED_SPACING_MM, normal};
 use crate::engine::Pose;
-use crate::program::{NamedArm, Program, Routine};
+use crate::program::{Language, NamedArm, Program, Routine};
 
 /// The repository every lab program names (`source.repo`): one for the whole lab, so that
 /// `--history repository` gives each program the earlier programs of all users, the other
@@ -81,7 +81,7 @@ pub const LAB_REPO: &str = "seed-lab/online-study";
 
 /// The language the programs are recorded in: the seed's lab arm was an ABB IRB 140 (§4.5,
 /// Figure 4.18), and `rapid` makes the simulation stand the bundled IRB 140 at them.
-pub const LAB_LANGUAGE: &str = "rapid";
+pub const LAB_LANGUAGE: Language = Language::Rapid;
 /// The arm of the seed's lab, which its programs name.
 pub const LAB_ARM: &str = "IRB 140";
 
@@ -636,7 +636,7 @@ pub fn generate(config: &LabConfig, seed: u64) -> Vec<LabProgram> {
             let program = Program {
                 source: PathBuf::from(format!("{name}.json")),
                 name,
-                language: LAB_LANGUAGE.into(),
+                language: Some(LAB_LANGUAGE),
                 repo: Some(LAB_REPO.into()),
                 arm: Some(NamedArm {
                     designation: LAB_ARM.into(),
@@ -802,7 +802,10 @@ mod tests {
         for p in &lab {
             let poses: Vec<Pose> = p.program.poses().copied().collect();
             let named = p.program.arm_designation();
-            let arm = check.place(LAB_LANGUAGE, named, &poses).unwrap().unwrap();
+            let arm = check
+                .place(LAB_LANGUAGE.as_str(), named, &poses)
+                .unwrap()
+                .unwrap();
             assert_eq!(
                 (arm.arm.robot.as_str(), arm.arm.chosen),
                 ("abb_irb140", ArmChoice::Named)
@@ -850,7 +853,7 @@ mod tests {
         for p in lab {
             let poses: Vec<Pose> = p.program.poses().copied().collect();
             let arm = check
-                .place(LAB_LANGUAGE, p.program.arm_designation(), &poses)
+                .place(LAB_LANGUAGE.as_str(), p.program.arm_designation(), &poses)
                 .unwrap()
                 .unwrap();
             assert_eq!(arm.arm.robot, "abb_irb140");

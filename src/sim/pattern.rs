@@ -38,12 +38,12 @@ use rand_chacha::ChaCha8Rng;
 
 use super::lab::{draw_placement, pose, tool_down};
 use crate::engine::Pose;
-use crate::program::{NamedArm, Program, Routine};
+use crate::program::{Language, NamedArm, Program, Routine};
 
 /// The arm the pattern programs name.
 pub const PATTERN_ARM: &str = "IRB 4600";
 /// Their language (an ABB arm).
-pub const PATTERN_LANGUAGE: &str = "rapid";
+pub const PATTERN_LANGUAGE: Language = Language::Rapid;
 /// Height of every approach above its pick, place or touch point, mm.
 pub const CLEARANCE_MM: f64 = 150.0;
 /// The arm's home, in the cell's frame, mm (tool down).
@@ -446,7 +446,7 @@ pub fn generate(set: PatternSet, seed: u64) -> Vec<PatternProgram> {
                 program: Program {
                     source: PathBuf::from(format!("{name}.json")),
                     name,
-                    language: PATTERN_LANGUAGE.into(),
+                    language: Some(PATTERN_LANGUAGE),
                     repo: Some(repository(set)),
                     arm: Some(NamedArm {
                         designation: PATTERN_ARM.into(),
@@ -594,7 +594,11 @@ mod tests {
             }
             let poses: Vec<Pose> = p.program.poses().copied().collect();
             let arm = check
-                .place(PATTERN_LANGUAGE, p.program.arm_designation(), &poses)
+                .place(
+                    PATTERN_LANGUAGE.as_str(),
+                    p.program.arm_designation(),
+                    &poses,
+                )
                 .unwrap()
                 .unwrap();
             assert_eq!(arm.arm.robot, "abb_irb4600", "{}", p.program.name);

@@ -247,7 +247,7 @@ pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
         .map(|p| {
             let poses: Vec<Pose> = p.poses().copied().collect();
             check
-                .place(&p.language, p.arm_designation(), &poses)
+                .place(p.language_name(), p.arm_designation(), &poses)
                 .map_err(|e| SimError::Layout(p.name.clone(), e))?
                 .ok_or_else(|| SimError::NoPlacement(p.name.clone()))
         })
@@ -397,7 +397,7 @@ mod tests {
         let p = Program {
             name: "zwj12__AddInPackages__ZhongXun__Source__X.mod".into(),
             source: "x".into(),
-            language: "rapid".into(),
+            language: Some(crate::program::Language::Rapid),
             repo: None,
             arm: None,
             routines: vec![],

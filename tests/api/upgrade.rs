@@ -15,8 +15,9 @@
 
 use std::collections::BTreeMap;
 
-use nextpose::export::Format;
-use nextpose::import::{ImportedRoutine, parse_files};
+use nextpose::export::{orientation_tolerance_rad, position_tolerance_mm};
+use nextpose::import::parse_files;
+use nextpose::program::{Language, Routine, Waypoint};
 use nextpose::server::{Application, Database, ServerSettings};
 use nextpose::storage::Durability;
 use nextpose::transport::TransportOptions;
@@ -540,7 +541,7 @@ async fn assert_programs_read_back(app: &TestApp, programs: &[OldProgram]) {
 async fn exports(app: &TestApp, programs: &[OldProgram]) -> BTreeMap<(i64, &'static str), Value> {
     let mut out = BTreeMap::new();
     for p in programs {
-        for format in Format::ALL {
+        for format in Language::ALL {
             let export = app
                 .get_ok(&format!(
                     "/v1/programs/{}/export?format={}",
@@ -556,7 +557,7 @@ async fn exports(app: &TestApp, programs: &[OldProgram]) -> BTreeMap<(i64, &'sta
 
 /// An export, read back by our importer, gives the program's stored routines (their number
 /// and, within the format's printed precision, every pose).
-fn assert_export_reads_back(p: &OldProgram, format: Format, export: &Value) {
+fn assert_export_reads_back(p: &OldProgram, format: Language, export: &Value) {
     let files: Vec<(String, String)> = export["files"]
         .as_array()
         .expect("files")
@@ -574,14 +575,14 @@ fn assert_export_reads_back(p: &OldProgram, format: Format, export: &Value) {
         .collect();
     let back = parse_files(&pairs).expect("the export parses");
     assert_eq!(back.programs.len(), 1, "program {} {format:?}", p.id);
-    let routines = &back.programs[0].routines;
+    let routines = &back.programs[0].program.routines;
     let stored: Vec<&OldRoutine> = p
         .routines
         .iter()
         .filter(|r| r.waypoints.len() >= 2)
         .collect();
     assert_eq!(routines.len(), stored.len(), "program {} {format:?}", p.id);
-    let same = |r: &ImportedRoutine, s: &OldRoutine| {
+    let same = |r: &Routine<Waypoint>, s: &OldRoutine| {
         r.waypoints.len() == s.waypoints.len()
             && r.waypoints.iter().zip(&s.waypoints).all(|(w, sw)| {
                 let old = nextpose::engine::Pose::new(
@@ -589,15 +590,15 @@ fn assert_export_reads_back(p: &OldProgram, format: Format, export: &Value) {
                     [sw.pose[3], sw.pose[4], sw.pose[5], sw.pose[6]],
                 )
                 .expect("a stored pose");
-                old.distance_to(&w.pose) <= format.position_tolerance_mm()
-                    && old.angle_to(&w.pose) <= format.orientation_tolerance_rad()
+                old.distance_to(&w.pose) <= position_tolerance_mm(format)
+                    && old.angle_to(&w.pose) <= orientation_tolerance_rad(format)
             })
     };
     // RAPID and KRL keep the routines' order; FANUC's listings come back in file name order.
     let mut unmatched = stored.clone();
     for (k, r) in routines.iter().enumerate() {
         let at = match format {
-            Format::Fanuc => unmatched.iter().position(|s| same(r, s)),
+            Language::Fanuc => unmatched.iter().position(|s| same(r, s)),
             _ => Some(k - (stored.len() - unmatched.len())).filter(|&i| same(r, unmatched[i])),
         };
         let at = at.unwrap_or_else(|| {
@@ -687,7 +688,7 @@ async fn upgrade_keeps_everything(release: &Release) {
 
     // Each export reads back as the stored values, and a restarted server exports the same.
     for p in &programs {
-        for format in Format::ALL {
+        for format in Language::ALL {
             assert_export_reads_back(p, format, &exported[&(p.id, format.as_str())]);
         }
     }

@@ -3,7 +3,7 @@
 //! - (a) Every program of the shared corpus (`../shared/corpus/raw`, one upload per repository,
 //!   as `importer.rs` reads it), imported, exported in all three formats and imported again,
 //!   has the same routines, waypoint counts, motion classes and poses within the printed
-//!   precision ([`Format::position_tolerance_mm`], [`Format::orientation_tolerance_rad`]); names
+//!   precision ([`Language::position_tolerance_mm`], [`Language::orientation_tolerance_rad`]); names
 //!   that were valid are kept exactly, the others are the ones the warnings announce, and a
 //!   second export of the re-imported program renames nothing (a fixpoint).
 //! - (b) The same for random programs: random poses (also at and near gimbal lock, which
@@ -15,43 +15,24 @@ use std::collections::HashMap;
 use nalgebra::UnitQuaternion;
 use nextpose::engine::Pose;
 use nextpose::export::{
-    ExportProgram, ExportRoutine, ExportSettings, ExportWarning, ExportWaypoint, Exported, Format,
-    Motion, export,
+    ExportSettings, ExportWarning, Exported, export, orientation_tolerance_rad,
+    position_tolerance_mm,
 };
-use nextpose::import::{ImportedProgram, parse_files};
+use nextpose::import::{Imported, parse_files};
+use nextpose::program::{Language, Motion, Program, Routine, Waypoint};
 use proptest::prelude::*;
 
 use crate::corpus::uploads;
 
-/// An imported program as the exporter takes it.
-fn to_export(p: &ImportedProgram) -> ExportProgram {
-    ExportProgram {
-        name: p.name.clone(),
-        routines: p
-            .routines
-            .iter()
-            .map(|r| ExportRoutine {
-                name: r.name.clone(),
-                waypoints: r
-                    .waypoints
-                    .iter()
-                    .map(|w| ExportWaypoint {
-                        name: Some(w.name.clone()),
-                        pose: w.pose,
-                        motion: Motion::of_instruction(&w.motion, w.role.is_some()),
-                        configuration: None,
-                        reachable: None,
-                    })
-                    .collect(),
-            })
-            .collect(),
-    }
+/// The motion a waypoint is moved to with: linear when it has none.
+fn motion(w: &Waypoint) -> Motion {
+    w.motion.unwrap_or(Motion::Linear)
 }
 
 /// The motion each waypoint is written with: circular ones pair up as (via, end), one left
 /// alone is moved to linearly.
-fn effective_motions(r: &ExportRoutine) -> Vec<Motion> {
-    let mut out: Vec<Motion> = r.waypoints.iter().map(|w| w.motion).collect();
+fn effective_motions(r: &Routine<Waypoint>) -> Vec<Motion> {
+    let mut out: Vec<Motion> = r.waypoints.iter().map(motion).collect();
     let mut i = 0;
     while i < out.len() {
         if out[i] == Motion::Circular {
@@ -67,7 +48,7 @@ fn effective_motions(r: &ExportRoutine) -> Vec<Motion> {
 }
 
 /// The routine and waypoint names the export announces: the original unless a warning says.
-fn announced(program: &ExportProgram, exported: &Exported) -> Vec<(String, Vec<String>)> {
+fn announced(program: &Program<Waypoint>, exported: &Exported) -> Vec<(String, Vec<String>)> {
     let mut routine_names: Vec<String> = program.routines.iter().map(|r| r.name.clone()).collect();
     for w in &exported.warnings {
         if let ExportWarning::RenamedRoutine { position, to, .. } = w {
@@ -108,10 +89,10 @@ fn announced(program: &ExportProgram, exported: &Exported) -> Vec<(String, Vec<S
 /// Exports `program`, imports the files and checks what came back; returns the re-imported
 /// program and the announced names.
 fn round_trip(
-    program: &ExportProgram,
-    format: Format,
+    program: &Program<Waypoint>,
+    format: Language,
     settings: &ExportSettings,
-) -> (ImportedProgram, Vec<(String, Vec<String>)>) {
+) -> (Imported, Vec<(String, Vec<String>)>) {
     let exported = export(program, format, settings).unwrap_or_else(|e| panic!("{e}"));
     let report = parse_files(&exported.as_pairs()).unwrap_or_else(|e| {
         panic!(
@@ -121,23 +102,29 @@ fn round_trip(
     });
     assert_eq!(report.programs.len(), 1, "{format}: {:?}", report.skipped);
     let back = report.programs.into_iter().next().unwrap();
-    let mut expected: Vec<(String, Vec<String>, &ExportRoutine)> = announced(program, &exported)
-        .into_iter()
-        .zip(&program.routines)
-        .map(|((n, w), r)| (n, w, r))
-        .collect();
-    if format == Format::Fanuc {
+    let mut expected: Vec<(String, Vec<String>, &Routine<Waypoint>)> =
+        announced(program, &exported)
+            .into_iter()
+            .zip(&program.routines)
+            .map(|((n, w), r)| (n, w, r))
+            .collect();
+    if format == Language::Fanuc {
         // The importer reads a folder's listings in file-name order.
         expected.sort_by(|a, b| format!("{}.ls", a.0).cmp(&format!("{}.ls", b.0)));
     }
-    let got: Vec<&str> = back.routines.iter().map(|r| r.name.as_str()).collect();
+    let got: Vec<&str> = back
+        .program
+        .routines
+        .iter()
+        .map(|r| r.name.as_str())
+        .collect();
     let want: Vec<&str> = expected.iter().map(|e| e.0.as_str()).collect();
     assert_eq!(got, want, "{format}: routines of {}", program.name);
     let (dp, dr) = (
-        format.position_tolerance_mm(),
-        format.orientation_tolerance_rad(),
+        position_tolerance_mm(format),
+        orientation_tolerance_rad(format),
     );
-    for ((name, names, original), r) in expected.iter().zip(&back.routines) {
+    for ((name, names, original), r) in expected.iter().zip(&back.program.routines) {
         assert_eq!(
             r.waypoints.len(),
             original.waypoints.len(),
@@ -146,12 +133,8 @@ fn round_trip(
         let motions = effective_motions(original);
         for (i, (w, o)) in r.waypoints.iter().zip(&original.waypoints).enumerate() {
             let at = format!("{format}: {} {name} #{i}", program.name);
-            assert_eq!(w.name, names[i], "{at}");
-            assert_eq!(
-                Motion::of_instruction(&w.motion, w.role.is_some()),
-                motions[i],
-                "{at}"
-            );
+            assert_eq!(w.name.as_deref(), Some(names[i].as_str()), "{at}");
+            assert_eq!(motion(w), motions[i], "{at}");
             let (ep, er) = (w.pose.distance_to(&o.pose), w.pose.angle_to(&o.pose));
             assert!(ep <= dp && er <= dr, "{at}: {ep} mm, {er} rad");
         }
@@ -161,10 +144,10 @@ fn round_trip(
 }
 
 /// Round trip, then a second export of what came back: it renames nothing.
-fn check(program: &ExportProgram, format: Format) {
+fn check(program: &Program<Waypoint>, format: Language) {
     let settings = ExportSettings::default();
     let (back, names) = round_trip(program, format, &settings);
-    let again = to_export(&back);
+    let again = back.program;
     let (_, names2) = round_trip(&again, format, &settings);
     assert_eq!(names2, names, "{format}: a second export renames");
     let exported = export(&again, format, &settings).unwrap();
@@ -195,12 +178,11 @@ fn every_corpus_program_round_trips_in_every_format() {
             .collect();
         let report = parse_files(&refs).unwrap_or_else(|e| panic!("{repo}: {e}"));
         for p in &report.programs {
-            let program = to_export(p);
-            for format in Format::ALL {
-                check(&program, format);
+            for format in Language::ALL {
+                check(&p.program, format);
             }
             programs += 1;
-            waypoints += p.waypoint_count();
+            waypoints += p.program.waypoint_count();
         }
     }
     eprintln!("{programs} corpus programs, {waypoints} waypoints: round trip in 3 formats");
@@ -210,16 +192,16 @@ fn every_corpus_program_round_trips_in_every_format() {
 #[test]
 fn valid_names_are_kept_and_others_announced() {
     let pose = |x: f64| Pose::new([x, 0.0, 500.0], [0.0, 0.0, 1.0, 0.0]).unwrap();
-    let wp = |name: Option<&str>, x: f64, motion| ExportWaypoint {
+    let wp = |name: Option<&str>, x: f64, motion| Waypoint {
         name: name.map(str::to_string),
         pose: pose(x),
-        motion,
+        motion: Some(motion),
         configuration: None,
         reachable: None,
     };
-    let program = ExportProgram {
-        name: "Demo".into(),
-        routines: vec![ExportRoutine {
+    let program = Program::new(
+        "Demo",
+        vec![Routine {
             name: "main".into(),
             waypoints: vec![
                 wp(Some("p10"), 1.0, Motion::Joint),
@@ -232,8 +214,8 @@ fn valid_names_are_kept_and_others_announced() {
                 wp(Some("v100"), 7.0, Motion::Circular),
             ],
         }],
-    };
-    let out = export(&program, Format::Rapid, &ExportSettings::default()).unwrap();
+    );
+    let out = export(&program, Language::Rapid, &ExportSettings::default()).unwrap();
     let text = &out.files[0].text;
     assert_eq!(out.files[0].file_name, "Demo.mod");
     for line in [
@@ -257,37 +239,37 @@ fn valid_names_are_kept_and_others_announced() {
         "{:?}",
         out.warnings
     );
-    check(&program, Format::Rapid);
-    check(&program, Format::Krl);
-    check(&program, Format::Fanuc);
+    check(&program, Language::Rapid);
+    check(&program, Language::Krl);
+    check(&program, Language::Fanuc);
 }
 
 #[test]
 fn unreachable_waypoints_get_a_comment_and_a_warning() {
     let pose = |x: f64| Pose::new([x, 0.0, 500.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-    let program = ExportProgram {
-        name: "reach".into(),
-        routines: vec![ExportRoutine {
+    let program = Program::new(
+        "reach",
+        vec![Routine {
             name: "reach".into(),
             waypoints: (0..3)
-                .map(|i| ExportWaypoint {
+                .map(|i| Waypoint {
                     name: Some(format!("p{i}")),
                     pose: pose(f64::from(i) * 1000.0),
-                    motion: Motion::Linear,
+                    motion: Some(Motion::Linear),
                     configuration: None,
                     reachable: Some(i != 2),
                 })
                 .collect(),
         }],
-    };
+    );
     for (format, comment) in [
-        (Format::Rapid, "! p2: out of the arm's reach"),
-        (Format::Krl, "; p2: out of the arm's reach"),
-        (Format::Fanuc, "!P[1] OUT OF REACH ;"),
+        (Language::Rapid, "! p2: out of the arm's reach"),
+        (Language::Krl, "; p2: out of the arm's reach"),
+        (Language::Fanuc, "!P[1] OUT OF REACH ;"),
     ] {
         let out = export(&program, format, &ExportSettings::default()).unwrap();
         let text: String = out.files.iter().map(|f| f.text.as_str()).collect();
-        let comment = if format == Format::Fanuc {
+        let comment = if format == Language::Fanuc {
             // p0, p1, p2 become P[1], P[2], P[3].
             comment.replace("P[1]", "P[3]")
         } else {
@@ -310,22 +292,19 @@ fn unreachable_waypoints_get_a_comment_and_a_warning() {
 #[test]
 fn krl_writes_a_src_and_its_dat_and_a_main_def_when_needed() {
     let pose = Pose::new([500.0, 0.0, 400.0], [0.5, 0.5, 0.5, 0.5]).unwrap();
-    let wp = |n: &str| ExportWaypoint {
+    let wp = |n: &str| Waypoint {
         name: Some(n.into()),
         pose,
-        motion: Motion::Joint,
+        motion: Some(Motion::Joint),
         configuration: None,
         reachable: None,
     };
-    let routine = |n: &str| ExportRoutine {
+    let routine = |n: &str| Routine {
         name: n.into(),
         waypoints: vec![wp("XP1"), wp("XP1")],
     };
-    let program = ExportProgram {
-        name: "cell".into(),
-        routines: vec![routine("weld"), routine("home")],
-    };
-    let out = export(&program, Format::Krl, &ExportSettings::default()).unwrap();
+    let program = Program::new("cell", vec![routine("weld"), routine("home")]);
+    let out = export(&program, Language::Krl, &ExportSettings::default()).unwrap();
     let names: Vec<&str> = out.files.iter().map(|f| f.file_name.as_str()).collect();
     assert_eq!(names, ["cell.src", "cell.dat"]);
     assert!(
@@ -335,11 +314,11 @@ fn krl_writes_a_src_and_its_dat_and_a_main_def_when_needed() {
     );
     assert!(out.files[1].text.contains("DEFDAT cell\n"));
     // When the first routine has the program's name it is the main DEF.
-    let program = ExportProgram {
+    let program = Program {
         name: "weld".into(),
         ..program
     };
-    let out = export(&program, Format::Krl, &ExportSettings::default()).unwrap();
+    let out = export(&program, Language::Krl, &ExportSettings::default()).unwrap();
     assert!(
         out.files[0]
             .text
@@ -390,13 +369,18 @@ fn pose_strategy() -> impl Strategy<Value = Pose> {
         .prop_map(|(p, q)| Pose::new(p, q).expect("a unit quaternion"))
 }
 
-fn waypoint_strategy() -> impl Strategy<Value = ExportWaypoint> {
+fn waypoint_strategy() -> impl Strategy<Value = Waypoint> {
     (
         name_strategy(),
         pose_strategy(),
-        prop::sample::select(vec![Motion::Joint, Motion::Linear, Motion::Circular]),
+        prop::sample::select(vec![
+            None,
+            Some(Motion::Joint),
+            Some(Motion::Linear),
+            Some(Motion::Circular),
+        ]),
     )
-        .prop_map(|(name, pose, motion)| ExportWaypoint {
+        .prop_map(|(name, pose, motion)| Waypoint {
             name,
             pose,
             motion,
@@ -405,17 +389,17 @@ fn waypoint_strategy() -> impl Strategy<Value = ExportWaypoint> {
         })
 }
 
-fn program_strategy() -> impl Strategy<Value = ExportProgram> {
+fn program_strategy() -> impl Strategy<Value = Program<Waypoint>> {
     let routine = (
         name_strategy().prop_map(|n| n.unwrap_or_default()),
         prop::collection::vec(waypoint_strategy(), 2..8),
     )
-        .prop_map(|(name, waypoints)| ExportRoutine { name, waypoints });
+        .prop_map(|(name, waypoints)| Routine { name, waypoints });
     (
         "[A-Za-z][A-Za-z0-9_ .-]{0,12}",
         prop::collection::vec(routine, 1..4),
     )
-        .prop_map(|(name, routines)| ExportProgram { name, routines })
+        .prop_map(|(name, routines)| Program::new(name, routines))
 }
 
 proptest! {
@@ -423,7 +407,7 @@ proptest! {
 
     #[test]
     fn random_programs_round_trip(program in program_strategy()) {
-        for format in Format::ALL {
+        for format in Language::ALL {
             check(&program, format);
         }
     }
@@ -433,21 +417,21 @@ proptest! {
         pose in pose_strategy(),
         name in "[a-z][a-z0-9_]{0,10}",
     ) {
-        let wp = |motion| ExportWaypoint {
+        let wp = |motion| Waypoint {
             name: Some(name.clone()),
             pose,
-            motion,
+            motion: Some(motion),
             configuration: None,
             reachable: None,
         };
-        let program = ExportProgram {
-            name: "twice".into(),
-            routines: vec![ExportRoutine {
+        let program = Program::new(
+            "twice",
+            vec![Routine {
                 name: "r".into(),
                 waypoints: vec![wp(Motion::Joint), wp(Motion::Linear)],
             }],
-        };
-        let out = export(&program, Format::Rapid, &ExportSettings::default()).unwrap();
+        );
+        let out = export(&program, Language::Rapid, &ExportSettings::default()).unwrap();
         prop_assert_eq!(out.files[0].text.matches("CONST robtarget").count(), 1);
     }
 }

@@ -17,7 +17,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use nextpose::engine::{EngineConfig, Pose, Profile};
-use nextpose::import::{ImportError, ImportReport, ImportedProgram, parse_files, parse_upload};
+use nextpose::import::{ImportError, ImportReport, Imported, parse_files, parse_upload};
 use nextpose::replay::corpus::{Program, Routine, parse_program};
 use nextpose::replay::methods::EngineMethod;
 use nextpose::replay::{Scores, replay_program};
@@ -173,10 +173,10 @@ struct Comparison {
 }
 
 fn compare() -> Comparison {
-    let mut ours: BTreeMap<(String, String), ImportedProgram> = BTreeMap::new();
+    let mut ours: BTreeMap<(String, String), Imported> = BTreeMap::new();
     for (repo, files) in uploads() {
         for p in import(&files).programs {
-            ours.insert((repo.clone(), p.source.clone()), p);
+            ours.insert((repo.clone(), p.source()), p);
         }
     }
     let mut c = Comparison {
@@ -192,7 +192,7 @@ fn compare() -> Comparison {
             c.disagreements.insert((stem, "*program missing*".into()));
             continue;
         };
-        let mine = imported.to_replay();
+        let mine = imported.program.to_poses();
         let mut all_agree = mine.routines.len() == reference.routines.len();
         for r in &printed {
             let o = mine.routines.iter().find(|o| o.name == r.name);

@@ -24,13 +24,13 @@ fn programs() -> Vec<Program> {
 
 /// The arm and placement before the library, as the simulator had them.
 fn before(program: &Program) -> HeuristicSetup {
-    let (robot, centroid) = match program.language.as_str() {
+    let (robot, centroid) = match program.language_name() {
         "rapid" => ("abb_irb140", [450.0, 0.0, 350.0]),
         _ => ("kuka_kr16_2", [900.0, 0.0, 500.0]),
     };
     HeuristicSetup {
         robot: robot.into(),
-        languages: vec![program.language.clone()],
+        languages: vec![program.language_name().to_string()],
         centroid_in_base_mm: centroid,
     }
 }
@@ -82,7 +82,7 @@ fn work_objects(program: &Program) -> BTreeSet<String> {
     report
         .programs
         .iter()
-        .flat_map(|p| &p.routines)
+        .flat_map(|p| &p.origins)
         .flat_map(|r| &r.waypoints)
         .map(|w| w.frame.clone().unwrap_or_else(|| "(default)".into()))
         .collect()
@@ -141,13 +141,13 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
         let poses: Vec<Pose> = program.poses().copied().collect();
         let old = ReachCheck::new(ReachSetup::Heuristic(before(program))).expect("old arm");
         let old = old
-            .place(&program.language, None, &poses)
+            .place(program.language_name(), None, &poses)
             .expect("the heuristic places")
             .expect("an arm for the language");
         let named = program.arm.as_ref().map(|a| a.designation.as_str());
         let t0 = Instant::now();
         let new = fitted
-            .place(&program.language, named, &poses)
+            .place(program.language_name(), named, &poses)
             .expect("the search runs")
             .expect("an arm for every corpus program");
         let seconds = t0.elapsed().as_secs_f64();
@@ -170,7 +170,7 @@ fn every_program_gets_an_arm_that_reaches_at_least_as_much_as_before_and_all_whe
             .iter()
             .filter(|f| match a.chosen {
                 ArmChoice::Named => Some(&f.model) == a.model.as_ref(),
-                _ => f.languages.contains(&program.language),
+                _ => f.languages.iter().any(|l| l == program.language_name()),
             })
             .map(|f| f.reach_mm)
             .fold(0.0, f64::max);

@@ -162,7 +162,7 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
     for (l, g) in loaded.iter().zip(&generated) {
         let g = &g.program;
         assert_eq!(l.name, g.name);
-        assert_eq!(l.language, "rapid");
+        assert_eq!(l.language, Some(nextpose::program::Language::Rapid));
         assert_eq!(l.repo.as_deref(), Some(LAB_REPO));
         assert_eq!(l.routines.len(), g.routines.len());
         assert_eq!(l.routines[0].name, g.routines[0].name);

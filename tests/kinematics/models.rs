@@ -9,6 +9,7 @@ use nextpose::kinematics::{
     SolverKind, Unreachable, bundled_robots_dir, check_reach, list_robots, load_robot, pose_error,
     pose_to_metres,
 };
+use nextpose::program::Language;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -464,10 +465,10 @@ fn replay_report_gains_reachability_figures() {
     .map(|[x, y]| Pose::new([*x, *y, 0.0], down).unwrap())
     .collect();
     waypoints.push(Pose::new([2000.0, 0.0, 0.0], down).unwrap());
-    let program = |language: &str| Program {
+    let program = |language: Language| Program {
         name: format!("square_{language}"),
         source: "square.json".into(),
-        language: language.into(),
+        language: Some(language),
         repo: None,
         arm: None,
         routines: vec![Routine {
@@ -479,8 +480,12 @@ fn replay_report_gains_reachability_figures() {
     // Before the library: an IRB 140 for RAPID programs, at the median heuristic.
     let mut config = RunConfig::new("default", EngineConfig::default(), 1.0);
     config.reachability = Some(ReachSetup::Heuristic(HeuristicSetup::default()));
-    let report = replay_all(&[program("rapid"), program("fanuc")], &mut methods, config)
-        .expect("the bundled arm loads");
+    let report = replay_all(
+        &[program(Language::Rapid), program(Language::Fanuc)],
+        &mut methods,
+        config,
+    )
+    .expect("the bundled arm loads");
     let json = serde_json::to_value(&report).unwrap();
     assert_eq!(json["config"]["reachability"]["placement"], "heuristic");
     assert_eq!(json["config"]["reachability"]["robot"], "abb_irb140");
@@ -500,7 +505,7 @@ fn replay_report_gains_reachability_figures() {
     // The default: each program gets the smallest arm of its maker that reaches all of it,
     // where the layout search stands it, so the outlier is in reach too.
     let report = replay_all(
-        &[program("rapid"), program("fanuc")],
+        &[program(Language::Rapid), program(Language::Fanuc)],
         &mut methods,
         RunConfig::new("default", EngineConfig::default(), 1.0),
     )
@@ -540,8 +545,12 @@ fn replay_report_gains_reachability_figures() {
     for (hits, searched) in [(0, 2), (2, 0)] {
         let mut run = RunConfig::new("default", EngineConfig::default(), 1.0);
         run.placement_cache = Some(dir.path().join("placements"));
-        let cached = replay_all(&[program("rapid"), program("fanuc")], &mut methods, run)
-            .expect("the library loads");
+        let cached = replay_all(
+            &[program(Language::Rapid), program(Language::Fanuc)],
+            &mut methods,
+            run,
+        )
+        .expect("the library loads");
         let used = cached.placements.expect("a cache was asked for");
         assert_eq!(
             (used.hits, used.searched, used.unwritten),

@@ -8,7 +8,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use super::lexer::{K, Tok, arguments, closing, split_top};
 use super::structure::ModuleAst;
-use crate::import::{Configuration, Frame, SkipReason, quaternion_wxyz};
+use crate::import::{Frame, SkipReason, quaternion_wxyz};
+use crate::program::{Configuration, RapidConfdata};
 
 /// Deepest expression nesting evaluated; deeper input is treated as computed at run time.
 const MAX_DEPTH: usize = 64;
@@ -57,11 +58,13 @@ pub(super) fn target_from_agg(items: &[Val]) -> Option<Option<Target>> {
     };
     let p = nums(items.first(), 3)?;
     let q = nums(items.get(1), 4)?;
-    let config = nums(items.get(2), 4).map(|c| Configuration::Rapid {
-        cf1: c.first().copied().unwrap_or(0.0) as i64,
-        cf4: c.get(1).copied().unwrap_or(0.0) as i64,
-        cf6: c.get(2).copied().unwrap_or(0.0) as i64,
-        cfx: c.get(3).copied().unwrap_or(0.0) as i64,
+    let config = nums(items.get(2), 4).map(|c| {
+        Configuration::Rapid(RapidConfdata {
+            cf1: c.first().copied().unwrap_or(0.0) as i32,
+            cf4: c.get(1).copied().unwrap_or(0.0) as i32,
+            cf6: c.get(2).copied().unwrap_or(0.0) as i32,
+            cfx: c.get(3).copied().unwrap_or(0.0) as i32,
+        })
     });
     let (&[x, y, z], &[qw, qx, qy, qz]) = (p.as_slice(), q.as_slice()) else {
         return None;

@@ -28,10 +28,8 @@ mod structure;
 
 use std::collections::HashMap;
 
-use super::{
-    ImportError, ImportReport, ImportedProgram, ImportedRoutine, Language, SourceFile,
-    drop_short_routines,
-};
+use super::{ImportError, ImportReport, Imported, ReadRoutine, SourceFile, drop_short_routines};
+use crate::program::Language;
 use eval::Binding;
 use resolve::{eval_decl, is_motion, routine_stmt};
 use structure::structure;
@@ -83,7 +81,7 @@ pub(crate) fn parse(
                 continue;
             }
             let mut locals: HashMap<String, Binding> = HashMap::new();
-            let mut waypoints = Vec::new();
+            let mut routine = ReadRoutine::new(r.name.clone(), m.file.name, r.line);
             for st in &r.stmts {
                 let envs = [&module_envs[mi], &global];
                 routine_stmt(
@@ -92,24 +90,19 @@ pub(crate) fn parse(
                     st,
                     &mut locals,
                     &envs,
-                    &mut waypoints,
+                    &mut routine,
                     &mut report.skipped,
                 )?;
             }
-            routines.push(ImportedRoutine {
-                name: r.name.clone(),
-                file: m.file.name.to_string(),
-                line: r.line,
-                waypoints,
-            });
+            routines.push(routine);
         }
         let routines = drop_short_routines(routines, &mut report.skipped);
-        report.programs.push(ImportedProgram {
-            name: m.name.clone(),
-            source: m.file.name.to_string(),
-            language: Language::Rapid,
+        report.programs.push(Imported::of(
+            &m.name,
+            m.file.name,
+            Language::Rapid,
             routines,
-        });
+        ));
     }
     Ok(())
 }
@@ -117,7 +110,8 @@ pub(crate) fn parse(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::{CircleRole, Configuration, SkipReason, parse_files};
+    use crate::import::{CircleRole, SkipReason, parse_files};
+    use crate::program::{Configuration, Motion, RapidConfdata};
 
     const MODULE: &str = r#"MODULE Demo
     CONST robtarget p10:=[[100,0,50],[0,0,1,0],[0,0,0,0],[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]];
@@ -140,33 +134,39 @@ ENDMODULE
     #[test]
     fn reads_targets_offsets_reltool_circles_and_skips() {
         let report = parse_files(&[("Demo.mod", MODULE)]).unwrap();
-        let r = &report.programs[0].routines[0];
+        let (r, at) = (
+            &report.programs[0].program.routines[0],
+            &report.programs[0].origins[0],
+        );
         assert_eq!(r.name, "main");
-        let names: Vec<_> = r.waypoints.iter().map(|w| w.name.as_str()).collect();
+        let names: Vec<_> = r.waypoints.iter().map(|w| w.name.as_deref()).collect();
         assert_eq!(
             names,
             [
-                "p10",
-                "Offs(p10, 0, 0, dz*2)",
-                "RelTool(p10, 10, 0, 0 \\Rz:=90)",
-                "ps{1}",
-                "ps{2}"
+                Some("p10"),
+                Some("Offs(p10, 0, 0, dz*2)"),
+                Some("RelTool(p10, 10, 0, 0 \\Rz:=90)"),
+                Some("ps{1}"),
+                Some("ps{2}")
             ]
         );
+        let motions: Vec<_> = r.waypoints.iter().map(|w| w.motion).collect();
+        let (j, l, c) = (Motion::Joint, Motion::Linear, Motion::Circular);
+        assert_eq!(motions, [j, l, l, c, c].map(Some));
         let p = |i: usize| r.waypoints[i].pose.position();
         assert!((p(1).z - 100.0).abs() < 1e-12);
         // The target is rotated 180° about y: tool x points along base −x.
         assert!((p(2).x - 90.0).abs() < 1e-9, "{}", p(2));
-        assert_eq!(r.waypoints[3].role, Some(CircleRole::Via));
-        assert_eq!(r.waypoints[1].frame.as_deref(), Some("wobj1"));
+        assert_eq!(at.waypoints[3].role, Some(CircleRole::Via));
+        assert_eq!(at.waypoints[1].frame.as_deref(), Some("wobj1"));
         assert_eq!(
             r.waypoints[3].configuration,
-            Some(Configuration::Rapid {
+            Some(Configuration::Rapid(RapidConfdata {
                 cf1: 0,
                 cf4: -1,
                 cf6: 2,
                 cfx: 1
-            })
+            }))
         );
         let reasons: Vec<_> = report.skipped.iter().map(|s| s.reason).collect();
         assert_eq!(
@@ -185,7 +185,7 @@ ENDMODULE
         let b =
             "MODULE B\n PERS robtarget pB:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\nENDMODULE";
         let report = parse_files(&[("A.mod", a), ("B.sys", b)]).unwrap();
-        let r = &report.programs[0].routines[0];
+        let r = &report.programs[0].program.routines[0];
         assert_eq!(r.waypoints.len(), 2);
         assert!((r.waypoints[1].pose.position().x - 2.0).abs() < 1e-12);
         assert_eq!(report.skipped[0].reason, SkipReason::ComputedAtRunTime);
@@ -200,10 +200,13 @@ ENDMODULE
             parse_files(&[("HOME/Calibration.mod", CALIBRATION)]).unwrap_or_else(|e| panic!("{e}"));
         // ProbeOk() only computes: no routine and no skip record.
         assert!(report.skipped.is_empty(), "{:?}", report.skipped);
-        let routines = &report.programs[0].routines;
+        let (routines, origins) = (
+            &report.programs[0].program.routines,
+            &report.programs[0].origins,
+        );
         let names: Vec<_> = routines.iter().map(|r| r.name.as_str()).collect();
         assert_eq!(names, ["main", "MeasureSphere"]);
-        assert_eq!(routines[1].line, 26);
+        assert_eq!(origins[1].line, 26);
         // Positions and quaternions as the module writes them; the quaternions normalised here.
         let down = [0.0, 0.0, 1.0, 0.0];
         // The module writes 0.7071068: the same rotation once normalised.
@@ -230,9 +233,10 @@ ENDMODULE
         ];
         let waypoints = &routines[1].waypoints;
         assert_eq!(waypoints.len(), expected.len());
-        for (w, (name, p, q, role)) in waypoints.iter().zip(expected) {
-            assert_eq!((w.name.as_str(), w.role), (name, role));
-            assert_eq!(w.frame.as_deref(), Some("wCalib"), "{name}");
+        let read = waypoints.iter().zip(&origins[1].waypoints);
+        for ((w, at), (name, p, q, role)) in read.zip(expected) {
+            assert_eq!((w.name.as_deref(), at.role), (Some(name), role));
+            assert_eq!(at.frame.as_deref(), Some("wCalib"), "{name}");
             let want = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
                 q[0], q[1], q[2], q[3],
             ));
@@ -242,12 +246,12 @@ ENDMODULE
         }
         assert_eq!(
             waypoints[5].configuration,
-            Some(Configuration::Rapid {
+            Some(Configuration::Rapid(RapidConfdata {
                 cf1: -1,
                 cf4: -1,
                 cf6: 0,
                 cfx: 0
-            })
+            }))
         );
         // The same moves in a PROC import the same routine.
         let as_proc = CALIBRATION
@@ -255,7 +259,7 @@ ENDMODULE
             .replace("RETURN sum / 4;", "")
             .replacen("ENDFUNC", "ENDPROC", 1);
         let in_proc = parse_files(&[("HOME/Calibration.mod", &as_proc)]).unwrap();
-        assert_eq!(in_proc.programs[0].routines, *routines);
+        assert_eq!(in_proc.programs[0], report.programs[0]);
     }
 
     /// `depth` nested blocks of the given opener/closer around one move pair, in one routine.
@@ -286,9 +290,9 @@ ENDMODULE
         ] {
             let text = nested(MAX_BLOCK_NESTING, open, close);
             let report = parse_files(&[("Deep.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
-            let r = &report.programs[0].routines[0];
-            assert_eq!(r.waypoints.len(), 2, "{open}");
-            assert_eq!(r.waypoints[0].line, 4 + MAX_BLOCK_NESTING, "{open}");
+            let at = &report.programs[0].origins[0];
+            assert_eq!(at.waypoints.len(), 2, "{open}");
+            assert_eq!(at.waypoints[0].line, 4 + MAX_BLOCK_NESTING, "{open}");
         }
     }
 
@@ -345,15 +349,15 @@ ENDMODULE
             "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC main()\n{body}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
         );
         let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(report.programs[0].routines[0].waypoints.len(), 2);
+        assert_eq!(report.programs[0].program.routines[0].waypoints.len(), 2);
         // A routine that leaves blocks open (a missing ENDIF) does not count against the next.
         let open = "IF a THEN\n".repeat(MAX_BLOCK_NESTING - 1);
         let text = format!(
             "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n{open} ENDPROC\n PROC b()\n{open}MoveL p, v1, z1, tool0;\nMoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n"
         );
         let report = parse_files(&[("M.mod", &text)]).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(report.programs[0].routines.len(), 1);
-        assert_eq!(report.programs[0].routines[0].name, "b");
+        assert_eq!(report.programs[0].program.routines.len(), 1);
+        assert_eq!(report.programs[0].program.routines[0].name, "b");
     }
 
     #[test]
@@ -362,8 +366,8 @@ ENDMODULE
         // also when a routine keyword cuts a statement missing its `;`.
         let text = "MODULE M\n CONST robtarget p:=[[1,2,3],[1,0,0,0],[0,0,0,0],[0,0,0,0,0,0]];\n PROC a()\n  IF x MoveL p, v1, z1, tool0;\n  IF (x) THEN MoveL p, v1, z1, tool0; MoveL p, v1, z1, tool0; ENDIF\n  IF x THEN\n ENDPROC\n PROC b()\n  WHILE [x DO;\n  MoveL p, v1, z1, tool0;\n  MoveL p, v1, z1, tool0;\n ENDPROC\nENDMODULE\n";
         let report = parse_files(&[("M.mod", text)]).unwrap_or_else(|e| panic!("{e}"));
-        let routines = &report.programs[0].routines;
-        let lines: Vec<Vec<usize>> = routines
+        let origins = &report.programs[0].origins;
+        let lines: Vec<Vec<usize>> = origins
             .iter()
             .map(|r| r.waypoints.iter().map(|w| w.line).collect())
             .collect();

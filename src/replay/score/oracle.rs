@@ -145,7 +145,7 @@ pub fn oracle_records(program: &Program) -> Vec<ProgramRecord> {
         .zip(records)
         .map(|(oracle, waypoints)| ProgramRecord {
             program: program.name.clone(),
-            language: program.language.clone(),
+            language: program.language_name().to_string(),
             method: oracle.name.to_string(),
             waypoints,
             summary: None,
