@@ -2,8 +2,9 @@
 //! take it back (the values a waypoint had before an edit, a deleted routine with its
 //! waypoints) and nothing more (a taught or imported waypoint is where the program now has
 //! it). The program as of a revision is its present state ([`ProgramState`]) with the later
-//! changes taken back in reverse order ([`ProgramState::take_back`]). Pure: storage writes and
-//! reads the revisions, the application lists, compares and restores them.
+//! changes taken back in reverse order ([`ProgramState::take_back`]); a restore to an earlier
+//! state makes the changes [`ProgramState::changes_to`] plans. Pure: storage writes, reads and
+//! makes the changes in SQL, the application lists, compares and restores revisions.
 
 use serde::{Deserialize, Serialize};
 
@@ -199,6 +200,97 @@ impl ProgramState {
     }
 }
 
+impl ProgramState {
+    /// The changes that make this state `target`, in the order a restore makes them, each as
+    /// its revision stores it: the routines not in the target go, with their waypoints; the
+    /// routines in both take the target's name and waypoints (one not in the target goes, one
+    /// whose values differ takes the target's, one only in the target comes in at its place);
+    /// the routines only in the target come back at the end, with their waypoints; then the
+    /// target's order. A routine in both keeps whether it is learned. The waypoints a routine
+    /// keeps are in the target's order (waypoints are never reordered).
+    pub fn changes_to(&self, target: &ProgramState) -> Vec<Change> {
+        let mut work = self.clone();
+        let mut changes = Vec::new();
+        let in_target = |id: i64| target.routines.iter().any(|t| t.id == id);
+        while let Some(at) = work.routines.iter().position(|r| !in_target(r.id)) {
+            let routine = work.routines.remove(at);
+            changes.push(Change::RoutineRemoved {
+                position: at as i64 + 1,
+                routine,
+            });
+        }
+        for t in &target.routines {
+            let Some(r) = work.routines.iter_mut().find(|r| r.id == t.id) else {
+                continue;
+            };
+            if r.name != t.name {
+                changes.push(Change::RoutineRenamed {
+                    routine: r.id,
+                    before: std::mem::replace(&mut r.name, t.name.clone()),
+                });
+            }
+            waypoint_changes(r, t, &mut changes);
+        }
+        for t in &target.routines {
+            if work.routines.iter().any(|r| r.id == t.id) {
+                continue;
+            }
+            let position = work.routines.len() as i64 + 1;
+            work.routines.push(t.clone());
+            changes.push(Change::RoutineAdded {
+                routine: t.id,
+                position,
+                waypoints: t.waypoints.len() as i64,
+            });
+        }
+        let order: Vec<i64> = target.routines.iter().map(|r| r.id).collect();
+        let now: Vec<i64> = work.routines.iter().map(|r| r.id).collect();
+        if now != order {
+            changes.push(Change::RoutinesReordered { before: now });
+        }
+        changes
+    }
+
+    /// Routine `id` of this state.
+    pub fn routine(&self, id: i64) -> Result<&RoutineState, RevisionError> {
+        self.routines
+            .iter()
+            .find(|r| r.id == id)
+            .ok_or_else(|| inconsistent(format!("routine {id} is not in the program")))
+    }
+}
+
+/// The changes that make routine `r`'s waypoints `t`'s (see [`ProgramState::changes_to`]).
+fn waypoint_changes(r: &mut RoutineState, t: &RoutineState, changes: &mut Vec<Change>) {
+    let in_target = |id: i64| t.waypoints.iter().any(|x| x.id == id);
+    while let Some(at) = r.waypoints.iter().position(|w| !in_target(w.id)) {
+        let waypoint = r.waypoints.remove(at);
+        changes.push(Change::WaypointRemoved {
+            routine: r.id,
+            seq: at as i64 + 1,
+            waypoint,
+        });
+    }
+    for (at, x) in t.waypoints.iter().enumerate() {
+        match r.waypoints.iter_mut().find(|w| w.id == x.id) {
+            Some(w) if w.values != x.values => changes.push(Change::WaypointModified {
+                routine: r.id,
+                waypoint: x.id,
+                before: std::mem::replace(&mut w.values, x.values.clone()),
+            }),
+            Some(_) => {}
+            None => {
+                // The waypoints kept are in the target's order: this one's place is free.
+                r.waypoints.insert(at.min(r.waypoints.len()), x.clone());
+                changes.push(Change::WaypointAdded {
+                    routine: r.id,
+                    seq: at as i64 + 1,
+                });
+            }
+        }
+    }
+}
+
 /// The index of 1-based place `n` in a list that has `len` places.
 fn place(n: i64, len: usize) -> Result<usize, RevisionError> {
     match usize::try_from(n) {
@@ -271,6 +363,67 @@ mod tests {
             after.take_back(c).unwrap();
         }
         assert_eq!(after, before);
+    }
+
+    /// The changes towards a target, made in turn, give the target (as a restore makes them);
+    /// taken back in reverse order they give the state they started from.
+    #[test]
+    fn the_changes_to_a_target_make_it_and_take_back_to_the_start() {
+        let mut kept = routine(
+            2,
+            vec![waypoint(20, 1.0), waypoint(21, 2.0), waypoint(22, 3.0)],
+        );
+        let start = ProgramState {
+            routines: vec![
+                routine(1, vec![waypoint(10, 1.0)]),
+                kept.clone(),
+                routine(3, vec![]),
+            ],
+        };
+        // Routine 1 gone, routine 4 back (at the front), routine 2 renamed with its second
+        // waypoint gone, its third edited and one back between its first and third.
+        kept.name = Some("renamed".into());
+        kept.waypoints = vec![waypoint(20, 1.0), waypoint(23, 9.0), waypoint(22, 4.0)];
+        let target = ProgramState {
+            routines: vec![
+                routine(4, vec![waypoint(40, 0.0)]),
+                routine(3, vec![]),
+                kept,
+            ],
+        };
+        let changes = start.changes_to(&target);
+        let kinds: Vec<&str> = changes
+            .iter()
+            .map(|c| match c {
+                Change::RoutineRemoved { .. } => "routine removed",
+                Change::RoutineRenamed { .. } => "renamed",
+                Change::WaypointRemoved { .. } => "waypoint removed",
+                Change::WaypointModified { .. } => "modified",
+                Change::WaypointAdded { .. } => "waypoint added",
+                Change::RoutineAdded { .. } => "routine added",
+                Change::RoutinesReordered { .. } => "reordered",
+                _ => "other",
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                "routine removed",
+                "renamed",
+                "waypoint removed",
+                "waypoint added",
+                "modified",
+                "routine added",
+                "reordered"
+            ]
+        );
+        let mut back = target.clone();
+        for c in changes.iter().rev() {
+            back.take_back(c).unwrap();
+        }
+        assert_eq!(back, start);
+        // Nothing to change: no change.
+        assert!(target.changes_to(&target).is_empty());
     }
 
     /// A change that does not fit the state is an error, not a panic.

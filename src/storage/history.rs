@@ -6,9 +6,10 @@
 //! `n` is its present state with the revisions after `n` taken back in reverse order
 //! ([`ProgramState::take_back`]); revision 0 is the program when its history began. The
 //! changes and the taking back are the program model's ([`crate::program::revisions`]); this
-//! file writes and reads them. A restore ([`Store::restore_program`]) writes the changes that
-//! make the program equal to an earlier state as one more revision, keeping the ids of what it
-//! brings back.
+//! file writes and reads them. A restore ([`Store::restore_program`]) makes the changes that
+//! make the program equal to an earlier state (the program model plans them:
+//! [`ProgramState::changes_to`]; here each is made in SQL) and writes them as one more
+//! revision, keeping the ids of what it brings back.
 
 use super::Store;
 use super::audit::Recorder;
@@ -234,73 +235,17 @@ impl Store {
                 expected: last,
             });
         }
-        let mut work = program_state(&mut tx, program).await?;
-        let mut changes = Vec::new();
-        // Routines not in the target go, with their waypoints.
-        while let Some(at) = work
-            .routines
-            .iter()
-            .position(|r| !target.routines.iter().any(|t| t.id == r.id))
-        {
-            let r = work.routines.remove(at);
-            sqlx::query("DELETE FROM routines WHERE id = $1")
-                .bind(r.id)
-                .execute(&mut *tx)
-                .await?;
-            close_gap(&mut tx, Places::Routines, program, at as i64 + 1).await?;
-            changes.push(Change::RoutineRemoved {
-                position: at as i64 + 1,
-                routine: r,
-            });
-        }
-        // Routines in both: their names and waypoints.
-        for t in &target.routines {
-            let Some(r) = work.routines.iter_mut().find(|r| r.id == t.id) else {
-                continue;
-            };
-            if r.name != t.name {
-                sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
-                    .bind(t.name.clone())
-                    .bind(r.id)
-                    .execute(&mut *tx)
-                    .await?;
-                changes.push(Change::RoutineRenamed {
-                    routine: r.id,
-                    before: std::mem::replace(&mut r.name, t.name.clone()),
-                });
-            }
-            restore_waypoints(&mut tx, r, t, &mut changes).await?;
-        }
-        // Routines only in the target come back at the end, with their waypoints.
-        for t in &target.routines {
-            if work.routines.iter().any(|r| r.id == t.id) {
-                continue;
-            }
-            let position = work.routines.len() as i64 + 1;
-            bring_back(&mut tx, program, cell_id, position, t, self.backend.now()).await?;
-            work.routines.push(t.clone());
-            changes.push(Change::RoutineAdded {
-                routine: t.id,
-                position,
-                waypoints: t.waypoints.len() as i64,
-            });
-        }
-        // And the target's order.
-        let order: Vec<i64> = target.routines.iter().map(|r| r.id).collect();
-        let now: Vec<i64> = work.routines.iter().map(|r| r.id).collect();
-        if now != order {
-            for (i, id) in order.iter().enumerate() {
-                sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
-                    .bind(-(i as i64 + 1))
-                    .bind(id)
-                    .execute(&mut *tx)
-                    .await?;
-            }
-            sqlx::query("UPDATE routines SET position = -position WHERE program_id = $1")
-                .bind(program)
-                .execute(&mut *tx)
-                .await?;
-            changes.push(Change::RoutinesReordered { before: now });
+        let changes = program_state(&mut tx, program).await?.changes_to(target);
+        for change in &changes {
+            make(
+                &mut tx,
+                program,
+                cell_id,
+                target,
+                change,
+                self.backend.now(),
+            )
+            .await?;
         }
         if changes.is_empty() {
             // Nothing differed: nothing is written (the cell's revision stays).
@@ -312,55 +257,88 @@ impl Store {
     }
 }
 
-/// Makes routine `r`'s waypoints (now in the database and in `r`) those of `t`.
-async fn restore_waypoints(
+/// Makes `change`, one of the changes towards `target` ([`ProgramState::changes_to`]), to
+/// program `program` of cell `cell_id` in `tx`: the values it puts in are the target's.
+async fn make(
     tx: &mut Tx<'_>,
-    r: &mut RoutineState,
-    t: &RoutineState,
-    changes: &mut Vec<Change>,
+    program: i64,
+    cell_id: i64,
+    target: &ProgramState,
+    change: &Change,
+    now: &str,
 ) -> Result<()> {
-    while let Some(at) = r
-        .waypoints
-        .iter()
-        .position(|w| !t.waypoints.iter().any(|x| x.id == w.id))
-    {
-        let w = r.waypoints.remove(at);
-        sqlx::query("DELETE FROM waypoints WHERE id = $1")
-            .bind(w.id)
-            .execute(&mut **tx)
-            .await?;
-        close_gap(tx, Places::Waypoints, r.id, at as i64 + 1).await?;
-        changes.push(Change::WaypointRemoved {
-            routine: r.id,
-            seq: at as i64 + 1,
-            waypoint: w,
-        });
-    }
-    for (at, x) in t.waypoints.iter().enumerate() {
-        let seq = at as i64 + 1;
-        match r.waypoints.iter_mut().find(|w| w.id == x.id) {
-            Some(w) => {
-                if w.values != x.values {
-                    let v = &x.values;
-                    sqlx::query(UPDATE_WAYPOINT)
-                        .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
-                        .bind(x.id)
-                        .execute(&mut **tx)
-                        .await?;
-                    changes.push(Change::WaypointModified {
-                        routine: r.id,
-                        waypoint: x.id,
-                        before: std::mem::replace(&mut w.values, x.values.clone()),
-                    });
-                }
+    let target_routine = |id: i64| target.routine(id).map_err(|e| inconsistent(e.0));
+    match change {
+        Change::RoutineRemoved { position, routine } => {
+            sqlx::query("DELETE FROM routines WHERE id = $1")
+                .bind(routine.id)
+                .execute(&mut **tx)
+                .await?;
+            close_gap(tx, Places::Routines, program, *position).await?;
+        }
+        Change::RoutineRenamed { routine, .. } => {
+            sqlx::query("UPDATE routines SET name = $1 WHERE id = $2")
+                .bind(target_routine(*routine)?.name.clone())
+                .bind(routine)
+                .execute(&mut **tx)
+                .await?;
+        }
+        Change::WaypointRemoved {
+            routine,
+            seq,
+            waypoint,
+        } => {
+            sqlx::query("DELETE FROM waypoints WHERE id = $1")
+                .bind(waypoint.id)
+                .execute(&mut **tx)
+                .await?;
+            close_gap(tx, Places::Waypoints, *routine, *seq).await?;
+        }
+        Change::WaypointModified {
+            routine, waypoint, ..
+        } => {
+            let v = &target_routine(*routine)?
+                .waypoints
+                .iter()
+                .find(|w| w.id == *waypoint)
+                .ok_or_else(|| inconsistent(format!("waypoint {waypoint} is not in the target")))?
+                .values;
+            sqlx::query(UPDATE_WAYPOINT)
+                .waypoint_values(&v.pose, &v.joints, &v.motion, &v.name, v.reachable)
+                .bind(waypoint)
+                .execute(&mut **tx)
+                .await?;
+        }
+        Change::WaypointAdded { routine, seq } => {
+            let x = usize::try_from(*seq - 1)
+                .ok()
+                .and_then(|i| target_routine(*routine).ok()?.waypoints.get(i))
+                .ok_or_else(|| inconsistent(format!("routine {routine} has no place {seq}")))?;
+            // The waypoints kept are in the target's order: this one's place is free.
+            make_room(tx, Places::Waypoints, *routine, *seq).await?;
+            insert_kept_waypoints(tx, &[(x.id, x.values.at(*routine, *seq))]).await?;
+        }
+        Change::RoutineAdded {
+            routine, position, ..
+        } => {
+            let t = target_routine(*routine)?;
+            bring_back(tx, program, cell_id, *position, t, now).await?;
+        }
+        Change::RoutinesReordered { .. } => {
+            for (i, r) in target.routines.iter().enumerate() {
+                sqlx::query("UPDATE routines SET position = $1 WHERE id = $2")
+                    .bind(-(i as i64 + 1))
+                    .bind(r.id)
+                    .execute(&mut **tx)
+                    .await?;
             }
-            None => {
-                // The waypoints kept are in the target's order: this one's place is free.
-                make_room(tx, Places::Waypoints, r.id, seq).await?;
-                insert_kept_waypoints(tx, &[(x.id, x.values.at(r.id, seq))]).await?;
-                r.waypoints.insert(at, x.clone());
-                changes.push(Change::WaypointAdded { routine: r.id, seq });
-            }
+            sqlx::query("UPDATE routines SET position = -position WHERE program_id = $1")
+                .bind(program)
+                .execute(&mut **tx)
+                .await?;
+        }
+        Change::RoutineMoved { .. } | Change::RoutineFinished { .. } => {
+            return Err(inconsistent(format!("a restore does not make {change:?}")));
         }
     }
     Ok(())
