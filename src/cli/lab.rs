@@ -1,4 +1,4 @@
-//! `nextpose lab OUT_DIR`: the seed's online lab ([`crate::sim::lab`]) written as corpus JSON,
+//! `nextpose lab OUT_DIR`: the seed's online lab ([`crate::simulation::lab`]) written as corpus JSON,
 //! one file per program, in the shared corpus's format (`source.repo`, `language`,
 //! `routines[].waypoints[]` with `x y z qw qx qy qz`), so `load_paths` and `simulate` read it
 //! like any corpus directory. File names sort in program order. A `lab` object per file records
@@ -12,7 +12,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 
 use super::{first_json, routines_json, write_json};
-use crate::sim::lab::{self, LAB_REPO, LabConfig, LabProgram};
+use crate::simulation::lab::{self, LAB_REPO, LabConfig, LabProgram};
 
 #[derive(Debug, Args)]
 pub struct LabArgs {

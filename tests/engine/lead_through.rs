@@ -9,7 +9,7 @@ use nextpose::engine::lead_through::lds::{Fit, FitSettings, State};
 use nextpose::engine::lead_through::segment::{
     Criterion, SegmentSettings, Segmentation, TimedPose, TrajectoryError, segment,
 };
-use nextpose::sim::operator::normal;
+use nextpose::simulation::operator::normal;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -11,11 +11,13 @@ use nextpose::client::{Client, RestClient, Transport};
 use nextpose::kinematics::ReachPolicy;
 use nextpose::kinematics::placement::{HeuristicSetup, PlacedArm, ReachCheck, ReachSetup};
 use nextpose::replay::{Program, load_paths};
-use nextpose::sim::{
+use nextpose::simulation::{
     Condition, Decision, History, JogLimits, OperatorModel, Plan, RoutineResult,
     table_4_1_conditions,
 };
-use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, placements, run_session};
+use nextpose::simulation_driver::{
+    LocalServer, Session, SessionOutcome, Warmup, placements, run_session,
+};
 
 use crate::corpus;
 
@@ -56,7 +58,7 @@ fn condition(key: &str) -> Condition {
         .expect("condition")
 }
 
-/// The program's arm and placement, searched once per program (`simulate::placements`).
+/// The program's arm and placement, searched once per program (`simulation_driver::placements`).
 fn arm(program: &Program) -> PlacedArm {
     static ARMS: Mutex<BTreeMap<String, PlacedArm>> = Mutex::new(BTreeMap::new());
     let mut arms = ARMS.lock().unwrap_or_else(|e| e.into_inner());
@@ -137,7 +139,7 @@ async fn three_corpus_programs_end_to_end() {
             "{name}: an offered suggestion is not reachable"
         );
         assert_eq!(total(&o, |r| r.offered_unreachable), 0);
-        // The arm fitted to the program (`simulate::placements`) reaches all of it.
+        // The arm fitted to the program (`simulation_driver::placements`) reaches all of it.
         assert_eq!(
             total(&o, |r| r.unreachable_waypoints),
             0,

@@ -28,7 +28,7 @@ pub const MATCH_SIGMAS: f64 = 1.5;
 
 /// Per-axis sigmas from the meant waypoint within which an operator takes a suggestion as is:
 /// half the effective target width 4.133 σ (Crossman; MacKenzie 1992), as the simulated
-/// operator decides (`sim/operator.rs`).
+/// operator decides (`simulation/operator.rs`).
 pub const ACCEPT_SIGMAS: f64 = 4.133 / 2.0;
 
 /// Teaching noise: one-sigma error per axis of a taught waypoint.

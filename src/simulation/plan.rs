@@ -6,7 +6,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::SimError;
+use super::SimulationError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Noise;
 use crate::engine::Tolerance;
@@ -240,7 +240,7 @@ impl Plan {
 /// ([`ReachSetup::default`]: the arm the program names, else the smallest library arm for its
 /// language that reaches every taught waypoint, placed by the layout search). Searched once
 /// per program; every session of the program uses it.
-pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
+pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimulationError> {
     let check = ReachCheck::new(ReachSetup::default())?;
     programs
         .iter()
@@ -248,8 +248,8 @@ pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
             let poses: Vec<Pose> = p.poses().copied().collect();
             check
                 .place(&p.language, p.arm_designation(), &poses)
-                .map_err(|e| SimError::Layout(p.name.clone(), e))?
-                .ok_or_else(|| SimError::NoPlacement(p.name.clone()))
+                .map_err(|e| SimulationError::Layout(p.name.clone(), e))?
+                .ok_or_else(|| SimulationError::NoPlacement(p.name.clone()))
         })
         .collect()
 }

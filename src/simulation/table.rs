@@ -6,7 +6,7 @@ use std::fmt::Write;
 
 use serde::Serialize;
 
-use super::SimError;
+use super::SimulationError;
 use super::operator::Time;
 use super::plan::{Condition, RoutineResult, SeedFigure};
 use super::stats::{RankSum, mean, rank_sum, std_dev};
@@ -47,9 +47,9 @@ pub struct ConditionSummary {
 pub fn summarise(
     conditions: &[Condition],
     results: &[RoutineResult],
-) -> Result<Vec<ConditionSummary>, SimError> {
+) -> Result<Vec<ConditionSummary>, SimulationError> {
     let Some(baseline) = conditions.first() else {
-        return Err(SimError::EmptyPlan);
+        return Err(SimulationError::EmptyPlan);
     };
     let times = |key: &str| -> Vec<f64> {
         results
@@ -64,7 +64,7 @@ pub fn summarise(
     for (i, c) in conditions.iter().enumerate() {
         let rs: Vec<&RoutineResult> = results.iter().filter(|r| r.condition == c.key).collect();
         let t = times(&c.key);
-        let m = mean(&t).ok_or_else(|| SimError::NoResults(c.key.clone()))?;
+        let m = mean(&t).ok_or_else(|| SimulationError::NoResults(c.key.clone()))?;
         let mut mean_time = Time::default();
         for r in &rs {
             mean_time.add(&r.time);
@@ -311,7 +311,7 @@ fn escape(t: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::plan::table_4_1_conditions;
+    use crate::simulation::plan::table_4_1_conditions;
 
     fn result(condition: &str, time_s: f64) -> RoutineResult {
         RoutineResult {
@@ -368,6 +368,6 @@ mod tests {
             "{svg}"
         );
         let missing = summarise(&conditions, &results[..1]);
-        assert!(matches!(missing, Err(SimError::NoResults(_))));
+        assert!(matches!(missing, Err(SimulationError::NoResults(_))));
     }
 }

@@ -401,7 +401,7 @@ impl Operator {
 mod tests {
     use super::*;
     use crate::kinematics::{Mounting, bundled_robots_dir, load_robot};
-    use crate::sim::arm::JogLimits;
+    use crate::simulation::arm::JogLimits;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 

@@ -4,7 +4,7 @@
 //! operator teaches corpus programs on a simulated arm, against the real service, and the
 //! simulated programming times are compared across prediction settings. Everything here is
 //! deterministic given a seed and does no I/O beyond loading the bundled robot models; the
-//! driver that talks to a server is [`crate::simulate`].
+//! driver that talks to a server is [`crate::simulation_driver`].
 //!
 //! - [`arm`]: a six-joint arm from the URDF models: joints, FK/IK, joint and Cartesian jogs
 //!   timed by the TCP speed limit and the joints' velocity limits.
@@ -39,7 +39,7 @@ pub use table::{
 
 /// Why a simulation cannot be set up or summarised.
 #[derive(Debug, Error)]
-pub enum SimError {
+pub enum SimulationError {
     #[error(transparent)]
     Kinematics(#[from] crate::kinematics::KinematicsError),
     #[error(transparent)]
