@@ -1,6 +1,6 @@
 //! nextpose: suggests the next waypoint while an operator teaches an industrial robot arm.
 //!
-//! - [`engine`]: the pure prediction engine. No I/O. The CDHMM of the seed (learner, HMM,
+//! - [`engine`]: the pure prediction engine. No I/O. The CDHMM of the dissertation (learner, HMM,
 //!   forward prediction with its gates and scale estimate), the sequence experts and the
 //!   calibrated offer rule, the template and the noise model that make up the default profile,
 //!   and lead-through teaching (trajectories cut into waypoints).

@@ -1,5 +1,5 @@
 //! `nextpose simulate`: simulated operators teach corpus programs against the service and the
-//! programming-time table is printed (the shape of the seed's Table 4.1).
+//! programming-time table is printed (the shape of the dissertation's Table 4.1).
 
 use std::path::PathBuf;
 

@@ -1,14 +1,14 @@
-//! The seed's online lab (§4.5) as programs: a repertoire of four tasks taught again and again
-//! by three users, each time with the work piece placed a little differently. `nextpose lab`
+//! The dissertation's online lab (§4.5) as programs: a repertoire of four tasks taught again and
+//! again by three users, each time with the work piece placed a little differently. `nextpose lab`
 //! writes them as corpus JSON, and `nextpose simulate … --history repository-online --operator
 //! online` then teaches each one with the earlier ones in the cell, as their users taught them
-//! (each waypoint with the online operator's error): the analogue of the seed's Table 4.1
+//! (each waypoint with the online operator's error): the analogue of the dissertation's Table 4.1
 //! (§4.5.3), whose model was built from other users' online programs.
 //!
 //! **The repertoire** (§4.5, Figure 4.17: "two planar geometric movements" of 13 and 6
 //! waypoints and "two standard arc-welding tasks" of 10 waypoints each; "the mean distance
-//! between waypoints was 186 millimeters"). The seed gives the counts and the mean spacing, not
-//! the shapes (the figure is a photograph); the shapes here are our assumption, each with a
+//! between waypoints was 186 millimeters"). The dissertation gives the counts and the mean spacing,
+//! not the shapes (the figure is a photograph); the shapes here are our assumption, each with a
 //! mean step of exactly 186 mm so that the repertoire's is 186 mm too:
 //!
 //! - [`Task::Dodecagram`], 13 waypoints: the star polygon {12/5} (12 points on a circle of
@@ -26,28 +26,28 @@
 //!   the torch bisects the two sides.
 //!
 //! Both seams start (and their approach and retract points stand) on the side of the work
-//! piece facing the arm. The sizes are what the seed's IRB 140 (810 mm reach), placed as the
-//! simulation places it, can reach: compact star polygons rather than wide outlines, and the
-//! welds' spacing made up by high clearance points rather than long seams. Even so the far side
-//! of the pipe seam is at the edge of the reach (with seed 1, 1 of 431 waypoints is beyond it).
+//! piece facing the arm. The sizes are what the dissertation's IRB 140 (810 mm reach), placed as
+//! the simulation places it, can reach: compact star polygons rather than wide outlines, and the
+//! welds' spacing made up by high clearance points rather than long seams. Even so the far side of
+//! the pipe seam is at the edge of the reach (with seed 1, 1 of 431 waypoints is beyond it).
 //!
 //! **The programs.** Program `i` is taught by user `i mod 3` and teaches task `i mod 4` (one
 //! routine), so every (user, task) pair recurs, and the previous program of the same task is
 //! always another user's. The work piece is placed by a rigid move drawn per program: an offset
 //! on the table uniform within ±50 mm in x and y and a turn about the vertical uniform within
-//! ±15° (our assumption of "a little differently": the seed does not say). A program's waypoints
-//! are what its user meant: the placed task's poses. That is the simulated operator's target
-//! when the program is taught, and the operator's error is added where it is made: when the
+//! ±15° (our assumption of "a little differently": the dissertation does not say). A program's
+//! waypoints are what its user meant: the placed task's poses. That is the simulated operator's
+//! target when the program is taught, and the operator's error is added where it is made: when the
 //! operator places a waypoint by hand, and when an earlier program becomes a cell's history
-//! (`History::RepositoryOnline`), since the seed's users taught with a joystick and chose their
-//! own "sufficiently close" (§4.5.1). [`LabConfig::as_taught_online`] writes the programs with
-//! that error instead ([`super::operator::OperatorModel::place`]'s model: Gaussian, 20 mm 3-D RMS
-//! and 0.035 rad RMS, the figures of [`OperatorModel::online`]).
+//! (`History::RepositoryOnline`), since the dissertation's users taught with a joystick and chose
+//! their own "sufficiently close" (§4.5.1). [`LabConfig::as_taught_online`] writes the programs
+//! with that error instead ([`super::operator::OperatorModel::place`]'s model: Gaussian, 20 mm 3-D
+//! RMS and 0.035 rad RMS, the figures of [`OperatorModel::online`]).
 //!
 //! **Variants** ([`Repertoire::Variants`], `nextpose lab --repertoire variants`): a pick and
 //! place, a pocket, weld stitches and a palletising grid (6, 7, 10 and 12 waypoints, mean
-//! steps of 40 to 156 mm), so that what was chosen on the seed's four tasks can be checked on
-//! shapes it was not chosen on. Placement, users and errors as above.
+//! steps of 40 to 156 mm), so that what was chosen on the dissertation's four tasks can be checked
+//! on shapes it was not chosen on. Placement, users and errors as above.
 //!
 //! **A welding cell** ([`Repertoire::Welding`], `nextpose lab --repertoire welding`): offline
 //! programs of the shape real arc-welding modules have, for `nextpose replay` (the issue's
@@ -56,8 +56,8 @@
 //! are the program's main family (bracket, flange, gusset or frame: 8 to 16 waypoints of seams,
 //! each approached and left [`WELD_STANDOFF_MM`] back along the torch), the others one other
 //! family; a station's part stands within ±100 mm and ±30° of nominal, at 0.8–1.25 times its
-//! nominal size. Written exact, as an offline program is. The seed's and the variant labs are
-//! unchanged by it (its draws come after theirs).
+//! nominal size. Written exact, as an offline program is. The dissertation's and the variant labs
+//! are unchanged by it (its draws come after theirs).
 //!
 //! Deterministic given the seed: program `i` draws from its own ChaCha8 stream, so a lab of
 //! fewer programs is a prefix of the full one.
@@ -70,19 +70,19 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::arm::JogLimits;
-use super::operator::{OperatorModel, SEED_SPACING_MM, normal};
+use super::operator::{DISSERTATION_SPACING_MM, OperatorModel, normal};
 use crate::engine::Pose;
 use crate::program::{NamedArm, Program, Routine};
 
 /// The repository every lab program names (`source.repo`): one for the whole lab, so that
 /// `--history repository` gives each program the earlier programs of all users, the other
-/// users' among them (the seed's model was built from other users' programs, §4.5.3).
+/// users' among them (the dissertation's model was built from other users' programs, §4.5.3).
 pub const LAB_REPO: &str = "seed-lab/online-study";
 
-/// The language the programs are recorded in: the seed's lab arm was an ABB IRB 140 (§4.5,
+/// The language the programs are recorded in: the dissertation's lab arm was an ABB IRB 140 (§4.5,
 /// Figure 4.18), and `rapid` makes the simulation stand the bundled IRB 140 at them.
 pub const LAB_LANGUAGE: &str = "rapid";
-/// The arm of the seed's lab, which its programs name.
+/// The arm of the dissertation's lab, which its programs name.
 pub const LAB_ARM: &str = "IRB 140";
 
 /// Height of a weld's approach and retract points above the seam's first and last points, mm.
@@ -130,9 +130,10 @@ pub enum Task {
 /// Which repertoire a lab teaches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Repertoire {
-    /// The seed's four tasks (what the engine's lab figures were chosen on).
+    /// The dissertation's four tasks ([`Task::DISSERTATION`], what the engine's lab figures were
+    /// chosen on).
     #[default]
-    Seed,
+    Dissertation,
     /// Four other task shapes and spacings (pick and place, pocket, stitches, grid): a lab
     /// the engine was not tuned on.
     Variants,
@@ -146,7 +147,7 @@ pub enum Repertoire {
 impl Repertoire {
     pub fn tasks(self) -> &'static [Task] {
         match self {
-            Repertoire::Seed => &Task::ALL,
+            Repertoire::Dissertation => &Task::DISSERTATION,
             Repertoire::Variants => &Task::VARIANTS,
             Repertoire::Welding => &Task::WELDING,
         }
@@ -154,8 +155,8 @@ impl Repertoire {
 }
 
 impl Task {
-    /// The repertoire in the seed's order (Figure 4.17: 13, 6, 10, 10 waypoints).
-    pub const ALL: [Task; 4] = [
+    /// The dissertation's repertoire in its order (Figure 4.17: 13, 6, 10, 10 waypoints).
+    pub const DISSERTATION: [Task; 4] = [
         Task::Dodecagram,
         Task::Pentagram,
         Task::PipeSeam,
@@ -195,7 +196,7 @@ impl Task {
         )
     }
 
-    /// Whether it is an arc-welding task (the seed's two seams, the stitches).
+    /// Whether it is an arc-welding task (the dissertation's two seams, the stitches).
     pub fn is_weld(self) -> bool {
         matches!(self, Task::PipeSeam | Task::BoxSeam | Task::Stitches) || self.is_welding_cell()
     }
@@ -446,7 +447,7 @@ pub(super) fn pose(p: Vector3<f64>, q: UnitQuaternion<f64>) -> Pose {
 fn star_polygon(n: usize, k: usize) -> Vec<Pose> {
     let step = std::f64::consts::TAU / n as f64;
     // Vertices k apart on a circle of radius r are a chord 2 r sin(k·step/2) apart.
-    let r = SEED_SPACING_MM / (2.0 * (k as f64 * step / 2.0).sin());
+    let r = DISSERTATION_SPACING_MM / (2.0 * (k as f64 * step / 2.0).sin());
     (0..=n)
         .map(|i| {
             let t = PI / 2.0 + ((i * k) % n) as f64 * step;
@@ -463,9 +464,9 @@ fn pentagram() -> Vec<Pose> {
     star_polygon(5, 2)
 }
 
-/// The seam's chord such that approach, 7 chords and retract average the seed's spacing.
+/// The seam's chord such that approach, 7 chords and retract average the dissertation's spacing.
 fn seam_chord_mm() -> f64 {
-    (9.0 * SEED_SPACING_MM - 2.0 * WELD_CLEARANCE_MM) / 7.0
+    (9.0 * DISSERTATION_SPACING_MM - 2.0 * WELD_CLEARANCE_MM) / 7.0
 }
 
 /// A torch at `p` on a fillet joint whose outward normal (in the plate's plane) is `n` and
@@ -541,9 +542,9 @@ fn box_seam() -> Vec<Pose> {
 /// What to generate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LabConfig {
-    /// Number of programs (the seed's: 44).
+    /// Number of programs (the dissertation's: 44).
     pub programs: usize,
-    /// Number of users (the seed's: 3).
+    /// Number of users (the dissertation's: 3).
     pub users: usize,
     /// Each user's placement error: 3-D RMS position error, mm …
     pub position_rms_mm: f64,
@@ -557,8 +558,8 @@ pub struct LabConfig {
 }
 
 impl Default for LabConfig {
-    /// The seed's lab (§4.5): 44 programs, 3 users, written as the users meant them (no error:
-    /// `simulate --history repository-online` adds the operator's error to the history).
+    /// The dissertation's lab (§4.5): 44 programs, 3 users, written as the users meant them (no
+    /// error: `simulate --history repository-online` adds the operator's error to the history).
     fn default() -> LabConfig {
         LabConfig {
             programs: 44,
@@ -567,7 +568,7 @@ impl Default for LabConfig {
             rotation_rms_rad: 0.0,
             offset_mm: PLACEMENT_OFFSET_MM,
             yaw_rad: PLACEMENT_YAW_RAD,
-            repertoire: Repertoire::Seed,
+            repertoire: Repertoire::Dissertation,
         }
     }
 }
@@ -602,7 +603,7 @@ pub struct LabRoutine {
 pub struct LabProgram {
     /// 0-based user.
     pub user: usize,
-    /// How each routine was made (one per routine of `program`; the seed's and the variant
+    /// How each routine was made (one per routine of `program`; the dissertation's and the variant
     /// labs have one).
     pub routines: Vec<LabRoutine>,
     /// The program as taught (each routine's `nominal` plus the error), with [`LAB_REPO`] as
@@ -770,12 +771,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_repertoire_has_the_seeds_counts_and_spacing() {
-        let counts: Vec<usize> = Task::ALL.iter().map(|t| t.waypoints().len()).collect();
+    fn the_repertoire_has_the_dissertations_counts_and_spacing() {
+        let counts: Vec<usize> = Task::DISSERTATION
+            .iter()
+            .map(|t| t.waypoints().len())
+            .collect();
         assert_eq!(counts, [13, 6, 10, 10]);
-        for t in Task::ALL {
+        for t in Task::DISSERTATION {
             let m = mean_spacing_mm(&t.waypoints());
-            assert!((m - SEED_SPACING_MM).abs() < 1e-9, "{}: {m}", t.name());
+            assert!(
+                (m - DISSERTATION_SPACING_MM).abs() < 1e-9,
+                "{}: {m}",
+                t.name()
+            );
         }
     }
 
@@ -794,7 +802,7 @@ mod tests {
     }
 
     #[test]
-    fn the_seeds_irb_140_reaches_nearly_every_waypoint_as_the_simulation_places_it() {
+    fn the_dissertations_irb_140_reaches_nearly_every_waypoint_as_the_simulation_places_it() {
         use crate::kinematics::placement::{ArmChoice, ReachCheck, ReachSetup};
         let check = ReachCheck::new(ReachSetup::default()).unwrap();
         let lab = generate(&LabConfig::default(), 1);
@@ -823,7 +831,7 @@ mod tests {
         );
     }
 
-    /// The variants are other shapes with other spacings (all under the seed's 186 mm), and
+    /// The variants are other shapes with other spacings (all under the dissertation's 186 mm), and
     /// the IRB 140 reaches them as the simulation places it.
     #[test]
     fn the_variant_repertoire_is_other_tasks_the_arm_reaches() {

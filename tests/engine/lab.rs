@@ -40,7 +40,7 @@ fn write_lab(dir: &std::path::Path, programs: usize) {
 }
 
 #[test]
-fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
+fn a_small_lab_has_the_dissertations_shape_placements_and_noise() {
     let config = small();
     let lab = lab::generate(&config, SEED);
     assert_eq!(lab.len(), 8);
@@ -48,7 +48,7 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     // Users and tasks rotate: every program's previous one of the same task is another user's.
     for (i, p) in lab.iter().enumerate() {
         assert_eq!(p.user, i % 3);
-        assert_eq!(p.routines[0].task, Task::ALL[i % 4]);
+        assert_eq!(p.routines[0].task, Task::DISSERTATION[i % 4]);
         assert_eq!(p.program.routines.len(), 1);
         let expected = [13, 6, 10, 10][i % 4];
         assert_eq!(p.program.waypoint_count(), expected, "{}", p.program.name);

@@ -334,7 +334,7 @@ async fn suggestions_save_time_only_when_shown() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
-async fn an_imported_offline_program_seeds_the_cell() {
+async fn an_imported_offline_program_warms_the_cell_up() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
     let driver = Client::from(client.clone());
@@ -347,20 +347,20 @@ async fn an_imported_offline_program_seeds_the_cell() {
     let fresh = run_session(&driver, &plan, &session(&plan, "default", &p, 1, "fresh"))
         .await
         .expect("session");
-    let mut s = session(&plan, "default", &p, 1, "seeded");
+    let mut s = session(&plan, "default", &p, 1, "warmed up");
     s.warmup = Warmup::Import(vec![("Template_20014_Module.mod".into(), text)]);
-    let seeded = run_session(&driver, &plan, &s).await.expect("session");
+    let warmed = run_session(&driver, &plan, &s).await.expect("session");
     // The imported routines are learned before the operator starts.
-    assert!(seeded.stats.model.routines > fresh.stats.model.routines);
+    assert!(warmed.stats.model.routines > fresh.stats.model.routines);
     let first_routine = |o: &SessionOutcome| o.routines[0].offered;
     eprintln!(
-        "first routine offered: fresh {}, seeded {}; total fresh {}, seeded {}",
+        "first routine offered: fresh {}, warmed up {}; total fresh {}, warmed up {}",
         first_routine(&fresh),
-        first_routine(&seeded),
+        first_routine(&warmed),
         total(&fresh, |r| r.offered),
-        total(&seeded, |r| r.offered)
+        total(&warmed, |r| r.offered)
     );
-    assert!(seeded.stats.feedback.pending == 0);
+    assert!(warmed.stats.feedback.pending == 0);
     server.stop().await.expect("stop");
 }
 

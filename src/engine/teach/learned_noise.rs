@@ -348,8 +348,8 @@ mod tests {
         same_model(&t, &finished);
     }
 
-    /// Exact programs keep an exact cell: the learned noise stays negligible, the tolerance the
-    /// seed's, and the calibration the prior's.
+    /// Exact programs keep an exact cell: the learned noise stays negligible, the tolerance
+    /// [`Tolerance::USEFUL`], and the calibration the prior's.
     #[test]
     fn exact_programs_keep_the_cell_exact() {
         use crate::engine::experts::noise::estimate::tests::{task, wander};
@@ -365,8 +365,12 @@ mod tests {
             wander(9, &mut rng).iter().for_each(|w| t.teach(*w));
             t.finish_routine();
         }
-        assert!(t.noise().is_negligible(&Tolerance::SEED), "{:?}", t.noise());
-        assert_eq!(t.tolerance(), Tolerance::SEED);
+        assert!(
+            t.noise().is_negligible(&Tolerance::USEFUL),
+            "{:?}",
+            t.noise()
+        );
+        assert_eq!(t.tolerance(), Tolerance::USEFUL);
         assert!(!t.noisy());
     }
 

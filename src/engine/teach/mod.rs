@@ -10,7 +10,8 @@
 //! discounts the window's own transitions (`predict`). The newest assimilated move is
 //! *pending*: what follows it is not known yet, which is not the same as the routine ending
 //! there. When the routine finishes, the remaining moves are assimilated and the routine is
-//! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
+//! closed; nothing is counted twice. Without it (the dissertation's engine), a routine is learned
+//! when finished.
 //!
 //! **Undo.** The operator may delete the last waypoint of the routine being taught. When that
 //! takes back a move that was already assimilated, the model is rolled back to where it was
@@ -281,8 +282,9 @@ impl Teacher {
         out
     }
 
-    /// The prediction after `routine`: the model's alone without an offer rule (the seed);
-    /// with one, the likeliest candidate, offered when its `p_useful` reaches the threshold.
+    /// The prediction after `routine`: the model's alone without an offer rule (the
+    /// dissertation's); with one, the likeliest candidate, offered when its `p_useful` reaches the
+    /// threshold.
     fn choose(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Prediction {
         self.ahead_of(routine, moves, opts).prediction
     }
@@ -511,7 +513,7 @@ pub(super) mod tests {
                 pose([1e300, -1e300, 6.0], 0.4),
             ],
         ];
-        for profile in [Profile::Seed, Profile::Default] {
+        for profile in [Profile::Dissertation, Profile::Default] {
             let mut t = Teacher::new(EngineConfig::profile(profile)).unwrap();
             let finite = |p: &Prediction| {
                 p.pose.is_none_or(|q| {
@@ -555,7 +557,7 @@ pub(super) mod tests {
 
     #[test]
     fn undo_gives_the_model_of_the_shorter_routine() {
-        for profile in [Profile::Default, Profile::Seed] {
+        for profile in [Profile::Default, Profile::Dissertation] {
             let config = EngineConfig::profile(profile);
             let first = stitches(12, 0.0);
             let second = stitches(14, 1000.0);
