@@ -247,7 +247,7 @@ mod tests {
         (context, places, agreeing, in_routine)
     }
 
-    fn near(a: &Pose, b: &Pose) -> bool {
+    fn same_pose(a: &Pose, b: &Pose) -> bool {
         a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
     }
 
@@ -277,7 +277,7 @@ mod tests {
         let c = abs
             .propose(taught, &Tolerance::USEFUL)
             .expect("a candidate");
-        assert!(near(&c.pose, &home), "{:?}", c.pose);
+        assert!(same_pose(&c.pose, &home), "{:?}", c.pose);
         assert_eq!(c.proposer(), Proposer::Absolute);
         assert_eq!(
             evidence(&c).0,
@@ -285,7 +285,7 @@ mod tests {
             "the pose before the retract point differs"
         );
         let t = tool.propose(taught, &Tolerance::USEFUL);
-        assert!(t.is_none_or(|t| !near(&t.pose, &home)));
+        assert!(t.is_none_or(|t| !same_pose(&t.pose, &home)));
     }
 
     /// A seam approached from 100 mm above, under a torch that turns from seam to seam: the
@@ -309,12 +309,12 @@ mod tests {
         let c = work
             .propose(&next[..2], &Tolerance::USEFUL)
             .expect("a candidate");
-        assert!(near(&c.pose, &next[2]), "{:?}", c.pose);
+        assert!(same_pose(&c.pose, &next[2]), "{:?}", c.pose);
         let (_, places, agreeing, in_routine) = evidence(&c);
         assert_eq!((places, agreeing), (1, 1));
         assert!(!in_routine);
         let t = tool.propose(&next[..2], &Tolerance::USEFUL);
-        assert!(t.is_none_or(|t| !near(&t.pose, &next[2])));
+        assert!(t.is_none_or(|t| !same_pose(&t.pose, &next[2])));
     }
 
     /// A grid row: the same step again and again inside one routine is found in the routine
@@ -328,7 +328,7 @@ mod tests {
         let c = e
             .propose(&row[..5], &Tolerance::USEFUL)
             .expect("a candidate");
-        assert!(near(&c.pose, &row[5]));
+        assert!(same_pose(&c.pose, &row[5]));
         let (context, places, agreeing, in_routine) = evidence(&c);
         assert!(in_routine);
         assert_eq!(context, 3, "the longest context with a follower");

@@ -278,7 +278,7 @@ impl Teacher {
         opts: &PredictOptions,
     ) -> Prediction {
         match routine.last() {
-            Some(last) => predict_move(&self.graph, moves, opts).place(last),
+            Some(last) => predict_move(&self.graph, moves, opts).placed_after(last),
             None => Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len()),
         }
     }

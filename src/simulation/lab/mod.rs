@@ -214,7 +214,7 @@ pub fn generate(config: &LabConfig, seed: u64) -> Vec<LabProgram> {
                     config.yaw_rad,
                     &mut rng,
                 );
-                vec![place(config, main, placement, 1.0, &mut rng)]
+                vec![placed_task(config, main, placement, 1.0, &mut rng)]
             };
             let name = format!("lab{i:0width$}_user{}_{}", user + 1, main.name());
             let program = Program {
@@ -257,7 +257,7 @@ pub(super) fn draw_placement<R: Rng>(
 
 /// `task` at `size` placed by `placement` (the welding cell's parts between two visits to
 /// [`HOME_MM`]), and the routine that teaches it with the users' error.
-fn place<R: Rng>(
+fn placed_task<R: Rng>(
     config: &LabConfig,
     task: Task,
     placement: Isometry3<f64>,
@@ -313,7 +313,7 @@ fn welding_cell<R: Rng>(config: &LabConfig, main: Task, rng: &mut R) -> Vec<(Lab
             );
             let (s_lo, s_hi) = WELD_SIZE_RANGE;
             let size = s_lo + (s_hi - s_lo) * rng.random::<f64>();
-            let (part, mut routine) = place(config, task, placement, size, rng);
+            let (part, mut routine) = placed_task(config, task, placement, size, rng);
             routine.name = format!("station{}_{}", k + 1, task.name());
             (part, routine)
         })

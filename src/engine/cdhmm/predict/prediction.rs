@@ -120,7 +120,7 @@ impl Prediction {
     }
 
     /// Composes the proposed move onto the last taught pose.
-    pub(crate) fn place(mut self, last: &Pose) -> Prediction {
+    pub(crate) fn placed_after(mut self, last: &Pose) -> Prediction {
         if let Some(x) = &self.relative {
             match Move::from_observation(x) {
                 Ok(m) => self.pose = Some(last.then(&m)),

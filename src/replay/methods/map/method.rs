@@ -79,7 +79,7 @@ impl Method for MapMethod {
             &self.moves,
             &self.opts,
         )
-        .place(last);
+        .placed_after(last);
         if !p.offered() {
             return None;
         }
