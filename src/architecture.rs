@@ -459,6 +459,17 @@ fn no_import_cycle_in_any_folder() {
         lattice["expert"].contains("walk") && lattice["expert"].contains("followers"),
         "{lattice:?}"
     );
+    // The noise estimator's parts: aligning stretches gives the pairs the mixture is fitted to.
+    let estimate = &graphs[&["engine", "experts", "noise", "estimate"]
+        .map(String::from)
+        .to_vec()];
+    assert!(estimate["stretches"].contains("mixture"), "{estimate:?}");
+    // The simulation's folders: the pattern programs are placed as the lab's are, and the lab's
+    // tasks are a file of their own.
+    let simulation = &graphs[&vec!["simulation".to_string()]];
+    assert!(simulation["pattern"].contains("lab"), "{simulation:?}");
+    let lab = &graphs[&["simulation", "lab"].map(String::from).to_vec()];
+    assert!(lab.contains_key("tasks"), "{lab:?}");
     let cycles: Vec<String> = graphs
         .iter()
         .filter_map(|(folder, g)| {
@@ -544,12 +555,13 @@ fn modules_use_only_what_their_layer_allows() {
     }
 }
 
-/// The engine, the program type, the importer and the exporter do no I/O and know no async
-/// runtime; the engine knows nothing of the web either (its wire schemas are in `api`).
+/// The engine, the program type, the importer, the exporter and the simulation (its driver
+/// against a server is `simulation_driver`) do no I/O and know no async runtime; the engine
+/// knows nothing of the web either (its wire schemas are in `api`).
 #[test]
 fn pure_modules_do_no_io() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    for module in ["engine", "program", "import", "export"] {
+    for module in ["engine", "program", "import", "export", "simulation"] {
         let mut files = Vec::new();
         let path = src.join(module);
         if path.is_dir() {
