@@ -163,7 +163,9 @@ pub(crate) mod mirror {
         /// Mean squared Mahalanobis distance of the window to the recalled context's states.
         #[schema(minimum = 0.0)]
         pub max_cost: f64,
-        /// Fewest window moves (after backoff) a recall may condition on.
+        /// Fewest window moves (after backoff) a recall may condition on (0 to 50, the largest
+        /// horizon).
+        #[schema(minimum = 0, maximum = 50)]
         pub min_window: usize,
     }
 

@@ -99,6 +99,14 @@ impl CellSettings {
                 self.horizon
             )));
         }
+        if let Some(recall) = &self.recall
+            && recall.min_window > MAX_HORIZON
+        {
+            return Err(AppError::Invalid(format!(
+                "recall.min_window {} is above the largest horizon, {MAX_HORIZON}",
+                recall.min_window
+            )));
+        }
         if self.robot.trim().is_empty() {
             return Err(AppError::Invalid("robot must not be empty".into()));
         }

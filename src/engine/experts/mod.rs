@@ -25,6 +25,8 @@
 //! (`calibration::Coarse::of`).
 
 pub mod acceptance;
+pub mod agreement;
+mod agreement_weights;
 pub mod alignment;
 pub mod calibration;
 pub mod frames;

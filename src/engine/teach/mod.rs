@@ -150,6 +150,12 @@ impl Teacher {
         self.graph.stats()
     }
 
+    /// Every expert's candidates for the next waypoint, in the order the offer rule met them
+    /// (none without an offer rule, or before a routine's first waypoint).
+    pub fn candidates_ahead(&self) -> &[Candidate] {
+        &self.routine.ahead.candidates
+    }
+
     /// The cell's calibration of its experts' candidates.
     pub fn calibration(&self) -> &Calibration {
         self.offer_rule.calibration()
