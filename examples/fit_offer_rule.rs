@@ -65,7 +65,7 @@ fn rows(paths: &[PathBuf]) -> anyhow::Result<(Vec<Row>, BTreeMap<String, usize>)
                         .iter()
                         .map(|c| t.calibration().p_useful(&c.evidence))
                         .collect();
-                    for g in groups(candidates, &p_first, Tolerance::SEED) {
+                    for g in groups(candidates, &p_first, Tolerance::USEFUL) {
                         let lead = candidates[g.lead].pose;
                         out.push(Row {
                             corpus: corpus.to_string(),

@@ -8,9 +8,9 @@
 //! pose is right, by a logistic model fitted offline (`examples/fit_offer_rule.rs`) and held in
 //! [`super::agreement_weights`].
 //!
-//! A group is seeded by the candidate with the highest first-stage estimate not yet grouped
-//! (the first of equals), and takes every ungrouped candidate within the tolerance of it; the
-//! seed's pose is the group's.
+//! A group is led by the candidate with the highest first-stage estimate not yet grouped (the
+//! first of equals), and takes every ungrouped candidate within the tolerance of it; the lead's
+//! pose is the group's.
 
 use super::agreement_weights::{INTERCEPT, WEIGHTS};
 use super::frames::Tolerance;
@@ -125,7 +125,7 @@ impl Features {
 }
 
 /// The candidates grouped by pose (see the module doc), with each candidate's first-stage
-/// estimate `p_first` (same length as `candidates`). Groups come in the order they were seeded:
+/// estimate `p_first` (same length as `candidates`). Groups come in the order they were formed:
 /// by their lead's estimate, highest first.
 pub fn groups(candidates: &[Candidate], p_first: &[f64], tolerance: Tolerance) -> Vec<Group> {
     debug_assert_eq!(candidates.len(), p_first.len());
@@ -306,7 +306,7 @@ mod tests {
             },
         ];
         let p = [0.6, 0.7, 0.9, 0.2];
-        let g = groups(&candidates, &p, Tolerance::SEED);
+        let g = groups(&candidates, &p, Tolerance::USEFUL);
         assert_eq!(g.len(), 2);
         // Seeded by the absolute candidate (0.9), then the work one (0.7).
         assert_eq!(g[0].members, vec![2]);
@@ -333,8 +333,8 @@ mod tests {
             sequence(Frame::Work, 0.2, 2, 2),
         ];
         let p = [0.5, 0.5];
-        let alone = groups(&one, &p, Tolerance::SEED)[0].features;
-        let agreed = groups(&both, &p, Tolerance::SEED)[0].features;
+        let alone = groups(&one, &p, Tolerance::USEFUL)[0].features;
+        let agreed = groups(&both, &p, Tolerance::USEFUL)[0].features;
         let s = Scorer::FITTED;
         assert!(
             s.p(&agreed) > s.p(&alone),
