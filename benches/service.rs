@@ -94,7 +94,7 @@ async fn main() {
         .expect("id");
     let mut rng = StdRng::seed_from_u64(7);
     let mut states = 0;
-    let seeding = Instant::now();
+    let filling = Instant::now();
     while states < target_states {
         let routine = post(
             &client,
@@ -126,8 +126,8 @@ async fn main() {
         states = finished["model"]["states"].as_u64().expect("states") as usize;
     }
     println!(
-        "seeded {states} states in {:.1} s",
-        seeding.elapsed().as_secs_f64()
+        "filled the model with {states} states in {:.1} s",
+        filling.elapsed().as_secs_f64()
     );
 
     // Load: one open routine, 64 clients appending a repeating stitch pattern to it.

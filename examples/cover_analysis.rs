@@ -80,7 +80,7 @@ fn loose_context(
     let latest = *followers.last()?;
     let agreeing = followers
         .iter()
-        .filter(|f| Tolerance::SEED.holds(f, &latest))
+        .filter(|f| Tolerance::USEFUL.holds(f, &latest))
         .count();
     Some((latest, followers.len(), agreeing))
 }
@@ -98,7 +98,7 @@ fn gapped_context(
     if m < gap + len {
         return None;
     }
-    let tol = Tolerance::SEED;
+    let tol = Tolerance::USEFUL;
     let ctx = &current[m - gap - len..m - gap];
     let mut followers = Vec::new();
     let mut scan = |seq: &[Observation], limit: usize| {
@@ -151,7 +151,7 @@ fn main() -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let tol = Tolerance::SEED;
+    let tol = Tolerance::USEFUL;
     // half → kind → tally; half → population.
     let mut tallies: BTreeMap<&str, BTreeMap<String, Tally>> = BTreeMap::new();
     let mut population: BTreeMap<&str, u32> = BTreeMap::new();
@@ -470,7 +470,7 @@ fn main() -> anyhow::Result<()> {
 /// Per waypoint of one program: the work-frame move taught, and for each frame the most recent
 /// earlier element covering it (how far back, in elements of the whole history) and how many do.
 fn detail(program: &nextpose::replay::Program) {
-    let tol = Tolerance::SEED;
+    let tol = Tolerance::USEFUL;
     let frames = [Frame::Tool, Frame::Work, Frame::Absolute];
     let mut history: Vec<Vec<Observation>> = vec![Vec::new(); 3];
     for (ri, routine) in program.routines.iter().enumerate() {
@@ -521,7 +521,7 @@ fn detail(program: &nextpose::replay::Program) {
 /// their evidence, whether each is right, and which candidates agree with it.
 fn dump_csv(programs: &[nextpose::replay::Program]) -> anyhow::Result<String> {
     use std::fmt::Write;
-    let tol = Tolerance::SEED;
+    let tol = Tolerance::USEFUL;
     let frames = [Frame::Tool, Frame::Work, Frame::Absolute];
     let mut out = String::from(
         "half,program,routine,n,expert,context,places,agreeing,in_routine,gated_in,right,agree_with,exact_last\n",

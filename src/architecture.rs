@@ -459,7 +459,18 @@ fn no_import_cycle_in_any_folder() {
         lattice["expert"].contains("walk") && lattice["expert"].contains("followers"),
         "{lattice:?}"
     );
-    // And the program model's and the KRL reader's: the model's files share its waypoint, the
+    // The noise estimator's parts: aligning stretches gives the pairs the mixture is fitted to.
+    let estimate = &graphs[&["engine", "experts", "noise", "estimate"]
+        .map(String::from)
+        .to_vec()];
+    assert!(estimate["stretches"].contains("mixture"), "{estimate:?}");
+    // The simulation's folders: the pattern programs are placed as the lab's are, and the lab's
+    // tasks are a file of their own.
+    let simulation = &graphs[&vec!["simulation".to_string()]];
+    assert!(simulation["pattern"].contains("lab"), "{simulation:?}");
+    let lab = &graphs[&["simulation", "lab"].map(String::from).to_vec()];
+    assert!(lab.contains_key("tasks"), "{lab:?}");
+    // The program model's and the KRL reader's: the model's files share its waypoint, the
     // reader's files its lexer.
     let program = &graphs[&vec!["program".to_string()]];
     assert!(
@@ -491,7 +502,7 @@ fn modules_use_only_what_their_layer_allows() {
         ("kinematics", &["engine", "program"]),
         ("import", &["engine", "program"]),
         ("export", &["engine", "program"]),
-        ("sim", &["engine", "kinematics", "program"]),
+        ("simulation", &["engine", "kinematics", "program"]),
         ("replay", &["engine", "import", "kinematics", "program"]),
         ("storage", &["engine", "program"]),
         ("telemetry", &[]),
@@ -540,7 +551,16 @@ fn modules_use_only_what_their_layer_allows() {
     }
     // Nothing below the adapters reaches up into them.
     for (module, uses) in &top {
-        if ["http", "grpc", "server", "cli", "simulate", "client"].contains(&module.as_str()) {
+        if [
+            "http",
+            "grpc",
+            "server",
+            "cli",
+            "simulation_driver",
+            "client",
+        ]
+        .contains(&module.as_str())
+        {
             continue;
         }
         for adapter in ["http", "grpc", "server", "cli"] {
@@ -549,12 +569,13 @@ fn modules_use_only_what_their_layer_allows() {
     }
 }
 
-/// The engine, the program type, the importer and the exporter do no I/O and know no async
-/// runtime; the engine knows nothing of the web either (its wire schemas are in `api`).
+/// The engine, the program type, the importer, the exporter and the simulation (its driver
+/// against a server is `simulation_driver`) do no I/O and know no async runtime; the engine
+/// knows nothing of the web either (its wire schemas are in `api`).
 #[test]
 fn pure_modules_do_no_io() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    for module in ["engine", "program", "import", "export"] {
+    for module in ["engine", "program", "import", "export", "simulation"] {
         let mut files = Vec::new();
         let path = src.join(module);
         if path.is_dir() {

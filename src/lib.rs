@@ -1,6 +1,6 @@
 //! nextpose: suggests the next waypoint while an operator teaches an industrial robot arm.
 //!
-//! - [`engine`]: the pure prediction engine. No I/O. The CDHMM of the seed (learner, HMM,
+//! - [`engine`]: the pure prediction engine. No I/O. The CDHMM of the dissertation (learner, HMM,
 //!   forward prediction with its gates and scale estimate), the sequence experts and the
 //!   calibrated offer rule, the template and the noise model that make up the default profile,
 //!   and lead-through teaching (trajectories cut into waypoints).
@@ -23,9 +23,9 @@
 //!   teach session, reflection and health.
 //! - [`transport`]: what both adapters share: options and limits, the optional bearer token
 //!   (checked the same way by both), request ids and tracing.
-//! - [`sim`]: the simulated arm and operator, the experiment plan, statistics and the
-//!   programming-time table (pure, deterministic given a seed).
-//! - [`simulate`]: the driver that runs the simulated operator against a real server.
+//! - [`simulation`]: the simulated arm and operator, the programs they teach, the experiment
+//!   plan, statistics and the programming-time table (pure, deterministic given a seed).
+//! - [`simulation_driver`]: the driver that runs the simulated operator against a real server.
 //! - [`server`]: start-up and graceful shutdown of the service.
 //! - [`telemetry`]: Prometheus metrics.
 //! - [`client`]: a typed client of a running service, over REST or gRPC (the simulator, the
@@ -54,8 +54,8 @@ pub mod kinematics;
 pub mod program;
 pub mod replay;
 pub mod server;
-pub mod sim;
-pub mod simulate;
+pub mod simulation;
+pub mod simulation_driver;
 pub mod storage;
 pub mod telemetry;
 pub mod transport;

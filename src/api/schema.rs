@@ -128,7 +128,8 @@ pub(crate) mod mirror {
     #[serde(rename_all = "snake_case")]
     pub enum Profile {
         /// The dissertation's engine as specified in ALGORITHM.md.
-        Seed,
+        #[serde(rename = "seed")]
+        Dissertation,
         /// The best combination measured on the shared corpus.
         Default,
     }
@@ -141,7 +142,8 @@ pub(crate) mod mirror {
         /// docs).
         Direction,
         /// Eq. 5.7 as written: error over step length.
-        Seed,
+        #[serde(rename = "seed")]
+        ErrorOverStep,
     }
 
     /// How the learner decides that a move joins an existing state.
@@ -161,7 +163,9 @@ pub(crate) mod mirror {
         /// Mean squared Mahalanobis distance of the window to the recalled context's states.
         #[schema(minimum = 0.0)]
         pub max_cost: f64,
-        /// Fewest window moves (after backoff) a recall may condition on.
+        /// Fewest window moves (after backoff) a recall may condition on (0 to 50, the largest
+        /// horizon).
+        #[schema(minimum = 0, maximum = 50)]
         pub min_window: usize,
     }
 
@@ -220,11 +224,13 @@ mod tests {
         });
         same_wire::<_, mirror::Noise>(Noise { mm: 0.5, rad: 0.01 });
         same_wire::<_, mirror::Tolerance>(Tolerance { mm: 1.0, rad: 0.1 });
-        for p in [Profile::Seed, Profile::Default] {
+        for p in Profile::ALL {
             same_wire::<_, mirror::Profile>(p);
+            assert_eq!(serde_json::to_value(p).expect("serialises"), p.name());
         }
-        for c in [Criterion::Direction, Criterion::Seed] {
+        for c in Criterion::ALL {
             same_wire::<_, mirror::Criterion>(c);
+            assert_eq!(serde_json::to_value(c).expect("serialises"), c.name());
         }
         for m in [MergeRule::Total, MergeRule::Incremental] {
             same_wire::<_, mirror::MergeRule>(m);

@@ -308,7 +308,7 @@ settings! {
     /// calibration learns from it. A cell stored before tolerance was a setting reads as 1 mm /
     /// 0.1 rad.
     given()
-    stored(serde(default = "seed_tolerance"))
+    stored(serde(default = "useful_tolerance"))
     tolerance: Option<Tolerance> as Option<Tolerance>, kept,
         default |p| p.offer.and_then(|o| o.tolerance),
         engine |c, v| if let Some(o) = c.offer.as_mut() {
@@ -432,8 +432,8 @@ fn exact_noise() -> Option<Noise> {
     Some(Noise::EXACT)
 }
 
-fn seed_tolerance() -> Option<Tolerance> {
-    Some(Tolerance::SEED)
+fn useful_tolerance() -> Option<Tolerance> {
+    Some(Tolerance::USEFUL)
 }
 
 fn target_precision() -> f64 {

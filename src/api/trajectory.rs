@@ -46,8 +46,9 @@ pub struct TrajectorySettings {
     /// default 0.5).
     #[schema(exclusive_minimum = 0)]
     pub zeta_mm: Option<f64>,
-    /// Fewest steps of a segment before it may be cut (default 2).
-    #[schema(minimum = 1)]
+    /// Fewest steps of a segment before it may be cut (default 2; at most 20000, the most
+    /// samples a trajectory may hold).
+    #[schema(minimum = 1, maximum = 20000)]
     pub min_segment_steps: Option<usize>,
     /// Largest condition number of a fitted dynamics matrix; above it the segment moves
     /// straight to its attractor (default 10000; at least 1).

@@ -154,6 +154,13 @@ impl App {
         if caller.cells.is_none() {
             return Ok(());
         }
+        // A cell remembered is checked with the store before it denies (the resource may be
+        // gone, see [`super::credentials`]).
+        if let Some(cell) = self.credentials.cell_of(scope)
+            && caller.may_touch(cell)
+        {
+            return Ok(());
+        }
         let Some(cell) = self.cell_of(scope).await? else {
             if scope == Scope::Service && action != Action::Read {
                 return denied("is limited to some cells; this concerns the whole service".into());
@@ -177,7 +184,7 @@ impl App {
 
     /// The cell a resource belongs to; None for the service or a resource that does not exist.
     async fn cell_of(&self, scope: Scope) -> Result<Option<i64>> {
-        Ok(match scope {
+        let cell = match scope {
             Scope::Service => None,
             Scope::Cell(id) => Some(id),
             Scope::Program(id) => self.store.program(id).await?.map(|p| p.cell_id),
@@ -187,7 +194,13 @@ impl App {
                 None => None,
             },
             Scope::Prediction(id) => self.store.prediction(id).await?.map(|p| p.cell_id),
-        })
+        };
+        if let Some(cell) = cell
+            && !matches!(scope, Scope::Cell(_))
+        {
+            self.credentials.keep_cell_of(scope, cell);
+        }
+        Ok(cell)
     }
 }
 

@@ -1,5 +1,5 @@
 //! A calibration routine: the operator records one point several times, and its scatter
-//! becomes the cell's teaching noise (the seed's §4.5.1), for those who would rather say it
+//! becomes the cell's teaching noise (the dissertation's §4.5.1), for those who would rather say it
 //! than let the cell learn it from repeats.
 
 use super::error::AppError;

@@ -347,6 +347,8 @@ impl App {
             *guard = None;
             lock_map(&app.models).remove(&id);
             lock_map(&app.routine_cells).retain(|_, cell| *cell != id);
+            // Tokens limited to it no longer list it.
+            app.credentials.tokens_changed();
             Ok(())
         })
         .await

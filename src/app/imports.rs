@@ -225,7 +225,7 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
         for config in [
             EngineConfig::default(),
-            EngineConfig::profile(crate::engine::Profile::Seed),
+            EngineConfig::profile(crate::engine::Profile::Dissertation),
         ] {
             let mut teacher = Teacher::new(config).unwrap_or_else(|e| panic!("{e}"));
             for _ in 0..3 {

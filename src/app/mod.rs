@@ -29,6 +29,7 @@ mod backups;
 mod calibration;
 mod cell_model;
 mod cells;
+mod credentials;
 mod editing;
 pub mod error;
 mod exports;
@@ -88,6 +89,8 @@ pub struct App {
     /// Routine id → cell id (a routine never changes cell), so the hot path finds the cell to
     /// lock without a query. Deleting a routine removes its entry.
     routine_cells: Arc<Mutex<HashMap<i64, i64>>>,
+    /// Tokens and the cells of resources, as authentication reads them ([`credentials`]).
+    credentials: Arc<credentials::Credentials>,
     /// The operations running to completion (see [`App::to_completion`]).
     tasks: TaskTracker,
     /// Where backups go, taken one at a time ([`backups`]).
@@ -131,6 +134,7 @@ impl App {
             metrics,
             robots,
             routine_cells: Arc::default(),
+            credentials: Arc::default(),
             tasks: TaskTracker::new(),
             backups: Arc::default(),
         }

@@ -51,7 +51,7 @@ impl CellSettings {
             .validate()
             .map_err(|e| AppError::Invalid(format!("export: {e}")))?;
         let noise = self.noise.unwrap_or(crate::engine::Noise::EXACT);
-        let tolerance = self.tolerance.unwrap_or(crate::engine::Tolerance::SEED);
+        let tolerance = self.tolerance.unwrap_or(crate::engine::Tolerance::USEFUL);
         for (name, value) in [
             ("noise.mm", noise.mm),
             ("noise.rad", noise.rad),
@@ -97,6 +97,14 @@ impl CellSettings {
             return Err(AppError::Invalid(format!(
                 "horizon {} is above the maximum of {MAX_HORIZON}",
                 self.horizon
+            )));
+        }
+        if let Some(recall) = &self.recall
+            && recall.min_window > MAX_HORIZON
+        {
+            return Err(AppError::Invalid(format!(
+                "recall.min_window {} is above the largest horizon, {MAX_HORIZON}",
+                recall.min_window
             )));
         }
         if self.robot.trim().is_empty() {
@@ -148,13 +156,13 @@ mod tests {
         let s = CellSettingsInput::default().resolve().unwrap();
         assert_eq!(s.engine_config(), EngineConfig::profile(Profile::Default));
         let seed = CellSettingsInput {
-            profile: Some(Profile::Seed),
+            profile: Some(Profile::Dissertation),
             horizon: Some(2),
             ..Default::default()
         }
         .resolve()
         .unwrap();
-        let mut want = EngineConfig::profile(Profile::Seed);
+        let mut want = EngineConfig::profile(Profile::Dissertation);
         want.predict.horizon = 2;
         assert_eq!(seed.engine_config(), want);
     }
@@ -175,7 +183,7 @@ mod tests {
             revision: 0,
             reload_revision: 0,
         };
-        for profile in [Profile::Default, Profile::Seed] {
+        for profile in [Profile::Default, Profile::Dissertation] {
             let stored = parse_settings(&old(profile.name())).unwrap();
             let want = EngineConfig::profile(profile);
             let got = stored.engine_config();

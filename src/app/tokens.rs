@@ -80,6 +80,7 @@ impl App {
                 }
                 other => other.into(),
             })?;
+        self.credentials.tokens_changed();
         Ok(CreatedToken {
             token: self.token(row).await?,
             secret,
@@ -95,15 +96,19 @@ impl App {
         Ok(out)
     }
 
-    /// Revokes the token of this name: from now on it is unknown (401).
+    /// Revokes the token of this name: from now on it is unknown (401) here, and within
+    /// [`super::credentials::STALE_AFTER`] on every other instance sharing the database.
     pub async fn revoke_token(&self, name: &str) -> Result<()> {
-        self.store.revoke_token(name).await.map_err(|e| match e {
+        let revoked = self.store.revoke_token(name).await.map_err(|e| match e {
             StorageError::NotFound => AppError::NotFoundName {
                 what: "token",
                 name: name.to_string(),
             },
             other => other.into(),
-        })
+        });
+        // Whatever the store answered (a failure may still have committed), read again.
+        self.credentials.tokens_changed();
+        revoked
     }
 
     /// The caller a request's bearer secret names (already taken out of `Authorization:
@@ -115,10 +120,20 @@ impl App {
     pub async fn caller(&self, secret: Option<&[u8]>, bootstrap: bool) -> Result<Caller> {
         if let Some(secret) = secret {
             let hash = secret_hash(secret);
-            if let Some(row) = self.store.token_by_hash(&hash).await?
-                && bool::from(row.secret_sha256.as_bytes().ct_eq(hash.as_bytes()))
-            {
-                let token = self.token(row).await?;
+            let token = match self.credentials.token(&hash) {
+                Some(token) => Some(token),
+                None => match self.store.token_by_hash(&hash).await? {
+                    Some(row)
+                        if bool::from(row.secret_sha256.as_bytes().ct_eq(hash.as_bytes())) =>
+                    {
+                        let token = self.token(row).await?;
+                        self.credentials.keep_token(&hash, &token);
+                        Some(token)
+                    }
+                    _ => None,
+                },
+            };
+            if let Some(token) = token {
                 return Ok(Caller {
                     name: token.name,
                     role: token.role,
@@ -136,7 +151,17 @@ impl App {
     /// Whether a request must carry a token: with a bootstrap token (`bootstrap`), or while
     /// any stored token is not revoked.
     pub async fn asks_for_token(&self, bootstrap: bool) -> Result<bool> {
-        Ok(bootstrap || self.store.any_token().await?)
+        if bootstrap {
+            return Ok(true);
+        }
+        if self.credentials.any_token() {
+            return Ok(true);
+        }
+        let any = self.store.any_token().await?;
+        if any {
+            self.credentials.keep_any_token();
+        }
+        Ok(any)
     }
 
     /// Who the caller is, on the wire.

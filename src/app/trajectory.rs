@@ -276,6 +276,11 @@ fn segment_settings(s: &TrajectorySettings) -> Result<SegmentSettings> {
         out.zeta_mm = v;
     }
     if let Some(v) = s.min_segment_steps {
+        if v > MAX_TRAJECTORY_SAMPLES {
+            return Err(AppError::Trajectory(TrajectoryError::Settings(format!(
+                "min_segment_steps = {v} is above {MAX_TRAJECTORY_SAMPLES}, the most samples a trajectory may hold"
+            ))));
+        }
         out.min_segment_steps = v;
     }
     if let Some(v) = s.kappa_max {

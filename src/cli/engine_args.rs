@@ -3,6 +3,7 @@
 //! mapping onto the engine), as the command line spells them.
 
 use anyhow::{Context, Result};
+use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 
 use crate::api::{CellSettingsInput, ScaleSettings};
@@ -13,7 +14,7 @@ use crate::engine::{EngineConfig, OfferRule, Profile};
 #[derive(Debug, Clone, Args)]
 pub struct EngineArgs {
     /// Settings to start from.
-    #[arg(long, value_enum, default_value_t = ProfileArg::Default)]
+    #[arg(long, value_enum, default_value_t = ProfileArg(Profile::Default))]
     pub profile: ProfileArg,
     /// Complexity δ in (0, 1]: larger = stricter merging, more states.
     #[arg(long)]
@@ -76,18 +77,26 @@ fn parse_gate(s: &str) -> Result<GateArg, String> {
     })))
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ProfileArg {
-    Seed,
-    Default,
+/// A profile on the command line, spelled as on the wire ([`Profile::name`]: the
+/// dissertation's engine is `seed`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ProfileArg(pub Profile);
+
+impl ValueEnum for ProfileArg {
+    fn value_variants<'a>() -> &'a [ProfileArg] {
+        const ALL: [ProfileArg; Profile::ALL.len()] =
+            [ProfileArg(Profile::ALL[0]), ProfileArg(Profile::ALL[1])];
+        &ALL
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.0.name()))
+    }
 }
 
 impl From<ProfileArg> for Profile {
     fn from(p: ProfileArg) -> Profile {
-        match p {
-            ProfileArg::Seed => Profile::Seed,
-            ProfileArg::Default => Profile::Default,
-        }
+        p.0
     }
 }
 

@@ -1,9 +1,9 @@
-//! `nextpose lab OUT_DIR`: the seed's online lab ([`crate::sim::lab`]) written as corpus JSON,
-//! one file per program, in the shared corpus's format (`source.repo`, `language`,
-//! `routines[].waypoints[]` with `x y z qw qx qy qz`), so `load_paths` and `simulate` read it
-//! like any corpus directory. File names sort in program order. A `lab` object per file records
-//! how the program was made (user, and per routine the task, size and placement; the error);
-//! readers ignore it. `source.generator` is the command that writes the same file again.
+//! `nextpose lab OUT_DIR`: the dissertation's online lab ([`crate::simulation::lab`]) written as
+//! corpus JSON, one file per program, in the shared corpus's format (`source.repo`, `language`,
+//! `routines[].waypoints[]` with `x y z qw qx qy qz`), so `load_paths` and `simulate` read it like
+//! any corpus directory. File names sort in program order. A `lab` object per file records how the
+//! program was made (user, and per routine the task, size and placement; the error); readers ignore
+//! it. `source.generator` is the command that writes the same file again.
 
 use std::path::PathBuf;
 
@@ -12,7 +12,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 
 use super::{first_json, routines_json, write_json};
-use crate::sim::lab::{self, LAB_REPO, LabConfig, LabProgram};
+use crate::simulation::lab::{self, LAB_REPO, LabConfig, LabProgram};
 
 #[derive(Debug, Args)]
 pub struct LabArgs {
@@ -46,7 +46,7 @@ pub enum RepertoireArg {
 impl From<RepertoireArg> for lab::Repertoire {
     fn from(r: RepertoireArg) -> lab::Repertoire {
         match r {
-            RepertoireArg::Seed => lab::Repertoire::Seed,
+            RepertoireArg::Seed => lab::Repertoire::Dissertation,
             RepertoireArg::Variants => lab::Repertoire::Variants,
             RepertoireArg::Welding => lab::Repertoire::Welding,
         }

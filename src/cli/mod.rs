@@ -7,7 +7,7 @@
 //! - `backup` ([`backup`]): a consistent copy of an SQLite database, served or not.
 //! - `import` ([`import`]): offline program files into a cell of a running server.
 //! - `simulate` ([`simulate`]): simulated operators teaching corpus programs.
-//! - `lab` ([`lab`]): the seed's online lab study as corpus JSON, for `simulate`.
+//! - `lab` ([`lab`]): the dissertation's online lab study as corpus JSON, for `simulate`.
 //! - `patterns` ([`patterns`]): pallets, trays and grids as corpus JSON, a tuning and a
 //!   held-out set.
 //! - `layout` ([`layout`]): robot base placements for program files.

@@ -1,4 +1,4 @@
-//! `nextpose patterns OUT_DIR`: pallets, machine-tending trays and grids ([`crate::sim::pattern`])
+//! `nextpose patterns OUT_DIR`: pallets, machine-tending trays and grids ([`crate::simulation::pattern`])
 //! written as corpus JSON, one file per program, for `nextpose replay` and `nextpose simulate`
 //! (issue 30's benchmark). `--set tuning` writes what an expert for patterns may be chosen on,
 //! `--set held-out` the programs kept for checking it. A `pattern` object per file records how
@@ -11,7 +11,7 @@ use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 
 use super::{first_json, routines_json, write_json};
-use crate::sim::pattern::{self, PatternProgram, PatternSet};
+use crate::simulation::pattern::{self, PatternProgram, PatternSet};
 
 #[derive(Debug, Args)]
 pub struct PatternsArgs {

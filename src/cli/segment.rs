@@ -1,12 +1,13 @@
 //! `nextpose segment`: recorded TCP trajectories (CSV, see [`crate::import::trajectory`]) cut
-//! into linear dynamical systems whose attractors are the waypoints (seed chapter 5), locally
-//! and without a server: the same computation as `POST /v1/routines/{id}/trajectory` with
+//! into linear dynamical systems whose attractors are the waypoints (dissertation chapter 5),
+//! locally and without a server: the same computation as `POST /v1/routines/{id}/trajectory` with
 //! `"preview": true`.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 
@@ -16,12 +17,29 @@ use crate::engine::lead_through::segment::{
 };
 use crate::import::trajectory::{TrajectorySample, parse_trajectory};
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum CriterionArg {
-    /// The predicted step's direction against the observed one (default).
-    Direction,
-    /// Eq. 5.7 as written: prediction error over step length.
-    Seed,
+/// A segmentation criterion on the command line, spelled as on the wire ([`Criterion::name`]:
+/// the dissertation's Eq. 5.7 is `seed`).
+#[derive(Debug, Clone, Copy)]
+pub struct CriterionArg(pub Criterion);
+
+impl ValueEnum for CriterionArg {
+    fn value_variants<'a>() -> &'a [CriterionArg] {
+        const ALL: [CriterionArg; Criterion::ALL.len()] = [
+            CriterionArg(Criterion::ALL[0]),
+            CriterionArg(Criterion::ALL[1]),
+        ];
+        &ALL
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        let help = match self.0 {
+            Criterion::Direction => {
+                "The predicted step's direction against the observed one (default)"
+            }
+            Criterion::ErrorOverStep => "Eq. 5.7 as written: prediction error over step length",
+        };
+        Some(PossibleValue::new(self.0.name()).help(help))
+    }
 }
 
 #[derive(Debug, Args)]
@@ -67,10 +85,7 @@ impl SegmentArgs {
         let d = SegmentSettings::default();
         SegmentSettings {
             epsilon_max: self.epsilon_max,
-            criterion: match self.criterion {
-                CriterionArg::Direction => Criterion::Direction,
-                CriterionArg::Seed => Criterion::Seed,
-            },
+            criterion: self.criterion.0,
             min_step_mm: self.min_step_mm,
             rotation_mm_per_rad: self.rotation_mm_per_rad,
             zeta_mm: self.zeta_mm,

@@ -1,5 +1,5 @@
 //! `nextpose simulate`: simulated operators teach corpus programs against the service and the
-//! programming-time table is printed (the shape of the seed's Table 4.1).
+//! programming-time table is printed (the shape of the dissertation's Table 4.1).
 
 use std::path::PathBuf;
 
@@ -93,8 +93,8 @@ pub enum HistoryArg {
 
 pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
     use crate::client::{Client, Transport};
-    use crate::sim::{self, History, JogLimits, OperatorModel, Plan};
-    use crate::simulate::{LocalServer, run_experiment};
+    use crate::simulation::{self, History, JogLimits, OperatorModel, Plan};
+    use crate::simulation_driver::{LocalServer, run_experiment};
 
     if args.seeds == 0 {
         bail!("--seeds must be at least 1");
@@ -114,7 +114,7 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
     }
     let limits = JogLimits::default();
     let plan = Plan {
-        conditions: sim::table_4_1_conditions(),
+        conditions: simulation::table_4_1_conditions(),
         seeds: (1..=args.seeds).collect(),
         operator: match (args.operator, args.operator_mm) {
             (OperatorArg::Online, None) => OperatorModel::online(limits.tcp_mm_s),
@@ -191,7 +191,7 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
         plan.operator.name,
         plan.history
     ));
-    text.push_str(&sim::markdown(&experiment.summary));
+    text.push_str(&simulation::markdown(&experiment.summary));
     let taught: usize = experiment.summary.first().map(|r| r.waypoints).unwrap_or(0);
     let unreachable = experiment
         .summary
@@ -208,9 +208,12 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
             .sum::<usize>()
     ));
     text.push_str("\nThe arms, where they stand, and the taught waypoints they reach:\n\n");
-    text.push_str(&sim::arms_markdown(&experiment.programs, &experiment.arms));
+    text.push_str(&simulation::arms_markdown(
+        &experiment.programs,
+        &experiment.arms,
+    ));
     text.push_str("\nMean time per routine by component:\n\n");
-    text.push_str(&sim::breakdown_markdown(&experiment.summary));
+    text.push_str(&simulation::breakdown_markdown(&experiment.summary));
     print!("{text}");
     if let Some(path) = &args.markdown {
         std::fs::write(path, &text).with_context(|| format!("{}: cannot write", path.display()))?;
@@ -223,8 +226,11 @@ pub(super) fn run_simulate(args: &SimulateArgs) -> Result<()> {
             "Change in programming time per routine vs no suggestions ({} operator)",
             plan.operator.name
         );
-        std::fs::write(path, sim::change_chart_svg(&experiment.summary, &title))
-            .with_context(|| format!("{}: cannot write", path.display()))?;
+        std::fs::write(
+            path,
+            simulation::change_chart_svg(&experiment.summary, &title),
+        )
+        .with_context(|| format!("{}: cannot write", path.display()))?;
     }
     Ok(())
 }

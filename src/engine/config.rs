@@ -1,10 +1,10 @@
 //! Engine settings and the named profiles.
 //!
-//! Two profiles exist. `seed` is the dissertation's engine as specified in ALGORITHM.md: the
-//! total-scatter merge test, learning from finished routines only, and φ as the only gate. It is
-//! kept so the comparison with the improved engine stays reproducible. `default` is the
-//! combination that measured best on the shared corpus (docs/results/scoreboard.md, "What
-//! each option is worth").
+//! Two profiles exist. `seed` ([`Profile::Dissertation`]) is the dissertation's engine as
+//! specified in ALGORITHM.md: the total-scatter merge test, learning from finished routines
+//! only, and φ as the only gate. It is kept so the comparison with the improved engine stays
+//! reproducible. `default` is the combination that measured best on the shared corpus
+//! (docs/results/scoreboard.md, "What each option is worth").
 
 use std::str::FromStr;
 
@@ -65,7 +65,7 @@ pub struct EngineConfig {
     pub sigma_q: f64,
     pub merge: MergeRule,
     /// Assimilate each taught move as it arrives (the finished routine is then not counted
-    /// twice). When false, a routine is learned only once it is finished (the seed).
+    /// twice). When false, a routine is learned only once it is finished (the dissertation's).
     pub learn_within_routine: bool,
     /// Within-routine learning assimilates a taught move once this many newer moves exist
     /// (None: `horizon`). With a lag shorter than the window, the predictor discounts the
@@ -75,12 +75,12 @@ pub struct EngineConfig {
     #[serde(flatten)]
     pub predict: PredictOptions,
     /// Recency weighting of transitions λ ∈ (0, 1]: each new outcome of a state multiplies the
-    /// weight of its older outcomes by λ. 1 = plain counts (the seed).
+    /// weight of its older outcomes by λ. 1 = plain counts (the dissertation's).
     pub recency: f64,
     /// The experts' offer rule: every expert (the model above, and the tool-frame, work-frame
     /// and absolute-pose sequence experts) proposes a candidate, each gets `p_useful` from the
     /// cell's calibration, and the likeliest is offered when it reaches the threshold. None:
-    /// the model alone with its own gates (the seed).
+    /// the model alone with its own gates (the dissertation's).
     #[serde(default)]
     pub offer: Option<OfferRule>,
     /// The cell's teaching noise (one sigma per axis of a taught waypoint). The experts match
@@ -144,7 +144,7 @@ pub struct PredictOptions {
     pub max_end_prob: Option<f64>,
     /// States farther than this (Mahalanobis distance, i.e. in σ units) from a window move are
     /// treated as not explaining it, which bounds the forward pass to nearby states (found with a
-    /// k-d tree). None: every state takes part (the seed).
+    /// k-d tree). None: every state takes part (the dissertation's).
     pub match_radius: Option<f64>,
     /// When the window matches nothing learned, retry with its last `h − 1` moves, down to one.
     pub backoff: bool,
@@ -156,7 +156,7 @@ pub struct PredictOptions {
     /// all `k` moves) was seen before; if the most recent such place fits the window with a mean
     /// squared distance of at most `max_cost`, the window has at least `min_window` moves, and
     /// every earlier place found was followed by the same move, offer that move.
-    /// None: off (the seed).
+    /// None: off (the dissertation's).
     pub recall: Option<RecallGate>,
     pub scale: ScaleConfig,
 }
@@ -174,7 +174,7 @@ pub struct OfferRule {
     #[serde(default = "OfferRule::default_target")]
     pub target: f64,
     /// What counts as right: within this of the waypoint then taught (the calibration learns
-    /// from it, and the sequence experts match contexts with it). None: learned, the seed's
+    /// from it, and the sequence experts match contexts with it). None: learned, the dissertation's
     /// 1 mm / 0.1 rad until the cell's noise says its operator places less precisely
     /// ([`super::experts::noise::Noise::tolerance`]).
     #[serde(default)]
@@ -219,12 +219,15 @@ pub struct RecallGate {
     pub min_window: usize,
 }
 
-/// Engine profile: a named configuration.
+/// Engine profile: a named configuration. Its name on every wire and on the command line is
+/// [`Profile::name`] (the serde names below are the same, checked by a test): the dissertation's
+/// engine keeps the name `seed` it was published under.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Profile {
-    /// The dissertation's engine as specified in ALGORITHM.md.
-    Seed,
+    /// The dissertation's engine (K. Dixon, 2004) as specified in ALGORITHM.md.
+    #[serde(rename = "seed")]
+    Dissertation,
     /// The best combination measured on the shared corpus.
     Default,
 }
@@ -232,18 +235,22 @@ pub enum Profile {
 impl FromStr for Profile {
     type Err = ConfigError;
     fn from_str(s: &str) -> Result<Profile, ConfigError> {
-        match s {
-            "seed" => Ok(Profile::Seed),
-            "default" => Ok(Profile::Default),
-            other => Err(ConfigError::Profile(other.to_string())),
-        }
+        Profile::ALL
+            .into_iter()
+            .find(|p| p.name() == s)
+            .ok_or_else(|| ConfigError::Profile(s.to_string()))
     }
 }
 
 impl Profile {
+    /// Every profile.
+    pub const ALL: [Profile; 2] = [Profile::Dissertation, Profile::Default];
+
+    /// The profile's name on the wire (REST, gRPC's settings, stored cells, reports) and on the
+    /// command line.
     pub fn name(self) -> &'static str {
         match self {
-            Profile::Seed => "seed",
+            Profile::Dissertation => "seed",
             Profile::Default => "default",
         }
     }
@@ -258,7 +265,7 @@ impl Default for EngineConfig {
 impl EngineConfig {
     /// The settings of a named profile.
     pub fn profile(profile: Profile) -> EngineConfig {
-        let seed = EngineConfig {
+        let dissertation = EngineConfig {
             delta: 0.7,
             sigma_t: 1.0,
             sigma_q: 0.01,
@@ -289,7 +296,7 @@ impl EngineConfig {
             noise: Some(Noise::EXACT),
         };
         match profile {
-            Profile::Seed => seed,
+            Profile::Dissertation => dissertation,
             Profile::Default => EngineConfig {
                 merge: MergeRule::Incremental,
                 learn_within_routine: true,
@@ -304,11 +311,11 @@ impl EngineConfig {
                         max_cost: 0.1,
                         min_window: 2,
                     }),
-                    ..seed.predict
+                    ..dissertation.predict
                 },
                 offer: Some(OfferRule::default()),
                 noise: None,
-                ..seed
+                ..dissertation
             },
         }
     }
@@ -406,10 +413,12 @@ mod tests {
 
     #[test]
     fn profiles_validate_and_parse() {
-        for p in [Profile::Seed, Profile::Default] {
+        for p in Profile::ALL {
             EngineConfig::profile(p).validate().unwrap();
             assert_eq!(p.name().parse::<Profile>().unwrap(), p);
+            assert_eq!(serde_json::to_value(p).unwrap(), p.name());
         }
+        assert_eq!(Profile::Dissertation.name(), "seed");
         assert!(matches!(
             "fast".parse::<Profile>(),
             Err(ConfigError::Profile(_))
@@ -509,7 +518,7 @@ mod tests {
             "offer",
             "noise",
         ];
-        for p in [Profile::Seed, Profile::Default] {
+        for p in Profile::ALL {
             let c = EngineConfig::profile(p);
             let json = serde_json::to_string(&c).unwrap();
             let at: Vec<usize> = keys

@@ -1,4 +1,4 @@
-//! Poses, relative moves and the SRHCT observation vector (ALGORITHM §1, seed §4.2).
+//! Poses, relative moves and the SRHCT observation vector (ALGORITHM §1, dissertation §4.2).
 //!
 //! A taught waypoint is a [`Pose`]: position in millimetres and a unit quaternion, both in one
 //! frame (work object or robot base). The engine never learns poses directly; it learns the

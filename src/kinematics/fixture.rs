@@ -1,6 +1,6 @@
 //! Work-object frames and moved fixtures (pure): the pendant's three-point frame definition
 //! (an origin, a point on the x axis, a point in the xy plane), and the rigid move that takes a
-//! fixture's taught waypoints from its old place to its new one (the seed's chapter 6 idea:
+//! fixture's taught waypoints from its old place to its new one (the dissertation's chapter 6 idea:
 //! subgoals attached to the object they are about).
 
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};

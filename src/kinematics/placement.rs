@@ -46,7 +46,7 @@ impl Default for ReachSetup {
 /// [`LayoutOptions::default`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FitSetup {
-    /// Seed of the search's random seeding: the same program gets the same placement.
+    /// Random seed of the search's coarse stage: the same program gets the same placement.
     pub seed: u64,
     /// Evaluations per arm tried ([`LayoutOptions::evaluations`]).
     pub evaluations: usize,

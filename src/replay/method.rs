@@ -11,7 +11,7 @@ pub struct Guess {
     /// The figure the method's own gate uses, higher = more sure (the engine's φ or match
     /// quality; a baseline's negated match distance). `None` when the method has none.
     pub confidence: Option<f64>,
-    /// Engine only: the seed's confidence φ, reported beside `confidence`.
+    /// Engine only: the dissertation's confidence φ, reported beside `confidence`.
     pub phi: Option<f64>,
     /// Engine only: the estimated ψ (a 2× copy of a learned pattern gives ψ = 0.5).
     pub psi: Option<f64>,

@@ -1,4 +1,4 @@
-//! Replay: the product's scoreboard (ALGORITHM §5, seed §4.3.1).
+//! Replay: the product's scoreboard (ALGORITHM §5, dissertation §4.3.1).
 //!
 //! Recorded programs are played back waypoint by waypoint, as an operator would have taught
 //! them, through the engine and through baselines that any learned model must beat. Every method
@@ -9,8 +9,8 @@
 //!   [`Program`]s.
 //! - [`method`]: the [`Method`] trait every predictor implements.
 //! - [`methods`]: the engine behind that trait, the baselines (repeat-last-move,
-//!   nearest-sequence) and `map`, the seed's MAP structure-estimation baseline with its
-//!   comparison to the engine (seed §4.4.1, Figure 4.14).
+//!   nearest-sequence) and `map`, the dissertation's MAP structure-estimation baseline with its
+//!   comparison to the engine (dissertation §4.4.1, Figure 4.14).
 //! - [`playback`]: the replay loop ([`replay_program`]): one program through one method, one
 //!   record per waypoint, judged useful or not at the scoreboard's tolerance.
 //! - [`frames`]: the three readings of a routine (tool-frame moves, work-frame moves, poses) at
@@ -23,7 +23,7 @@
 //!   directory (the search is most of a corpus replay's time).
 //! - [`sweep`]: the engine over a grid of settings.
 //! - [`table`]: the plain text tables the report, the calibration section and the sweep print.
-//! - `plots` (cargo feature `plots`, on by default): the seed's figures (φ_min, δ, learning
+//! - `plots` (cargo feature `plots`, on by default): the dissertation's figures (φ_min, δ, learning
 //!   curve), confidence vs error, reliability of `p_useful` and risk–coverage, PNG/SVG.
 
 pub mod corpus;

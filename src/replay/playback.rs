@@ -1,6 +1,6 @@
 //! Playback: one recorded program through one [`Method`], exactly as an operator would have
-//! taught it (ALGORITHM §5, seed §4.3.1), keeping one [`WaypointRecord`] per waypoint that had a
-//! predecessor.
+//! taught it (ALGORITHM §5, dissertation §4.3.1), keeping one [`WaypointRecord`] per waypoint that
+//! had a predecessor.
 //!
 //! The records are kept raw, so that the figures ([`super::score`]) can pool them over waypoints
 //! and pick their own population. What a record says about a guess is judged here once, at the

@@ -16,7 +16,7 @@ pub(crate) fn upload(repo: &str) -> Vec<Value> {
 
 #[tokio::test]
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
-async fn imported_programs_seed_the_model_and_predictions_follow() {
+async fn imported_programs_teach_the_model_and_predictions_follow() {
     let app = spawn_app().await;
     // A fixed threshold: this is about what the import teaches the model. A cell steering its
     // own threshold offers nothing here, rightly by its record: its candidates on the welder's

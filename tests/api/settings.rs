@@ -51,6 +51,14 @@ async fn the_command_lines_overrides_are_settings_of_a_cell() {
             "recall",
         ),
         (json!({ "recall": { "max_cost": 0.1 } }), "recall"),
+        (
+            json!({ "recall": { "max_cost": 0.1, "min_window": 51 } }),
+            "recall.min_window",
+        ),
+        (
+            json!({ "recall": { "max_cost": 0.1, "min_window": 3.6e32 } }),
+            "min_window",
+        ),
         (json!({ "merge": "sideways" }), "merge"),
         (
             json!({ "learn_within_routine": "yes" }),

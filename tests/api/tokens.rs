@@ -326,3 +326,75 @@ async fn over_grpc_an_anonymous_client_cannot_turn_authentication_on() {
     assert_eq!(app.get_ok("/healthz").await["token_required"], false);
     app.create_cell("still-open").await;
 }
+
+/// Tokens and the cells of resources are kept in memory (`app::credentials`), and what a caller
+/// is told stays what the store says: a token revoked here is refused at once although it was
+/// just taken; a resource of a cell the token may not touch is refused, and once deleted the
+/// token is told what anyone would be (allowed to ask; the operation then finds nothing).
+#[tokio::test]
+async fn kept_tokens_and_cells_never_answer_otherwise_than_the_store() {
+    use nextpose::api::{CreateCell, CreateProgram, CreateRoutine};
+    use nextpose::app::{Action, Scope};
+    let dir = tempfile::tempdir().unwrap();
+    let app = app_on(&dir.path().join("kept.db")).await;
+    let cell = |name: &str| CreateCell {
+        name: name.into(),
+        settings: Default::default(),
+    };
+    let mine = app.create_cell(cell("mine")).await.unwrap();
+    let other = app.create_cell(cell("other")).await.unwrap();
+    let op = app
+        .create_token(NewToken {
+            name: "op".into(),
+            role: Role::Operator,
+            cells: Some(vec![mine.id]),
+        })
+        .await
+        .unwrap();
+    app.create_token(NewToken {
+        name: "admin".into(),
+        role: Role::Admin,
+        cells: None,
+    })
+    .await
+    .unwrap();
+    let program = app
+        .create_program(other.id, CreateProgram { name: "p".into() })
+        .await
+        .unwrap();
+    let routine = app
+        .create_routine(program.id, CreateRoutine { name: None })
+        .await
+        .unwrap();
+
+    for _ in 0..2 {
+        let caller = app.caller(Some(op.secret.as_bytes()), false).await.unwrap();
+        assert_eq!(caller.cells, Some(vec![mine.id]));
+        for scope in [Scope::Routine(routine.id), Scope::Program(program.id)] {
+            assert!(matches!(
+                app.authorize(&caller, Action::Read, scope).await,
+                Err(AppError::PermissionDenied(_))
+            ));
+        }
+    }
+    let caller = app.caller(Some(op.secret.as_bytes()), false).await.unwrap();
+    app.delete_routine(routine.id).await.unwrap();
+    app.authorize(&caller, Action::Read, Scope::Routine(routine.id))
+        .await
+        .expect("a deleted routine belongs to no cell");
+
+    app.revoke_token("op").await.unwrap();
+    assert!(matches!(
+        app.caller(Some(op.secret.as_bytes()), false).await,
+        Err(AppError::Unauthenticated)
+    ));
+    assert!(matches!(
+        app.caller(None, false).await,
+        Err(AppError::Unauthenticated)
+    ));
+    // No token left: the server is open again at once.
+    app.revoke_token("admin").await.unwrap();
+    let anyone = app.caller(None, false).await.unwrap();
+    assert!(!anyone.authenticated);
+    app.store().close().await;
+}

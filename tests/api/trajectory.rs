@@ -368,6 +368,13 @@ async fn bad_trajectories_are_refused_and_change_nothing() {
             "min_segment_steps",
         ),
         (
+            "min_segment_steps above the most samples",
+            json!({ "samples": good, "settings": { "min_segment_steps": 20001 } }),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid_settings",
+            "min_segment_steps",
+        ),
+        (
             "unknown criterion",
             json!({ "samples": good, "settings": { "criterion": "angle" } }),
             StatusCode::UNPROCESSABLE_ENTITY,

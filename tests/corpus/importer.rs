@@ -426,7 +426,7 @@ fn scoreboard_from_raw_equals_scoreboard_from_json_where_readings_agree() {
 }
 
 /// Real corpus files, for mutation.
-fn seeds() -> Vec<(String, String)> {
+fn corpus_files() -> Vec<(String, String)> {
     uploads().into_iter().flat_map(|(_, files)| files).collect()
 }
 
@@ -487,12 +487,12 @@ proptest! {
     #[test]
     #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
     fn mutated_corpus_files_never_panic(
-        seed in any::<prop::sample::Index>(),
+        pick in any::<prop::sample::Index>(),
         edits in proptest::collection::vec((any::<usize>(), any::<u8>(), any::<u8>()), 1..12),
     ) {
-        thread_local! { static SEEDS: Vec<(String, String)> = seeds(); }
-        SEEDS.with(|seeds| {
-            let (name, text) = &seeds[seed.index(seeds.len())];
+        thread_local! { static FILES: Vec<(String, String)> = corpus_files(); }
+        FILES.with(|files| {
+            let (name, text) = &files[pick.index(files.len())];
             let mutated = mutate(text, &edits);
             // Control characters make a file "not text"; with them blanked out the mutation
             // also reaches the parsers.

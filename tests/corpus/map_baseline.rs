@@ -36,12 +36,12 @@ fn routine(dx: f64) -> Vec<Pose> {
         .collect()
 }
 
-fn seed() -> EngineConfig {
-    EngineConfig::profile(Profile::Seed)
+fn dissertation() -> EngineConfig {
+    EngineConfig::profile(Profile::Dissertation)
 }
 
 fn map() -> MapMethod {
-    MapMethod::new(seed(), MapSettings::default()).unwrap()
+    MapMethod::new(dissertation(), MapSettings::default()).unwrap()
 }
 
 #[test]
@@ -77,7 +77,7 @@ fn map_learns_a_repeated_routine_as_one_chain_and_predicts_it() {
 fn map_is_a_scoreboard_method_and_its_comparison_is_computed() {
     let program = Program::of_routines("repeat", vec![routine(0.0), routine(250.0), routine(0.0)]);
     let programs = vec![program];
-    let config = seed();
+    let config = dissertation();
     let mut methods: Vec<Box<dyn Method>> = vec![
         Box::new(EngineMethod::new(config.clone()).unwrap()),
         Box::new(map()),

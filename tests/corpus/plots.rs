@@ -112,7 +112,7 @@ fn library_writes_every_figure_as_png_and_svg() {
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn calibration_figures_without_p_useful_say_so() {
     let programs = load_paths(&subset()[..1]).unwrap();
-    let config = EngineConfig::profile(nextpose::engine::Profile::Seed);
+    let config = EngineConfig::profile(nextpose::engine::Profile::Dissertation);
     let grid = PlotGrid {
         phi_mins: vec![0.5],
         deltas: vec![0.5],

@@ -50,8 +50,8 @@ fn totals<'a>(r: &'a Report, method: &str) -> &'a Scores {
 
 #[test]
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
-fn seed_profile_reproduces_the_reference_implementation() {
-    let r = scoreboard(Profile::Seed);
+fn the_dissertation_profile_reproduces_the_reference_implementation() {
+    let r = scoreboard(Profile::Dissertation);
     let e = totals(&r, "engine");
     assert_eq!(e.n2.predictable, 2969, "waypoints with ≥ 2 predecessors");
     let (offered, useful, precision) = (
@@ -68,7 +68,7 @@ fn seed_profile_reproduces_the_reference_implementation() {
 #[test]
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
 fn default_profile_is_precise_and_beats_every_baseline() {
-    let seed = scoreboard(Profile::Seed);
+    let dissertation = scoreboard(Profile::Dissertation);
     let r = scoreboard_of(Profile::Default, true);
     let e = totals(&r, "engine");
     let saved = e.n2.saved_pct.unwrap();
@@ -79,7 +79,7 @@ fn default_profile_is_precise_and_beats_every_baseline() {
         "median error of what is offered"
     );
     assert!(
-        saved > totals(&seed, "engine").n2.saved_pct.unwrap() + 2.0,
+        saved > totals(&dissertation, "engine").n2.saved_pct.unwrap() + 2.0,
         "default saves {saved}"
     );
     // Every baseline, the absolute-pose and work-frame ones too, saves less at the engine's
@@ -221,10 +221,10 @@ fn calibration_and_risk_coverage_are_consistent_over_the_corpus() {
     assert!(text.contains("Risk–coverage"), "{text}");
 
     // The seed profile has no p_useful, and no calibration section.
-    let seed = scoreboard(Profile::Seed);
-    assert!(seed.calibration.is_empty());
+    let dissertation = scoreboard(Profile::Dissertation);
+    assert!(dissertation.calibration.is_empty());
     assert!(
-        serde_json::to_value(&seed)
+        serde_json::to_value(&dissertation)
             .unwrap()
             .get("calibration")
             .is_none()

@@ -1,4 +1,4 @@
-//! The simulated seed lab (`nextpose lab`, `sim::lab`): a small lab has the seed's shape
+//! The simulated seed lab (`nextpose lab`, `simulation::lab`): a small lab has the seed's shape
 //! (§4.5: tasks of 13, 6, 10, 10 waypoints, 186 mm mean spacing), each program is placed anew
 //! (the programs as meant, or as taught with the asked-for joystick error), the files round-trip through `load_paths` with
 //! their `source.repo`, the simulation's history groups them by it, and a short simulation
@@ -11,10 +11,10 @@ use nextpose::cli::{Cli, run_cli};
 use nextpose::client::{Client, RestClient};
 use nextpose::kinematics::ReachPolicy;
 use nextpose::replay::load_paths;
-use nextpose::sim::lab::{self, LAB_REPO, LabConfig, Task, mean_spacing_mm};
-use nextpose::sim::plan::repository;
-use nextpose::sim::{History, JogLimits, OperatorModel, Plan, table_4_1_conditions};
-use nextpose::simulate::{LocalServer, Warmup, placements, run_experiment, sessions};
+use nextpose::simulation::lab::{self, LAB_REPO, LabConfig, Task, mean_spacing_mm};
+use nextpose::simulation::plan::repository;
+use nextpose::simulation::{History, JogLimits, OperatorModel, Plan, table_4_1_conditions};
+use nextpose::simulation_driver::{LocalServer, Warmup, placements, run_experiment, sessions};
 
 const SEED: u64 = 3;
 
@@ -40,7 +40,7 @@ fn write_lab(dir: &std::path::Path, programs: usize) {
 }
 
 #[test]
-fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
+fn a_small_lab_has_the_dissertations_shape_placements_and_noise() {
     let config = small();
     let lab = lab::generate(&config, SEED);
     assert_eq!(lab.len(), 8);
@@ -48,7 +48,7 @@ fn a_small_lab_has_the_seeds_shape_placements_and_noise() {
     // Users and tasks rotate: every program's previous one of the same task is another user's.
     for (i, p) in lab.iter().enumerate() {
         assert_eq!(p.user, i % 3);
-        assert_eq!(p.routines[0].task, Task::ALL[i % 4]);
+        assert_eq!(p.routines[0].task, Task::DISSERTATION[i % 4]);
         assert_eq!(p.program.routines.len(), 1);
         let expected = [13, 6, 10, 10][i % 4];
         assert_eq!(p.program.waypoint_count(), expected, "{}", p.program.name);
@@ -218,7 +218,7 @@ fn the_lab_round_trips_through_load_paths_and_keeps_its_repository() {
         ..plan(2)
     };
     let all = sessions(&online, &loaded, &arms, "t");
-    let history = |s: &nextpose::simulate::Session| match &s.warmup {
+    let history = |s: &nextpose::simulation_driver::Session| match &s.warmup {
         Warmup::Programs(p) => p.clone(),
         _ => Vec::new(),
     };

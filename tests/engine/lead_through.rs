@@ -9,7 +9,7 @@ use nextpose::engine::lead_through::lds::{Fit, FitSettings, State};
 use nextpose::engine::lead_through::segment::{
     Criterion, SegmentSettings, Segmentation, TimedPose, TrajectoryError, segment,
 };
-use nextpose::sim::operator::normal;
+use nextpose::simulation::operator::normal;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -327,12 +327,12 @@ fn eq_5_7_as_written_cuts_a_steady_line_into_pieces_and_the_direction_form_does_
         .collect();
     let direction = segment(&samples, &SegmentSettings::default()).unwrap();
     assert_eq!(direction.segments.len(), 1);
-    let seed = SegmentSettings {
-        criterion: Criterion::Seed,
+    let eq_5_7 = SegmentSettings {
+        criterion: Criterion::ErrorOverStep,
         epsilon_max: 0.8,
         ..SegmentSettings::default()
     };
-    let cut = segment(&samples, &seed).unwrap();
+    let cut = segment(&samples, &eq_5_7).unwrap();
     assert!(cut.segments.len() >= 10, "{} segments", cut.segments.len());
 }
 

@@ -1,4 +1,4 @@
-//! `nextpose patterns` (issue 30's benchmark, `sim::pattern`): both sets are written as corpus
+//! `nextpose patterns` (issue 30's benchmark, `simulation::pattern`): both sets are written as corpus
 //! JSON that `load_paths` reads back exactly, with their repository, arm and routines; a
 //! directory that already holds corpus files is refused and left as it was. Everything is
 //! written to temporary directories.
@@ -6,7 +6,7 @@
 use clap::Parser;
 use nextpose::cli::{Cli, run_cli};
 use nextpose::replay::load_paths;
-use nextpose::sim::pattern::{self, PatternSet};
+use nextpose::simulation::pattern::{self, PatternSet};
 
 fn write(dir: &std::path::Path, set: &str) -> anyhow::Result<()> {
     let cli = Cli::try_parse_from([
@@ -71,7 +71,7 @@ fn both_pattern_sets_round_trip_through_load_paths() {
 fn the_lattice_walk_follows_every_layer_of_the_tuning_set() {
     use nalgebra::Vector3;
     use nextpose::engine::experts::lattice::LatticeWalk;
-    use nextpose::sim::pattern::Job;
+    use nextpose::simulation::pattern::Job;
     for p in pattern::generate(PatternSet::Tuning, 4) {
         let per = p.spec.job.waypoints_per_item();
         // The slot's pose within an item: the place, the touch, the raw tray's pick.

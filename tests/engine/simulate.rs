@@ -11,11 +11,13 @@ use nextpose::client::{Client, RestClient, Transport};
 use nextpose::kinematics::ReachPolicy;
 use nextpose::kinematics::placement::{HeuristicSetup, PlacedArm, ReachCheck, ReachSetup};
 use nextpose::replay::{Program, load_paths};
-use nextpose::sim::{
+use nextpose::simulation::{
     Condition, Decision, History, JogLimits, OperatorModel, Plan, RoutineResult,
     table_4_1_conditions,
 };
-use nextpose::simulate::{LocalServer, Session, SessionOutcome, Warmup, placements, run_session};
+use nextpose::simulation_driver::{
+    LocalServer, Session, SessionOutcome, Warmup, placements, run_session,
+};
 
 use crate::corpus;
 
@@ -56,7 +58,7 @@ fn condition(key: &str) -> Condition {
         .expect("condition")
 }
 
-/// The program's arm and placement, searched once per program (`simulate::placements`).
+/// The program's arm and placement, searched once per program (`simulation_driver::placements`).
 fn arm(program: &Program) -> PlacedArm {
     static ARMS: Mutex<BTreeMap<String, PlacedArm>> = Mutex::new(BTreeMap::new());
     let mut arms = ARMS.lock().unwrap_or_else(|e| e.into_inner());
@@ -137,7 +139,7 @@ async fn three_corpus_programs_end_to_end() {
             "{name}: an offered suggestion is not reachable"
         );
         assert_eq!(total(&o, |r| r.offered_unreachable), 0);
-        // The arm fitted to the program (`simulate::placements`) reaches all of it.
+        // The arm fitted to the program (`simulation_driver::placements`) reaches all of it.
         assert_eq!(
             total(&o, |r| r.unreachable_waypoints),
             0,
@@ -332,7 +334,7 @@ async fn suggestions_save_time_only_when_shown() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[cfg_attr(not(corpus), ignore = "needs ../shared/corpus beside the checkout")]
-async fn an_imported_offline_program_seeds_the_cell() {
+async fn an_imported_offline_program_warms_the_cell_up() {
     let server = LocalServer::start().await.expect("server");
     let client = RestClient::new(&server.base, None);
     let driver = Client::from(client.clone());
@@ -345,20 +347,20 @@ async fn an_imported_offline_program_seeds_the_cell() {
     let fresh = run_session(&driver, &plan, &session(&plan, "default", &p, 1, "fresh"))
         .await
         .expect("session");
-    let mut s = session(&plan, "default", &p, 1, "seeded");
+    let mut s = session(&plan, "default", &p, 1, "warmed up");
     s.warmup = Warmup::Import(vec![("Template_20014_Module.mod".into(), text)]);
-    let seeded = run_session(&driver, &plan, &s).await.expect("session");
+    let warmed = run_session(&driver, &plan, &s).await.expect("session");
     // The imported routines are learned before the operator starts.
-    assert!(seeded.stats.model.routines > fresh.stats.model.routines);
+    assert!(warmed.stats.model.routines > fresh.stats.model.routines);
     let first_routine = |o: &SessionOutcome| o.routines[0].offered;
     eprintln!(
-        "first routine offered: fresh {}, seeded {}; total fresh {}, seeded {}",
+        "first routine offered: fresh {}, warmed up {}; total fresh {}, warmed up {}",
         first_routine(&fresh),
-        first_routine(&seeded),
+        first_routine(&warmed),
         total(&fresh, |r| r.offered),
-        total(&seeded, |r| r.offered)
+        total(&warmed, |r| r.offered)
     );
-    assert!(seeded.stats.feedback.pending == 0);
+    assert!(warmed.stats.feedback.pending == 0);
     server.stop().await.expect("stop");
 }
 

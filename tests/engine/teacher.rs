@@ -77,7 +77,7 @@ fn predictions_on(t: &mut Teacher, copy: &[Pose]) -> Vec<nextpose::engine::Predi
 
 #[test]
 fn second_copy_at_another_place_and_orientation_is_predicted_exactly() {
-    for profile in [Profile::Seed, Profile::Default] {
+    for profile in [Profile::Dissertation, Profile::Default] {
         let mut t = Teacher::new(EngineConfig::profile(profile)).unwrap();
         teach_routine(&mut t, &u_seam());
         let copy = transformed(&u_seam(), &somewhere_else(), 1.0);
@@ -151,7 +151,7 @@ fn scale_off_does_not_recognise_a_scaled_copy() {
 
 #[test]
 fn learn_scaled_hmm_merges_a_scaled_copy_into_the_same_states() {
-    let mut cfg = EngineConfig::profile(Profile::Seed);
+    let mut cfg = EngineConfig::profile(Profile::Dissertation);
     cfg.predict.scale.learn_scaled = true;
     let mut t = Teacher::new(cfg.clone()).unwrap();
     teach_routine(&mut t, &u_seam());
@@ -294,7 +294,7 @@ fn forward_recursion_is_stable_over_long_windows() {
             )
         })
         .collect();
-    for profile in [Profile::Seed, Profile::Default] {
+    for profile in [Profile::Dissertation, Profile::Default] {
         let mut cfg = EngineConfig::profile(profile);
         cfg.predict.horizon = 1000;
         cfg.learn_within_routine = false;

@@ -4,7 +4,7 @@
 //! asked for, so the model is usable after every assimilated move at no conversion cost
 //! (a dense `|Q|×|Q|` matrix would cost O(|Q|²) per update).
 //!
-//! - `π_i = g_i / Σ g` (with `M` routines, `Σ g = M` in the seed's setting).
+//! - `π_i = g_i / Σ g` (with `M` routines, `Σ g = M` in the dissertation's setting).
 //! - `a(j|i) = f(i→j) / ξ'_i`, where `ξ'_i` is ξ_i less the pending move (see [`super::learner`]).
 //!   Rows sum to at most 1; the rest is the probability that the routine ends in state i.
 //! - `b_i = N(mean_i, C⁻¹)`, the emission the merging criterion implies (Theorem 3.9).

@@ -1,10 +1,10 @@
 //! The incremental learner: an observation graph built by similarity-based merging
-//! (ALGORITHM §2, seed §3.5–3.7, Fig. 3.8).
+//! (ALGORITHM §2, dissertation §3.5–3.7, Fig. 3.8).
 //!
 //! Each node is a multiset of moves summarised by sufficient statistics; each edge counts how
 //! often one node's move was followed by another's. A new move joins the node that stays most
 //! compact after taking it, or starts a node of its own. Statistics live in whitened space
-//! (see [`Metric`]), so a node's *scatter* `μ(V) = Σ ‖z − mean‖²` is the seed's
+//! (see [`Metric`]), so a node's *scatter* `μ(V) = Σ ‖z − mean‖²` is the dissertation's
 //! `κ − sᵀCs/ξ`, kept here with Welford's update for numerical stability:
 //! `μ(V ∪ {z}) = μ(V) + ξ/(ξ+1)·‖z − mean(V)‖²`. Since `ξ/(ξ+1) ≥ ½`, only nodes whose mean lies
 //! within `√(2ε)` of `z` can accept it; a k-d tree over node means answers that query, so
@@ -32,7 +32,8 @@ use crate::engine::pose::Observation;
 /// Degrees of freedom of an observation.
 pub const DIMENSION: usize = 7;
 
-/// `ε = F⁻¹_{χ²(7)}(1 − δ)`: the scatter a node may reach (seed) or gain per move (incremental).
+/// `ε = F⁻¹_{χ²(7)}(1 − δ)`: the scatter a node may reach (total, the dissertation's) or gain per
+/// move (incremental).
 pub fn epsilon_for_delta(delta: f64) -> Result<f64, ConfigError> {
     if !(delta > 0.0 && delta <= 1.0) {
         return Err(ConfigError::Delta(delta));
@@ -262,7 +263,7 @@ impl ObservationGraph {
         })
     }
 
-    /// Recency weighting of transitions: λ ∈ (0, 1], 1 = plain counts (the seed).
+    /// Recency weighting of transitions: λ ∈ (0, 1], 1 = plain counts (the dissertation's).
     pub fn with_recency(mut self, recency: f64) -> Result<ObservationGraph, ConfigError> {
         if !(recency > 0.0 && recency <= 1.0) {
             return Err(ConfigError::Threshold {
@@ -697,7 +698,8 @@ mod tests {
     }
 
     /// Every node of a learned graph keeps the compactness its merge rule promises:
-    /// total scatter ≤ ε (seed), or ≤ (ξ − 1)·ε when each merge adds at most ε (incremental).
+    /// total scatter ≤ ε (total, the dissertation's), or ≤ (ξ − 1)·ε when each merge adds at most ε
+    /// (incremental).
     #[test]
     fn learned_graphs_are_epsilon_compact() {
         for seed in 0..20u64 {

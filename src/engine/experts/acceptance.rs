@@ -111,7 +111,7 @@ impl Acceptance {
             .max(0.0)
             .sqrt()
             .max(noise.mm)
-            .max(Tolerance::SEED.mm);
+            .max(Tolerance::USEFUL.mm);
         Tolerance {
             mm: prior.mm.min(mm),
             rad: prior.rad,

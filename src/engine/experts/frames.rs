@@ -152,8 +152,9 @@ pub struct Tolerance {
 }
 
 impl Tolerance {
-    /// The seed's acceptance tolerance (and the scoreboard's "useful"): 1 mm and 0.1 rad.
-    pub const SEED: Tolerance = Tolerance { mm: 1.0, rad: 0.1 };
+    /// What counts as a useful prediction: the dissertation's acceptance tolerance (§4.3.1; the
+    /// scoreboard's "useful"), 1 mm and 0.1 rad.
+    pub const USEFUL: Tolerance = Tolerance { mm: 1.0, rad: 0.1 };
 
     /// Whether `a` and `b` are within the tolerance of each other.
     pub fn holds(&self, a: &Observation, b: &Observation) -> bool {
@@ -163,7 +164,7 @@ impl Tolerance {
 
 impl Default for Tolerance {
     fn default() -> Tolerance {
-        Tolerance::SEED
+        Tolerance::USEFUL
     }
 }
 
@@ -172,7 +173,7 @@ mod tests {
     use super::*;
 
     fn close(a: &Observation, b: &Observation) -> bool {
-        Tolerance::SEED.holds(a, b)
+        Tolerance::USEFUL.holds(a, b)
     }
     use nalgebra::Unit;
 

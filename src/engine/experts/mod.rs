@@ -25,6 +25,8 @@
 //! (`calibration::Coarse::of`).
 
 pub mod acceptance;
+pub mod agreement;
+mod agreement_weights;
 pub mod alignment;
 pub mod calibration;
 pub mod frames;
@@ -114,7 +116,7 @@ impl Cell {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Proposer {
-    /// The CDHMM over tool-frame moves (the seed's engine).
+    /// The CDHMM over tool-frame moves (the dissertation's engine).
     Model,
     /// An earlier tool-frame move after the same context.
     Tool,

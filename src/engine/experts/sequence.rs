@@ -247,7 +247,7 @@ mod tests {
         (context, places, agreeing, in_routine)
     }
 
-    fn near(a: &Pose, b: &Pose) -> bool {
+    fn same_pose(a: &Pose, b: &Pose) -> bool {
         a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
     }
 
@@ -274,16 +274,18 @@ mod tests {
             e.learn(&routine(0.0));
         }
         let taught = &routine(70.0)[..4];
-        let c = abs.propose(taught, &Tolerance::SEED).expect("a candidate");
-        assert!(near(&c.pose, &home), "{:?}", c.pose);
+        let c = abs
+            .propose(taught, &Tolerance::USEFUL)
+            .expect("a candidate");
+        assert!(same_pose(&c.pose, &home), "{:?}", c.pose);
         assert_eq!(c.proposer(), Proposer::Absolute);
         assert_eq!(
             evidence(&c).0,
             1,
             "the pose before the retract point differs"
         );
-        let t = tool.propose(taught, &Tolerance::SEED);
-        assert!(t.is_none_or(|t| !near(&t.pose, &home)));
+        let t = tool.propose(taught, &Tolerance::USEFUL);
+        assert!(t.is_none_or(|t| !same_pose(&t.pose, &home)));
     }
 
     /// A seam approached from 100 mm above, under a torch that turns from seam to seam: the
@@ -305,14 +307,14 @@ mod tests {
         }
         let next = seam(300.0, 1.2);
         let c = work
-            .propose(&next[..2], &Tolerance::SEED)
+            .propose(&next[..2], &Tolerance::USEFUL)
             .expect("a candidate");
-        assert!(near(&c.pose, &next[2]), "{:?}", c.pose);
+        assert!(same_pose(&c.pose, &next[2]), "{:?}", c.pose);
         let (_, places, agreeing, in_routine) = evidence(&c);
         assert_eq!((places, agreeing), (1, 1));
         assert!(!in_routine);
-        let t = tool.propose(&next[..2], &Tolerance::SEED);
-        assert!(t.is_none_or(|t| !near(&t.pose, &next[2])));
+        let t = tool.propose(&next[..2], &Tolerance::USEFUL);
+        assert!(t.is_none_or(|t| !same_pose(&t.pose, &next[2])));
     }
 
     /// A grid row: the same step again and again inside one routine is found in the routine
@@ -323,14 +325,16 @@ mod tests {
             .map(|i| pose([40.0 * i as f64, 0.0, 0.0], 0.0))
             .collect();
         let e = SequenceExpert::new(Frame::Work);
-        let c = e.propose(&row[..5], &Tolerance::SEED).expect("a candidate");
-        assert!(near(&c.pose, &row[5]));
+        let c = e
+            .propose(&row[..5], &Tolerance::USEFUL)
+            .expect("a candidate");
+        assert!(same_pose(&c.pose, &row[5]));
         let (context, places, agreeing, in_routine) = evidence(&c);
         assert!(in_routine);
         assert_eq!(context, 3, "the longest context with a follower");
         assert_eq!(places, agreeing);
         // Nothing taught before and one move: no context occurred before.
-        assert!(e.propose(&row[..2], &Tolerance::SEED).is_none());
+        assert!(e.propose(&row[..2], &Tolerance::USEFUL).is_none());
     }
 
     /// A row taught by hand, its steps 40 mm with a few millimetres' error each: the work-frame

@@ -254,7 +254,7 @@ mod tests {
         let placed = task(40.0, -30.0, 0.25);
         for m in 2..placed.len() {
             let c = e
-                .propose(&placed[..m], &Noise::EXACT, &Tolerance::SEED)
+                .propose(&placed[..m], &Noise::EXACT, &Tolerance::USEFUL)
                 .expect("a candidate");
             assert!(c.pose.distance_to(&placed[m]) < 1e-6, "at {m}");
             assert!(c.pose.angle_to(&placed[m]) < 1e-6, "at {m}");
@@ -278,7 +278,7 @@ mod tests {
             })
             .collect();
         assert!(
-            e.propose(&other[..3], &Noise::EXACT, &Tolerance::SEED)
+            e.propose(&other[..3], &Noise::EXACT, &Tolerance::USEFUL)
                 .is_none()
         );
     }

@@ -1,4 +1,5 @@
-//! One linear dynamical system (LDS) fitted to a simple trajectory (seed chapter 5, §5.3–5.6).
+//! One linear dynamical system (LDS) fitted to a simple trajectory (dissertation chapter 5,
+//! §5.3–5.6).
 //!
 //! A trajectory `x_0 … x_N` that ends at its attractor `x_N` is modelled as
 //! `x_{n+1} = R (x_n − x_N) + x_n` (Eq. 5.1). `R` is the least-squares solution of the stacked
@@ -12,16 +13,16 @@
 //! and no left eigenvector of modulus one can be orthogonal to every `δ_n`).
 //!
 //! **Rank.** A taught trajectory rarely fills all six dimensions of the state (a straight line
-//! fills one, a planar curve two). Where `Δ_{0:N−1}` is rank deficient the seed's estimate is
-//! ill-conditioned and is replaced by a scaled identity (§5.6). We go one step further: the fit
+//! fills one, a planar curve two). Where `Δ_{0:N−1}` is rank deficient the dissertation's estimate
+//! is ill-conditioned and is replaced by a scaled identity (§5.6). We go one step further: the fit
 //! is made in the subspace the trajectory spans (the singular directions of `Δ_{0:N−1}` above
-//! `rank_tolerance` times the largest) and the scaled identity `−α I` acts only on the rest.
-//! In the spanned subspace the fit is Eq. 5.3 of the projected trajectory, whose `Δ` has full row
-//! rank there, so Theorem 5.2 holds for it; `R̂` is block-triangular in (spanned, rest), so its
-//! spectrum is that of the projected fit and `−α`, with `α ∈ (0, 1]`: the control law still
-//! converges to the attractor from any start. The seed's rule stays on top: an `R̂` whose
-//! condition number exceeds `κ_max` is replaced by `−α I` whole (straight lines to the attractor).
-//! `α` is the least-squares scalar fit of the same data, clamped to `[ALPHA_MIN, 1]`.
+//! `rank_tolerance` times the largest) and the scaled identity `−α I` acts only on the rest. In the
+//! spanned subspace the fit is Eq. 5.3 of the projected trajectory, whose `Δ` has full row rank
+//! there, so Theorem 5.2 holds for it; `R̂` is block-triangular in (spanned, rest), so its spectrum
+//! is that of the projected fit and `−α`, with `α ∈ (0, 1]`: the control law still converges to the
+//! attractor from any start. The dissertation's rule stays on top: an `R̂` whose condition number
+//! exceeds `κ_max` is replaced by `−α I` whole (straight lines to the attractor). `α` is the
+//! least-squares scalar fit of the same data, clamped to `[ALPHA_MIN, 1]`.
 
 use nalgebra::{SMatrix, SVector, SymmetricEigen};
 use serde::{Deserialize, Serialize};

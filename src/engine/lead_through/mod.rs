@@ -1,5 +1,5 @@
-//! Lead-through teaching (seed chapter 5): the operator guides the arm by hand and the recorded
-//! trajectory, not a list of waypoints, is what arrives.
+//! Lead-through teaching (dissertation chapter 5): the operator guides the arm by hand and the
+//! recorded trajectory, not a list of waypoints, is what arrives.
 //!
 //! [`segment`] thins the samples and cuts the trajectory where its direction turns into a
 //! sequence of simple trajectories, each fitted by [`lds`] as one linear dynamical system that

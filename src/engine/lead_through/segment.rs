@@ -1,5 +1,5 @@
 //! A hand-guided trajectory cut into a sequence of LDSs whose attractors are the waypoints
-//! (seed chapter 5, §5.7–5.8).
+//! (dissertation chapter 5, §5.7–5.8).
 //!
 //! **State.** A sample's state is six numbers in millimetres: the TCP position, and the
 //! orientation as a rotation vector scaled by `rotation_mm_per_rad` (50 mm/rad by default: the
@@ -17,19 +17,20 @@
 //! **Online segmentation (§5.7).** At sample `n` the open segment's steps up to `x_{n−1}` are
 //! fitted with `x_n` as the attractor and `x_{n−1}` is predicted from `x_{n−2}`. Eq. 5.7 divides
 //! the error by the step: `ε = ‖x_{n−1} − x̂_{n−1}‖ / ‖x_{n−1} − x_{n−2}‖`
-//! ([`Criterion::Seed`]). An LDS slows down as it nears its attractor, so on a stretch at
+//! ([`Criterion::ErrorOverStep`]). An LDS slows down as it nears its attractor, so on a stretch at
 //! constant speed the least-squares step shrinks as the segment grows: a straight line of `m`
 //! steps has `ε ≈ 1 − 3/m` and is cut every few samples, wherever `ε_max` lies. What we want of a
 //! waypoint is that the motion heads for it, so by default ([`Criterion::Direction`]) ε compares
 //! directions only: `ε = ‖ŝ − ŝ_pred‖` for the unit vectors of the observed and predicted step,
 //! `2 sin(θ/2)` for the angle θ between them (0 when aligned, √2 at a right angle, 2 reversed;
 //! 2 when the prediction does not move). A segment closes when ε exceeds `ε_max` (0.5 by default,
-//! θ ≈ 29°) at `persistence` consecutive samples (2 by default; 1 is the seed's rule: one noisy
-//! sample no longer cuts a line) and it has at least `min_segment_steps` steps. The seed's
-//! attractor is the sample before the first one over `ε_max` (so it is with [`Criterion::Seed`]);
-//! since a direction change shows only a sample or two after the corner, the direction criterion
-//! takes the sample among that one and its three predecessors farthest from the chord across
-//! them (where the path turns). A new segment starts at the attractor. The last sample ends the last segment.
+//! θ ≈ 29°) at `persistence` consecutive samples (2 by default; 1 is the dissertation's rule: one
+//! noisy sample no longer cuts a line) and it has at least `min_segment_steps` steps. The
+//! dissertation's attractor is the sample before the first one over `ε_max` (so it is with
+//! [`Criterion::ErrorOverStep`]); since a direction change shows only a sample or two after the
+//! corner, the direction criterion takes the sample among that one and its three predecessors
+//! farthest from the chord across them (where the path turns). A new segment starts at the
+//! attractor. The last sample ends the last segment.
 //!
 //! The fit of the open segment leaves out directions along which the samples spread less than
 //! `min_step_mm` (RMS) from the attractor ([`super::lds::FitSettings::min_extent`]): a sample a
@@ -39,9 +40,9 @@
 //! pause on a straight line is not a waypoint to it).
 //!
 //! **Reproduction (§5.8).** From the first sample, each segment's control law runs until within
-//! `zeta_mm` of its attractor, then the next takes over. The reproduction error is the seed's
-//! (§5.7.1): the mean distance from each recorded position to the closest point of the
-//! reproduced path, here the polyline of its own segment or one beside it.
+//! `zeta_mm` of its attractor, then the next takes over. The reproduction error is the
+//! dissertation's (§5.7.1): the mean distance from each recorded position to the closest point of
+//! the reproduced path, here the polyline of its own segment or one beside it.
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -66,7 +67,9 @@ pub struct TimedPose {
     pub pose: Pose,
 }
 
-/// How the prediction error of §5.7 is measured.
+/// How the prediction error of §5.7 is measured. Its name on the wire and on the command line
+/// is [`Criterion::name`] (the serde names below are the same, checked by a test): the
+/// dissertation's Eq. 5.7 keeps the name `seed` it was published under.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Criterion {
@@ -74,7 +77,21 @@ pub enum Criterion {
     /// docs).
     Direction,
     /// Eq. 5.7 as written: error over step length.
-    Seed,
+    #[serde(rename = "seed")]
+    ErrorOverStep,
+}
+
+impl Criterion {
+    /// Every criterion.
+    pub const ALL: [Criterion; 2] = [Criterion::Direction, Criterion::ErrorOverStep];
+
+    /// The criterion's name on the wire (REST, reports) and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Criterion::Direction => "direction",
+            Criterion::ErrorOverStep => "seed",
+        }
+    }
 }
 
 /// Settings of the segmentation.
@@ -86,7 +103,7 @@ pub struct SegmentSettings {
     pub rotation_mm_per_rad: f64,
     pub zeta_mm: f64,
     pub min_segment_steps: usize,
-    /// Consecutive samples over ε_max that close a segment (1 is the seed's rule).
+    /// Consecutive samples over ε_max that close a segment (1 is the dissertation's rule).
     pub persistence: usize,
     /// Steps of one segment's reproduction before it gives up.
     pub max_reproduction_steps: usize,
@@ -329,17 +346,18 @@ pub fn segment(
             over = 0;
         }
         if over >= settings.persistence {
-            // The seed's attractor is the sample before the first one over ε_max; the corner
-            // is looked for among it and its neighbours.
-            let seed_attractor = n - settings.persistence;
-            let lo = (start + settings.min_segment_steps).max(seed_attractor.saturating_sub(3));
+            // The dissertation's attractor is the sample before the first one over ε_max; the
+            // corner is looked for among it and its neighbours.
+            let dissertation_attractor = n - settings.persistence;
+            let lo =
+                (start + settings.min_segment_steps).max(dissertation_attractor.saturating_sub(3));
             if lo < n {
-                let fallback = seed_attractor.clamp(lo, n - 1);
+                let fallback = dissertation_attractor.clamp(lo, n - 1);
                 let k = match settings.criterion {
                     Criterion::Direction => {
                         corner(&y, start.max(lo.saturating_sub(2)), lo, n).unwrap_or(fallback)
                     }
-                    Criterion::Seed => fallback,
+                    Criterion::ErrorOverStep => fallback,
                 };
                 let closing = sums_of(&y, start, k);
                 segments.push(Segment {
@@ -416,7 +434,7 @@ fn prediction_error(before: &State, observed: &State, predicted: &State, c: Crit
         return 0.0;
     }
     match c {
-        Criterion::Seed => (observed - predicted).norm() / length,
+        Criterion::ErrorOverStep => (observed - predicted).norm() / length,
         Criterion::Direction => {
             let guess = predicted - before;
             let g = guess.norm();

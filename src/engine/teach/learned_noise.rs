@@ -1,130 +1,225 @@
-//! The cell's teaching noise and tolerance as the [`Teacher`] learns them: set, or estimated
-//! from the finished routines and, until those give an estimate, from the routine being taught
-//! (its stretches' pairs, its exact revisits, its returns); tightened by the operator's
-//! adjustments. A waypoint that changes them keeps what it replaced ([`Before`]), so its undo
-//! restores it. Whether the noise matters decides the calibration's prior and what the experts
-//! are told ([`crate::engine::experts::Cell::noisy`]).
+//! The cell's teaching noise and tolerance as the [`super::Teacher`] learns them: set, or
+//! estimated from the finished routines and, until those give an estimate, from the routine
+//! being taught (its stretches' pairs, its exact revisits, its returns); tightened by the
+//! operator's adjustments. [`LearnedNoise`] holds them and, per waypoint of the routine being
+//! taught, what that waypoint showed of the noise and what its change of the noise replaced, so
+//! its undo restores it. Whether the noise matters ([`LearnedNoise::matters`]) decides the
+//! calibration's prior (the offer rule's, [`super::offer_rule`]) and what the experts are told
+//! ([`LearnedNoise::cell`]).
 
-use super::{Counted, Teacher};
 use crate::engine::config::EngineConfig;
+use crate::engine::experts::Cell;
 use crate::engine::experts::acceptance::Acceptance;
-use crate::engine::experts::calibration::Calibration;
 use crate::engine::experts::frames::Tolerance;
 use crate::engine::experts::noise::Noise;
-use crate::engine::experts::noise::estimate::{OpenRoutine, Pair};
+use crate::engine::experts::noise::estimate::{NoiseEstimator, OpenRoutine, Pair};
+use crate::engine::pose::Pose;
 
-/// What a waypoint's change of the noise replaced: the noise and tolerance, and (when the
-/// noise began or stopped to matter) the calibration.
+/// The cell's teaching noise and tolerance, and what each waypoint of the routine being taught
+/// showed of them.
 #[derive(Debug, Clone)]
-pub(super) struct Before {
-    pub(super) noise: Noise,
-    pub(super) tolerance: Tolerance,
-    pub(super) calibration: Option<Calibration>,
+pub(super) struct LearnedNoise {
+    /// Whether the cell has an offer rule: without one the noise is not learned and does not
+    /// matter.
+    offer_rule: bool,
+    /// The tolerance the offer rule sets, if it sets one (else the noise implies it).
+    set_tolerance: Option<Tolerance>,
+    /// What the finished routines show of the teaching noise (a cell whose noise is not set).
+    estimator: Option<NoiseEstimator>,
+    /// The cell's teaching noise: set, or learned so far.
+    noise: Noise,
+    /// What counts as right (with an offer rule): set, or what the noise and the operator's
+    /// verdicts imply.
+    tolerance: Tolerance,
+    /// The verdicts of the finished routines' suggestions (with an offer rule).
+    acceptance: Acceptance,
+    /// Per waypoint of the routine being taught: what it showed of the noise.
+    shown: Vec<Shown>,
 }
 
-impl Teacher {
-    /// The tolerance of a cell with this noise and these verdicts: the offer rule's, or the one
-    /// the noise implies, tightened by the adjustments ([`Acceptance::tolerance`]).
-    pub(super) fn tolerance_for(
-        config: &EngineConfig,
-        noise: &Noise,
-        acceptance: &Acceptance,
-    ) -> Tolerance {
-        config
-            .offer
-            .and_then(|r| r.tolerance)
-            .unwrap_or_else(|| acceptance.tolerance(noise.tolerance(), noise))
+/// What one taught waypoint showed of the noise while the routine is taught: the pairs its
+/// stretch made, whether it was an exact revisit ([`NoiseEstimator::estimate_with`]) or a return
+/// (with its gap to the pose it returned to, [`NoiseEstimator::return_gap`]), whether it was
+/// taught as the cell suggested (then it is neither), and the noise and tolerance it replaced
+/// when it changed them, for undo.
+#[derive(Debug, Clone, Default)]
+struct Shown {
+    suggested: bool,
+    pairs: Vec<Pair>,
+    revisit: bool,
+    returned: Option<(f64, f64)>,
+    before: Option<(Noise, Tolerance)>,
+}
+
+impl LearnedNoise {
+    /// The noise and tolerance of a new cell with these settings: the noise set or exact (and
+    /// learned when not set and the cell has an offer rule).
+    pub(super) fn new(config: &EngineConfig) -> LearnedNoise {
+        let noise = config.noise.unwrap_or(Noise::EXACT);
+        let mut learned = LearnedNoise {
+            offer_rule: config.offer.is_some(),
+            set_tolerance: config.offer.and_then(|r| r.tolerance),
+            estimator: (config.noise.is_none() && config.offer.is_some()).then(NoiseEstimator::new),
+            noise,
+            tolerance: Tolerance::USEFUL,
+            acceptance: Acceptance::default(),
+            shown: Vec::new(),
+        };
+        learned.tolerance = learned.tolerance_for(&noise);
+        learned
     }
 
-    /// A cell whose noise matters (it widens the tolerance) gets a calibration learned from its
-    /// own outcomes only: the prior's counts are exact programs'. A cell whose learned noise
-    /// stops mattering (exact revisits showed an exact teacher, [`crate::engine::experts::noise::estimate::NoiseEstimator::is_exact`])
-    /// goes back to the exact cell's prior. (The experts read whether it matters when asked,
-    /// [`Cell::noisy`].)
-    pub(super) fn become_noisy_if_it_matters(&mut self) {
-        let noisy = self.noisy();
-        if noisy == self.calibration.is_uninformed() {
-            return;
+    /// The cell's teaching noise: set, or learned so far.
+    pub(super) fn noise(&self) -> Noise {
+        self.noise
+    }
+
+    /// What counts as right: the tolerance set, or the one the noise implies.
+    pub(super) fn tolerance(&self) -> Tolerance {
+        self.tolerance
+    }
+
+    /// Whether the noise is learned (not set).
+    pub(super) fn learns(&self) -> bool {
+        self.estimator.is_some()
+    }
+
+    /// The verdicts of the finished routines' suggestions.
+    #[cfg(test)]
+    pub(super) fn acceptance(&self) -> &Acceptance {
+        &self.acceptance
+    }
+
+    /// Whether the cell's noise matters (it widens the tolerance; with an offer rule only). A
+    /// cell whose noise matters gets a calibration learned from its own outcomes only: the
+    /// prior's counts are exact programs' (the offer rule's, [`super::offer_rule`]).
+    pub(super) fn matters(&self) -> bool {
+        self.offer_rule && !self.noise.is_negligible(&self.tolerance)
+    }
+
+    /// What the experts are told of the cell.
+    pub(super) fn cell(&self) -> Cell {
+        Cell {
+            noise: self.noise,
+            tolerance: self.tolerance,
+            noisy: self.matters(),
         }
-        self.calibration = if noisy {
-            Calibration::uninformed()
-        } else {
-            Calibration::new()
-        };
     }
 
-    /// The routine being taught shows the noise too: its newest stretch's pairs and its exact
-    /// revisits join the finished routines' ([`crate::engine::experts::noise::estimate::NoiseEstimator::estimate_with`]), so a cell
-    /// whose first repeats come within a long routine learns its operator there and then, not
-    /// when the routine is finished. Only until the finished routines give an estimate: after
-    /// that a routine's repeats refine it when it is finished (a fit per waypoint would cost
-    /// more than the prediction). `counted` (the newest waypoint's) keeps what changed, for
-    /// undo; finishing the routine learns it for good.
-    pub(super) fn learn_open_noise(&mut self, counted: &mut Counted) {
-        let Some(e) = self.estimator.as_ref().filter(|e| e.estimate().is_none()) else {
-            return;
+    /// How right `proposed` was for the waypoint taught as `taught`, at the cell's noise and
+    /// tolerance ([`Noise::outcome`]).
+    pub(super) fn outcome(&self, proposed: &Pose, taught: &Pose) -> f64 {
+        self.noise.outcome(&self.tolerance, proposed, taught)
+    }
+
+    /// The tolerance of this cell with `noise` and its verdicts: the offer rule's, or the one
+    /// the noise implies, tightened by the adjustments ([`Acceptance::tolerance`]).
+    fn tolerance_for(&self, noise: &Noise) -> Tolerance {
+        self.set_tolerance
+            .unwrap_or_else(|| self.acceptance.tolerance(noise.tolerance(), noise))
+    }
+
+    /// Takes `noise` and the tolerance it implies; whether they changed.
+    fn take(&mut self, noise: Noise) -> bool {
+        let tolerance = self.tolerance_for(&noise);
+        if noise == self.noise && tolerance == self.tolerance {
+            return false;
+        }
+        self.noise = noise;
+        self.tolerance = tolerance;
+        true
+    }
+
+    /// The routine being taught shows the noise too: the newest waypoint of `routine` (taught as
+    /// the cell suggested or not) joins its stretches' pairs and its exact revisits to the
+    /// finished routines' ([`NoiseEstimator::estimate_with`]), so a cell whose first repeats come
+    /// within a long routine learns its operator there and then, not when the routine is
+    /// finished. Only until the finished routines give an estimate: after that a routine's
+    /// repeats refine it when it is finished (a fit per waypoint would cost more than the
+    /// prediction). The waypoint keeps what it showed and what it changed, for undo; finishing
+    /// the routine learns it for good. Returns whether the noise or the tolerance changed.
+    pub(super) fn learn_open(&mut self, routine: &[Pose], suggested: bool) -> bool {
+        let mut shown = Shown {
+            suggested,
+            ..Shown::default()
         };
-        let n = self.routine.len();
-        counted.pairs = e.open_pairs(&self.routine);
-        let (pose, before) = (&self.routine[n - 1], &self.routine[..n - 1]);
-        counted.revisit = !counted.suggested && e.is_revisit(pose, before);
-        counted.returned = e.return_gap(pose, before).filter(|_| !counted.suggested);
+        let changed = self.show(routine, &mut shown);
+        self.shown.push(shown);
+        changed
+    }
+
+    /// [`LearnedNoise::learn_open`] of the newest waypoint, whose [`Shown`] is `shown` (not
+    /// yet among `self.shown`).
+    fn show(&mut self, routine: &[Pose], shown: &mut Shown) -> bool {
+        let Some(e) = self.estimator.as_ref().filter(|e| e.estimate().is_none()) else {
+            return false;
+        };
+        let n = routine.len();
+        shown.pairs = e.open_pairs(routine);
+        let (pose, before) = (&routine[n - 1], &routine[..n - 1]);
+        shown.revisit = !shown.suggested && e.is_revisit(pose, before);
+        shown.returned = e.return_gap(pose, before).filter(|_| !shown.suggested);
         // Only a pair that could be a repeat, an exact revisit or a return can change the
         // estimate much; the others wait for the routine's end (a fit costs more than a
         // prediction).
-        if !counted.revisit
-            && counted.returned.is_none()
-            && !counted.pairs.iter().any(Pair::could_repeat)
+        if !shown.revisit && shown.returned.is_none() && !shown.pairs.iter().any(Pair::could_repeat)
         {
-            return;
+            return false;
         }
-        let pairs: Vec<Pair> = self
-            .outcomes
-            .iter()
-            .chain(std::iter::once(&*counted))
-            .flat_map(|c| c.pairs.iter().copied())
-            .collect();
-        let count = |f: fn(&Counted) -> bool| {
-            self.outcomes.iter().filter(|c| f(c)).count() + usize::from(f(counted))
-        };
+        let all = || self.shown.iter().chain(std::iter::once(&*shown));
+        let pairs: Vec<Pair> = all().flat_map(|s| s.pairs.iter().copied()).collect();
+        let count = |f: fn(&Shown) -> bool| all().filter(|s| f(s)).count();
         let open = OpenRoutine {
             pairs: &pairs,
             // Waypoints taught as suggested cannot be returns: the share is of those by hand.
-            len: n - count(|c| c.suggested),
-            revisits: count(|c| c.revisit),
-            returns: count(|c| c.returned.is_some()),
-            return_gaps: self
-                .outcomes
-                .iter()
-                .chain(std::iter::once(&*counted))
-                .filter_map(|c| c.returned)
+            len: n - count(|s| s.suggested),
+            revisits: count(|s| s.revisit),
+            returns: count(|s| s.returned.is_some()),
+            return_gaps: all()
+                .filter_map(|s| s.returned)
                 .fold((0.0, 0.0), |(m, r), (dm, dr)| (m + dm * dm, r + dr * dr)),
         };
         let noise = e
             .estimate_with(&open)
             .or_else(|| e.estimate())
             .unwrap_or(Noise::EXACT);
-        let tolerance = Teacher::tolerance_for(&self.config, &noise, &self.acceptance);
-        if noise == self.noise && tolerance == self.tolerance {
-            return;
+        let before = (self.noise, self.tolerance);
+        if !self.take(noise) {
+            return false;
         }
-        let mut before = Before {
-            noise: self.noise,
-            tolerance: self.tolerance,
-            calibration: None,
-        };
-        self.noise = noise;
-        self.tolerance = tolerance;
-        if self.noisy() != self.calibration.is_uninformed() {
-            before.calibration = Some(self.calibration.clone());
-        }
-        self.become_noisy_if_it_matters();
-        counted.before = Some(Box::new(before));
+        shown.before = Some(before);
+        true
     }
 
-    /// Whether the cell's noise matters (it widens the tolerance).
-    pub(super) fn noisy(&self) -> bool {
-        self.config.offer.is_some() && !self.noise.is_negligible(&self.tolerance)
+    /// Takes back what the newest waypoint of the routine being taught showed and changed.
+    pub(super) fn undo(&mut self) {
+        if let Some((noise, tolerance)) = self.shown.pop().and_then(|s| s.before) {
+            self.noise = noise;
+            self.tolerance = tolerance;
+        }
+    }
+
+    /// Learns the finished `routine` for good, with the distances of its adjusted suggestions
+    /// (`adjusted_mm`, the operator's verdicts): the estimate and the tolerance of the finished
+    /// routines. Returns whether the noise or the tolerance changed.
+    pub(super) fn learn_routine(
+        &mut self,
+        routine: &[Pose],
+        adjusted_mm: impl Iterator<Item = f64>,
+    ) -> bool {
+        for mm in adjusted_mm {
+            self.acceptance.add(mm);
+        }
+        let shown = std::mem::take(&mut self.shown);
+        let noise = match self.estimator.as_mut() {
+            Some(e) => {
+                let suggested: Vec<bool> = shown.iter().map(|s| s.suggested).collect();
+                e.learn_taught(routine, &suggested);
+                e.estimate().unwrap_or(Noise::EXACT)
+            }
+            None => self.noise,
+        };
+        self.take(noise)
     }
 }
 
@@ -348,8 +443,8 @@ mod tests {
         same_model(&t, &finished);
     }
 
-    /// Exact programs keep an exact cell: the learned noise stays negligible, the tolerance the
-    /// seed's, and the calibration the prior's.
+    /// Exact programs keep an exact cell: the learned noise stays negligible, the tolerance
+    /// [`Tolerance::USEFUL`], and the calibration the prior's.
     #[test]
     fn exact_programs_keep_the_cell_exact() {
         use crate::engine::experts::noise::estimate::tests::{task, wander};
@@ -365,8 +460,12 @@ mod tests {
             wander(9, &mut rng).iter().for_each(|w| t.teach(*w));
             t.finish_routine();
         }
-        assert!(t.noise().is_negligible(&Tolerance::SEED), "{:?}", t.noise());
-        assert_eq!(t.tolerance(), Tolerance::SEED);
+        assert!(
+            t.noise().is_negligible(&Tolerance::USEFUL),
+            "{:?}",
+            t.noise()
+        );
+        assert_eq!(t.tolerance(), Tolerance::USEFUL);
         assert!(!t.noisy());
     }
 

@@ -10,7 +10,8 @@
 //! discounts the window's own transitions (`predict`). The newest assimilated move is
 //! *pending*: what follows it is not known yet, which is not the same as the routine ending
 //! there. When the routine finishes, the remaining moves are assimilated and the routine is
-//! closed; nothing is counted twice. Without it (the seed), a routine is learned when finished.
+//! closed; nothing is counted twice. Without it (the dissertation's engine), a routine is
+//! learned when finished.
 //!
 //! **Undo.** The operator may delete the last waypoint of the routine being taught. When that
 //! takes back a move that was already assimilated, the model is rolled back to where it was
@@ -21,10 +22,12 @@
 //! offer rule the outcomes a waypoint counted ([`offer_rule`]), the learned noise what the
 //! waypoint showed of it ([`learned_noise`]).
 //!
-//! Here: the [`Teacher`] (teach, predict, complete, undo, finish; the CDHMM learning within the
-//! routine); [`offer_rule`]: the candidates' outcomes, the likeliest candidate and whether it is
-//! offered, the operator's verdicts; [`learned_noise`]: the cell's noise and tolerance learned
-//! while it is taught.
+//! Here: the [`Teacher`] (teach, predict, complete, undo, finish; the routine being taught and
+//! the CDHMM learning within it), which holds the settings, the graph, the routine, the experts,
+//! the offer rule and the noise, each of the last three with its own state and undo;
+//! [`offer_rule`]: the candidates' outcomes, the likeliest candidate and whether it is offered,
+//! the operator's verdicts; [`learned_noise`]: the cell's noise and tolerance learned while it
+//! is taught.
 
 mod learned_noise;
 mod offer_rule;
@@ -35,43 +38,43 @@ use super::cdhmm::predict::scale;
 use super::cdhmm::predict::{Prediction, Withheld, predict_move};
 use super::config::{EngineConfig, PredictOptions};
 use super::error::ConfigError;
-use super::experts::acceptance::{Acceptance, Verdict};
+use super::experts::acceptance::Verdict;
 use super::experts::calibration::Calibration;
 use super::experts::frames::Tolerance;
 use super::experts::noise::Noise;
-use super::experts::noise::estimate::{NoiseEstimator, Pair};
-use super::experts::{Candidate, Cell, Evidence, Expert};
+use super::experts::{Candidate, Evidence, Expert};
 use super::metric::Metric;
 use super::pose::{Move, Observation, Pose, scale_translation};
-use learned_noise::Before;
+use learned_noise::LearnedNoise;
+use offer_rule::OfferRuleState;
 
 /// The engine for one work cell.
 #[derive(Debug, Clone)]
 pub struct Teacher {
+    /// The cell's settings.
     config: EngineConfig,
+    /// The model: the observation graph of every move assimilated.
     graph: ObservationGraph,
-    routine: Vec<Pose>,
-    moves: Vec<Observation>,
-    /// Moves of the current routine already assimilated (within-routine learning only).
-    assimilated: usize,
+    /// The routine being taught.
+    routine: CurrentRoutine,
     /// The experts besides the model ([`super::experts::experts`]), asked in turn.
     experts: Vec<Box<dyn Expert>>,
-    /// What the cell learned of its candidates' outcomes (with an offer rule).
-    calibration: Calibration,
-    /// What the finished routines show of the teaching noise (a cell whose noise is not set).
-    estimator: Option<NoiseEstimator>,
-    /// The cell's teaching noise: set, or learned so far.
-    noise: Noise,
-    /// What counts as right (with an offer rule): set, or what the noise and the operator's
-    /// verdicts imply.
-    tolerance: Tolerance,
-    /// The verdicts of the finished routines' suggestions (with an offer rule).
-    acceptance: Acceptance,
-    /// Per waypoint of the current routine: the outcomes its teaching counted, for undo.
-    outcomes: Vec<Counted>,
-    /// What follows the current routine with the cell's settings: computed once when the routine
-    /// or the model changes, answered by [`Teacher::predict`] and judged by the next
-    /// [`Teacher::teach`].
+    /// The offer rule: its calibration of the candidates, and what each taught waypoint counted.
+    offer_rule: OfferRuleState,
+    /// The cell's teaching noise and tolerance: set, or learned while it is taught.
+    noise: LearnedNoise,
+}
+
+/// The routine being taught: its waypoints, the moves between them, how many of those the graph
+/// has assimilated, and what follows it.
+#[derive(Debug, Clone)]
+struct CurrentRoutine {
+    waypoints: Vec<Pose>,
+    moves: Vec<Observation>,
+    /// Moves already assimilated (within-routine learning only).
+    assimilated: usize,
+    /// What follows the routine with the cell's settings: computed once when the routine or the
+    /// model changes, answered by [`Teacher::predict`] and judged by the next [`Teacher::teach`].
     ahead: Ahead,
 }
 
@@ -82,80 +85,52 @@ struct Ahead {
     prediction: Prediction,
 }
 
-/// The outcomes one taught waypoint counted: every candidate's, and the chosen one's by its
-/// first-stage estimate; and the suggestion offered for it, with the operator's verdict.
-#[derive(Debug, Clone, Default)]
-struct Counted {
-    candidates: Vec<(Evidence, f64)>,
-    chosen: Option<(f64, f64)>,
-    /// The waypoint was taught as the cell offered it (a suggestion taken as is).
-    suggested: bool,
-    /// The pose the cell offered for this waypoint, if it offered one, and which of
-    /// `candidates` stand at it (the chosen one is the offered one).
-    offered: Option<(Pose, Vec<usize>)>,
-    /// The operator's verdict on that suggestion ([`Teacher::feedback`]).
-    verdict: Option<Verdict>,
-    /// An adjusted suggestion's distance to this waypoint (mm).
-    adjusted_mm: Option<f64>,
-    /// What the waypoint showed of the noise while the routine is taught: the pairs its stretch
-    /// made, and whether it was an exact revisit ([`NoiseEstimator::estimate_with`]).
-    pairs: Vec<Pair>,
-    revisit: bool,
-    /// … and whether it was a return, with its gap to the pose it returned to
-    /// ([`NoiseEstimator::return_gap`]).
-    returned: Option<(f64, f64)>,
-    /// The cell as it was before the waypoint changed its noise, for undo.
-    before: Option<Box<Before>>,
-}
-
-/// Two poses are the same suggestion: equal to what storing them leaves.
-fn same_pose(a: &Pose, b: &Pose) -> bool {
-    a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
-}
-
 impl Teacher {
     pub fn new(config: EngineConfig) -> Result<Teacher, ConfigError> {
         config.validate()?;
         let metric = Metric::diagonal(config.sigma_t, config.sigma_q)?;
         let graph = ObservationGraph::new(metric, config.delta, config.merge)?
             .with_recency(config.recency)?;
-        let ahead = Ahead {
-            candidates: Vec::new(),
-            prediction: Prediction::withheld(Withheld::NothingTaught, 0),
-        };
-        let noise = config.noise.unwrap_or(Noise::EXACT);
-        let mut t = Teacher {
-            estimator: (config.noise.is_none() && config.offer.is_some()).then(NoiseEstimator::new),
-            tolerance: Teacher::tolerance_for(&config, &noise, &Acceptance::default()),
-            acceptance: Acceptance::default(),
-            noise,
-            config,
-            graph,
-            routine: Vec::new(),
+        let routine = CurrentRoutine {
+            waypoints: Vec::new(),
             moves: Vec::new(),
             assimilated: 0,
-            experts: super::experts::experts(),
-            calibration: Calibration::new(),
-            outcomes: Vec::new(),
-            ahead,
+            ahead: Ahead {
+                candidates: Vec::new(),
+                prediction: Prediction::withheld(Withheld::NothingTaught, 0),
+            },
         };
-        t.become_noisy_if_it_matters();
-        Ok(t)
+        let noise = LearnedNoise::new(&config);
+        let mut offer_rule = OfferRuleState::new();
+        offer_rule.follow_noise(noise.matters(), false);
+        Ok(Teacher {
+            config,
+            graph,
+            routine,
+            experts: super::experts::experts(),
+            offer_rule,
+            noise,
+        })
     }
 
     /// The cell's teaching noise: set, or learned so far (exact until its repeats show some).
     pub fn noise(&self) -> Noise {
-        self.noise
+        self.noise.noise()
     }
 
     /// Whether the noise is learned (not set).
     pub fn learns_noise(&self) -> bool {
-        self.estimator.is_some()
+        self.noise.learns()
     }
 
     /// What counts as right: the tolerance set, or the one the noise implies.
     pub fn tolerance(&self) -> Tolerance {
-        self.tolerance
+        self.noise.tolerance()
+    }
+
+    /// Whether the cell's noise matters (it widens the tolerance).
+    fn noisy(&self) -> bool {
+        self.noise.matters()
     }
 
     pub fn config(&self) -> &EngineConfig {
@@ -168,38 +143,84 @@ impl Teacher {
 
     /// The waypoints of the routine being taught.
     pub fn routine(&self) -> &[Pose] {
-        &self.routine
+        &self.routine.waypoints
     }
 
     pub fn stats(&self) -> ModelStats {
         self.graph.stats()
     }
 
+    /// Every expert's candidates for the next waypoint, in the order the offer rule met them
+    /// (none without an offer rule, or before a routine's first waypoint).
+    pub fn candidates_ahead(&self) -> &[Candidate] {
+        &self.routine.ahead.candidates
+    }
+
     /// The cell's calibration of its experts' candidates.
     pub fn calibration(&self) -> &Calibration {
-        &self.calibration
+        self.offer_rule.calibration()
+    }
+
+    /// The threshold on `p_useful` the cell offers at now: set; or its own, for the target
+    /// precision (an exact cell, on its calibration's first-stage estimate) or
+    /// [`crate::engine::OfferRule::HEAD_START`] (a cell whose noise matters). None without an
+    /// offer rule.
+    pub fn threshold(&self) -> Option<f64> {
+        let rule = self.config.offer?;
+        Some(self.offer_rule.threshold(&rule, self.noisy()))
     }
 
     /// Appends a taught waypoint to the current routine. With an offer rule, the waypoint first
-    /// tells every candidate proposed for it whether it was right ([`Calibration::record`]).
+    /// tells every candidate proposed for it whether it was right ([`Calibration::record`]),
+    /// and the routine may show the cell's noise.
     pub fn teach(&mut self, pose: Pose) {
-        let mut counted = self.count_outcomes(&pose);
-        if let Some(last) = self.routine.last() {
-            self.moves.push(Move::between(last, &pose).observation());
+        let judged = self.config.offer.is_some() && !self.routine.waypoints.is_empty();
+        let noise = &self.noise;
+        let outcome = judged.then_some(|proposed: &Pose| noise.outcome(proposed, &pose));
+        let suggested = self.offer_rule.count(&pose, &self.routine.ahead, outcome);
+        if let Some(last) = self.routine.waypoints.last() {
+            self.routine
+                .moves
+                .push(Move::between(last, &pose).observation());
         }
-        self.routine.push(pose);
+        self.routine.waypoints.push(pose);
         for e in &mut self.experts {
-            e.taught(&self.routine);
+            e.taught(&self.routine.waypoints);
         }
-        self.learn_open_noise(&mut counted);
-        self.outcomes.push(counted);
+        if self.noise.learn_open(&self.routine.waypoints, suggested) {
+            self.offer_rule.follow_noise(self.noise.matters(), true);
+        }
         self.settle();
         self.look_ahead();
     }
 
-    /// Recomputes [`Teacher::ahead`] after the routine or the model changed.
+    /// The operator's verdict on the suggestion offered for waypoint `index` of the current
+    /// routine ([`offer_rule`], see [`super::experts::acceptance`]): `offered` is the
+    /// suggestion's pose, and an adjusted one comes with the pose finally taught. Returns
+    /// whether it was taken (a verdict that is not about what this cell offered there is not).
+    pub fn feedback(
+        &mut self,
+        index: usize,
+        offered: &Pose,
+        verdict: Verdict,
+        taught_as: Option<&Pose>,
+    ) -> bool {
+        let (taken, changed) =
+            self.offer_rule
+                .feedback(&self.routine.waypoints, index, offered, verdict, taught_as);
+        if changed {
+            self.look_ahead();
+        }
+        taken
+    }
+
+    /// Recomputes what follows the routine after the routine or the model changed.
     fn look_ahead(&mut self) {
-        self.ahead = self.ahead_of(&self.routine, &self.moves, &self.config.predict);
+        self.routine.ahead = self.ahead_of(
+            &self.routine.waypoints,
+            &self.routine.moves,
+            &self.config.predict,
+        );
     }
 
     /// Within-routine learning: assimilates the moves older than the lag (`within_lag`).
@@ -207,25 +228,27 @@ impl Teacher {
         if !self.config.learn_within_routine {
             return;
         }
-        let settled = self.moves.len().saturating_sub(self.config.within_lag());
-        if self.assimilated < settled {
+        let r = &mut self.routine;
+        let settled = r.moves.len().saturating_sub(self.config.within_lag());
+        if r.assimilated < settled {
             // Undo may take these moves back (`restore_routine_start`).
             self.graph.begin_journal();
         }
-        while self.assimilated < settled {
-            self.graph.push(&self.moves[self.assimilated]);
-            self.assimilated += 1;
+        while r.assimilated < settled {
+            self.graph.push(&r.moves[r.assimilated]);
+            r.assimilated += 1;
         }
     }
 
     /// Removes the last waypoint of the current routine and returns it (None when the routine
     /// is empty). The model goes back to what it was before that waypoint was taught.
     pub fn undo(&mut self) -> Option<Pose> {
-        let pose = self.routine.pop()?;
-        self.forget_last_outcomes();
-        self.moves.truncate(self.routine.len().saturating_sub(1));
-        let settled = self.moves.len().saturating_sub(self.config.within_lag());
-        if self.config.learn_within_routine && settled < self.assimilated {
+        let pose = self.routine.waypoints.pop()?;
+        self.forget_last_waypoint();
+        let r = &mut self.routine;
+        r.moves.truncate(r.waypoints.len().saturating_sub(1));
+        let settled = r.moves.len().saturating_sub(self.config.within_lag());
+        if self.config.learn_within_routine && settled < r.assimilated {
             self.restore_routine_start();
             self.settle();
         }
@@ -233,13 +256,22 @@ impl Teacher {
         Some(pose)
     }
 
+    /// Each part of the cell takes back what the newest waypoint of the routine changed of it.
+    fn forget_last_waypoint(&mut self) {
+        for e in &mut self.experts {
+            e.undo();
+        }
+        self.noise.undo();
+        self.offer_rule.undo();
+    }
+
     /// Drops the current routine without learning it; the model is as it was before.
     pub fn abandon_routine(&mut self) {
-        while !self.outcomes.is_empty() {
-            self.forget_last_outcomes();
+        for _ in 0..self.routine.waypoints.len() {
+            self.forget_last_waypoint();
         }
-        self.routine.clear();
-        self.moves.clear();
+        self.routine.waypoints.clear();
+        self.routine.moves.clear();
         self.restore_routine_start();
         self.look_ahead();
     }
@@ -252,7 +284,7 @@ impl Teacher {
         opts: &PredictOptions,
     ) -> Prediction {
         match routine.last() {
-            Some(last) => predict_move(&self.graph, moves, opts).place(last),
+            Some(last) => predict_move(&self.graph, moves, opts).placed_after(last),
             None => Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len()),
         }
     }
@@ -270,19 +302,16 @@ impl Teacher {
                 },
             });
         }
-        let cell = Cell {
-            noise: self.noise,
-            tolerance: self.tolerance,
-            noisy: self.noisy(),
-        };
+        let cell = self.noise.cell();
         for e in &self.experts {
             out.extend(e.propose(routine, &cell));
         }
         out
     }
 
-    /// The prediction after `routine`: the model's alone without an offer rule (the seed);
-    /// with one, the likeliest candidate, offered when its `p_useful` reaches the threshold.
+    /// The prediction after `routine`: the model's alone without an offer rule (the
+    /// dissertation's); with one, the likeliest candidate, offered when its `p_useful` reaches
+    /// the threshold.
     fn choose(&self, routine: &[Pose], moves: &[Observation], opts: &PredictOptions) -> Prediction {
         self.ahead_of(routine, moves, opts).prediction
     }
@@ -297,7 +326,9 @@ impl Teacher {
             };
         };
         let candidates = self.candidates(routine, &model);
-        let prediction = self.decide(model, &candidates, &rule, last);
+        let prediction = self
+            .offer_rule
+            .decide(model, &candidates, &rule, last, self.noisy());
         Ahead {
             candidates,
             prediction,
@@ -307,13 +338,13 @@ impl Teacher {
     /// The model as it was before the current routine's first move was assimilated.
     fn restore_routine_start(&mut self) {
         self.graph.rollback();
-        self.assimilated = 0;
+        self.routine.assimilated = 0;
     }
 
     /// Predicts the next waypoint of the current routine with the cell's settings (computed
     /// when the routine last changed).
     pub fn predict(&self) -> Prediction {
-        self.ahead.prediction.clone()
+        self.routine.ahead.prediction.clone()
     }
 
     /// Predicts with per-request settings.
@@ -321,7 +352,7 @@ impl Teacher {
         if *opts == self.config.predict {
             return self.predict();
         }
-        self.choose(&self.routine, &self.moves, opts)
+        self.choose(&self.routine.waypoints, &self.routine.moves, opts)
     }
 
     /// Open-loop completion: predicts the next waypoint, assumes it is taught as predicted,
@@ -343,7 +374,7 @@ impl Teacher {
         mut gate: impl FnMut(Prediction) -> (T, bool),
     ) -> Vec<T> {
         let mut out = Vec::with_capacity(k.min(64));
-        if self.routine.is_empty() {
+        if self.routine.waypoints.is_empty() {
             if k > 0 {
                 let nothing =
                     Prediction::withheld(Withheld::NothingTaught, self.graph.nodes().len());
@@ -351,8 +382,8 @@ impl Teacher {
             }
             return out;
         }
-        let mut routine = self.routine.clone();
-        let mut moves = self.moves.clone();
+        let mut routine = self.routine.waypoints.clone();
+        let mut moves = self.routine.moves.clone();
         for _ in 0..k {
             let p = self.choose(&routine, &moves, opts);
             let next = match (&p.pose, &p.relative) {
@@ -382,67 +413,53 @@ impl Teacher {
     /// move and teaches nothing.
     pub fn finish_routine(&mut self) {
         for e in &mut self.experts {
-            e.learn(&self.routine);
+            e.learn(&self.routine.waypoints);
         }
-        for mm in self.outcomes.iter().filter_map(|c| c.adjusted_mm) {
-            self.acceptance.add(mm);
+        let adjusted = self.offer_rule.adjusted_mm();
+        if self.noise.learn_routine(&self.routine.waypoints, adjusted) {
+            self.offer_rule.follow_noise(self.noise.matters(), false);
         }
-        let noise = match self.estimator.as_mut() {
-            Some(e) => {
-                let suggested: Vec<bool> = self.outcomes.iter().map(|c| c.suggested).collect();
-                e.learn_taught(&self.routine, &suggested);
-                e.estimate().unwrap_or(Noise::EXACT)
-            }
-            None => self.noise,
-        };
-        let tolerance = Teacher::tolerance_for(&self.config, &noise, &self.acceptance);
-        if noise != self.noise || tolerance != self.tolerance {
-            self.noise = noise;
-            self.tolerance = tolerance;
-            self.become_noisy_if_it_matters();
-        }
-        self.outcomes.clear();
+        self.offer_rule.finish_routine();
         self.graph.commit();
+        let r = &self.routine;
         if self.config.learn_within_routine {
-            for x in &self.moves[self.assimilated..] {
+            for x in &r.moves[r.assimilated..] {
                 self.graph.push(x);
             }
-        } else if !self.moves.is_empty() {
+        } else if !r.moves.is_empty() {
             let psi = if self.config.predict.scale.learn_scaled {
                 self.routine_scale_estimate()
             } else {
                 1.0
             };
-            for x in &self.moves {
+            for x in &self.routine.moves {
                 self.graph.push(&scale_translation(x, psi));
             }
         }
         self.graph.end_routine();
-        self.routine.clear();
-        self.moves.clear();
-        self.assimilated = 0;
+        self.routine.waypoints.clear();
+        self.routine.moves.clear();
+        self.routine.assimilated = 0;
         self.look_ahead();
     }
 
     /// Learn-Scaled-HMM: ψ of the finished routine against the current model, when the routine is
     /// no longer than the model's depth; 1 unless the gain is material.
     fn routine_scale_estimate(&self) -> f64 {
+        let moves = &self.routine.moves;
         let stats = self.graph.stats();
-        if stats.states < 2 || self.moves.len() > stats.depth {
+        if stats.states < 2 || moves.len() > stats.depth {
             return 1.0;
         }
         let hmm = Hmm::new(&self.graph);
         let sc = &self.config.predict.scale;
         let opts = PredictOptions {
-            horizon: self.moves.len(),
+            horizon: moves.len(),
             ..self.config.predict.clone()
         };
         let objective = |psi: f64| {
-            let scaled: Vec<Observation> = self
-                .moves
-                .iter()
-                .map(|x| scale_translation(x, psi))
-                .collect();
+            let scaled: Vec<Observation> =
+                moves.iter().map(|x| scale_translation(x, psi)).collect();
             super::cdhmm::predict::forward::window_log_likelihood(&hmm, &scaled, &opts)
         };
         let base = objective(1.0);
@@ -511,7 +528,7 @@ pub(super) mod tests {
                 pose([1e300, -1e300, 6.0], 0.4),
             ],
         ];
-        for profile in [Profile::Seed, Profile::Default] {
+        for profile in [Profile::Dissertation, Profile::Default] {
             let mut t = Teacher::new(EngineConfig::profile(profile)).unwrap();
             let finite = |p: &Prediction| {
                 p.pose.is_none_or(|q| {
@@ -555,7 +572,7 @@ pub(super) mod tests {
 
     #[test]
     fn undo_gives_the_model_of_the_shorter_routine() {
-        for profile in [Profile::Default, Profile::Seed] {
+        for profile in [Profile::Default, Profile::Dissertation] {
             let config = EngineConfig::profile(profile);
             let first = stitches(12, 0.0);
             let second = stitches(14, 1000.0);

@@ -1,35 +1,92 @@
 //! The offer rule over every expert's candidates: each candidate's `p_useful` from the cell's
 //! calibration, the likeliest one offered when it reaches the threshold; what every taught
 //! waypoint counts of the candidates proposed for it (and takes back when undone); the
-//! operator's verdicts on what was offered.
+//! operator's verdicts on what was offered. [`OfferRuleState`] holds the calibration and, per
+//! waypoint of the routine being taught, what that waypoint counted.
 
-use super::{Counted, Teacher, same_pose};
+use super::Ahead;
 use crate::engine::cdhmm::predict::{Prediction, Withheld};
 use crate::engine::config::OfferRule;
 use crate::engine::experts::acceptance::Verdict;
-use crate::engine::experts::{Candidate, Proposer};
+use crate::engine::experts::calibration::Calibration;
+use crate::engine::experts::{Candidate, Evidence, Proposer};
 use crate::engine::pose::{Move, Pose};
 
-impl Teacher {
-    /// What the waypoint `pose` about to be taught counts (with an offer rule, from the second
-    /// waypoint of a routine): every candidate proposed for it, right or not, and the chosen one
-    /// by its first-stage estimate, recorded in the calibration; and the suggestion offered for
-    /// it. [`Teacher::forget_last_outcomes`] takes it back.
-    pub(super) fn count_outcomes(&mut self, pose: &Pose) -> Counted {
-        let offered = &self.ahead.prediction;
+/// The offer rule's state: the cell's calibration of its experts' candidates, and what each
+/// waypoint of the routine being taught counted in it.
+#[derive(Debug, Clone)]
+pub(super) struct OfferRuleState {
+    /// What the cell learned of its candidates' outcomes (with an offer rule).
+    calibration: Calibration,
+    /// Per waypoint of the current routine: the outcomes its teaching counted, for undo and
+    /// the operator's verdicts.
+    counted: Vec<Counted>,
+}
+
+/// The outcomes one taught waypoint counted: every candidate's, and the chosen one's by its
+/// first-stage estimate; and the suggestion offered for it, with the operator's verdict.
+#[derive(Debug, Clone, Default)]
+struct Counted {
+    candidates: Vec<(Evidence, f64)>,
+    chosen: Option<(f64, f64)>,
+    /// The waypoint was taught as the cell offered it (a suggestion taken as is).
+    suggested: bool,
+    /// The pose the cell offered for this waypoint, if it offered one, and which of
+    /// `candidates` stand at it (the chosen one is the offered one).
+    offered: Option<(Pose, Vec<usize>)>,
+    /// The operator's verdict on that suggestion ([`OfferRuleState::feedback`]).
+    verdict: Option<Verdict>,
+    /// An adjusted suggestion's distance to this waypoint (mm).
+    adjusted_mm: Option<f64>,
+    /// The calibration as it was before the waypoint's change of the noise changed its prior
+    /// ([`OfferRuleState::follow_noise`]), for undo.
+    calibration_before: Option<Calibration>,
+}
+
+/// Two poses are the same suggestion: equal to what storing them leaves.
+fn same_pose(a: &Pose, b: &Pose) -> bool {
+    a.distance_to(b) < 1e-6 && a.angle_to(b) < 1e-6
+}
+
+impl OfferRuleState {
+    /// A new cell's: the exact cell's prior ([`OfferRuleState::follow_noise`] gives a cell whose
+    /// noise matters its own).
+    pub(super) fn new() -> OfferRuleState {
+        OfferRuleState {
+            calibration: Calibration::new(),
+            counted: Vec::new(),
+        }
+    }
+
+    /// The cell's calibration of its experts' candidates.
+    pub(super) fn calibration(&self) -> &Calibration {
+        &self.calibration
+    }
+
+    /// What the waypoint `pose` about to be taught counts: with `outcome` (how right a proposed
+    /// pose was for it: given with an offer rule, from the second waypoint of a routine) every
+    /// candidate proposed for it in `ahead`, right or not, and the chosen one by its first-stage
+    /// estimate, recorded in the calibration; and the suggestion offered for it. Returns
+    /// whether it was taught as suggested. [`OfferRuleState::undo`] takes it back.
+    pub(super) fn count(
+        &mut self,
+        pose: &Pose,
+        ahead: &Ahead,
+        outcome: Option<impl Fn(&Pose) -> f64>,
+    ) -> bool {
+        let offered = &ahead.prediction;
         let offered = offered.pose.filter(|_| offered.offered());
         let suggested = offered.is_some_and(|p| same_pose(&p, pose));
-        let mut counted = match self.config.offer {
-            Some(_) if !self.routine.is_empty() => {
-                let candidates = &self.ahead.candidates;
-                let outcome = |c: &Candidate| self.noise.outcome(&self.tolerance, &c.pose, pose);
+        let mut counted = match outcome {
+            Some(outcome) => {
+                let candidates = &ahead.candidates;
                 let chosen = self
                     .likeliest(candidates)
-                    .map(|(first, c)| (first, outcome(c)));
+                    .map(|(first, c)| (first, outcome(&c.pose)));
                 Counted {
                     candidates: candidates
                         .iter()
-                        .map(|c| (c.evidence, outcome(c)))
+                        .map(|c| (c.evidence, outcome(&c.pose)))
                         .collect(),
                     chosen,
                     offered: offered.map(|o| {
@@ -44,7 +101,7 @@ impl Teacher {
                     ..Counted::default()
                 }
             }
-            _ => Counted::default(),
+            None => Counted::default(),
         };
         counted.suggested = suggested;
         for (evidence, right) in &counted.candidates {
@@ -53,45 +110,69 @@ impl Teacher {
         if let Some((first, right)) = counted.chosen {
             self.calibration.record_chosen(first, right);
         }
-        counted
+        self.counted.push(counted);
+        suggested
     }
 
-    /// The threshold on `p_useful` the cell offers at now: set; or its own, for the target
-    /// precision (an exact cell, on its calibration's first-stage estimate) or
-    /// [`OfferRule::HEAD_START`] (a cell whose noise matters). None without an offer rule.
-    pub fn threshold(&self) -> Option<f64> {
-        let rule = self.config.offer?;
-        Some(rule.threshold.unwrap_or_else(|| {
-            if self.noisy() {
+    /// Follows whether the cell's noise matters ([`super::learned_noise::LearnedNoise::matters`]):
+    /// a cell whose noise matters gets a calibration learned from its own outcomes only (the
+    /// prior's counts are exact programs'); a cell whose learned noise stops mattering (exact
+    /// revisits showed an exact teacher,
+    /// [`crate::engine::experts::noise::estimate::NoiseEstimator::is_exact`]) goes back to the
+    /// exact cell's prior. With `for_undo` (the noise changed while a routine is taught), the
+    /// newest waypoint keeps the calibration it replaced.
+    pub(super) fn follow_noise(&mut self, noisy: bool, for_undo: bool) {
+        if noisy == self.calibration.is_uninformed() {
+            return;
+        }
+        let fresh = if noisy {
+            Calibration::uninformed()
+        } else {
+            Calibration::new()
+        };
+        let replaced = std::mem::replace(&mut self.calibration, fresh);
+        if for_undo && let Some(last) = self.counted.last_mut() {
+            last.calibration_before = Some(replaced);
+        }
+    }
+
+    /// The threshold on `p_useful` the cell offers at now with `rule`: set; or its own, for
+    /// the target precision (an exact cell, on its calibration's first-stage estimate) or
+    /// [`OfferRule::HEAD_START`] (a cell whose noise matters, `noisy`).
+    pub(super) fn threshold(&self, rule: &OfferRule, noisy: bool) -> f64 {
+        rule.threshold.unwrap_or_else(|| {
+            if noisy {
                 OfferRule::HEAD_START
             } else {
                 self.calibration.threshold(rule.target)
             }
-        }))
+        })
     }
 
     /// The operator's verdict on the suggestion offered for waypoint `index` of the current
-    /// routine (see [`super::experts::acceptance`]): `offered` is the suggestion's pose, and an
-    /// adjusted one comes with the pose finally taught. A verdict that is not about what this
-    /// cell offered there is ignored: no offer, another pose, a waypoint that is not the one
-    /// accepted or adjusted to, or one already judged. Returns whether it was taken.
+    /// routine (taught as `routine[index]`; see [`crate::engine::experts::acceptance`]):
+    /// `offered` is the suggestion's pose, and an adjusted one comes with the pose finally
+    /// taught. A verdict that is not about what this cell offered there is ignored: no offer,
+    /// another pose, a waypoint that is not the one accepted or adjusted to, or one already
+    /// judged. Returns whether it was taken, and whether it changed the calibration.
     ///
     /// A suggestion rejected counts as wrong (its candidates' outcomes with it); an adjusted
     /// one's distance joins the verdicts the tolerance is learned from when the routine is
-    /// finished. Undoing the waypoint takes the verdict back.
-    pub fn feedback(
+    /// finished ([`OfferRuleState::adjusted_mm`]). Undoing the waypoint takes the verdict back.
+    pub(super) fn feedback(
         &mut self,
+        routine: &[Pose],
         index: usize,
         offered: &Pose,
         verdict: Verdict,
         taught_as: Option<&Pose>,
-    ) -> bool {
-        let (Some(taught), Some(counted)) = (self.routine.get(index), self.outcomes.get(index))
+    ) -> (bool, bool) {
+        let (Some(taught), Some(counted)) = (routine.get(index), self.counted.get_mut(index))
         else {
-            return false;
+            return (false, false);
         };
         let Some((pose, at)) = counted.offered.as_ref() else {
-            return false;
+            return (false, false);
         };
         let about_this = counted.verdict.is_none()
             && same_pose(pose, offered)
@@ -101,19 +182,18 @@ impl Teacher {
                 Verdict::Rejected => true,
             };
         if !about_this {
-            return false;
+            return (false, false);
         }
-        let (taught, at) = (*taught, at.clone());
-        let counted = &mut self.outcomes[index];
+        let at = at.clone();
         counted.verdict = Some(verdict);
         if verdict == Verdict::Adjusted {
-            counted.adjusted_mm = Some(offered.distance_to(&taught));
+            counted.adjusted_mm = Some(offered.distance_to(taught));
         }
         let mut changed = false;
         if verdict == Verdict::Rejected {
             // The calibration the waypoint's outcomes were counted in: the cell's, and the one
-            // an undo restores when the waypoint changed the cell's experts.
-            let mut snapshot = counted.before.as_mut().and_then(|b| b.calibration.as_mut());
+            // an undo restores when the waypoint changed the calibration's prior.
+            let mut snapshot = counted.calibration_before.as_mut();
             for i in at {
                 let (evidence, right) = &mut counted.candidates[i];
                 if *right > 0.0 {
@@ -136,23 +216,14 @@ impl Teacher {
                 changed = true;
             }
         }
-        if changed {
-            self.look_ahead();
-        }
-        true
+        (true, changed)
     }
 
-    pub(super) fn forget_last_outcomes(&mut self) {
-        let counted = self.outcomes.pop().unwrap_or_default();
-        for e in &mut self.experts {
-            e.undo();
-        }
-        if let Some(before) = counted.before {
-            self.noise = before.noise;
-            self.tolerance = before.tolerance;
-            if let Some(calibration) = before.calibration {
-                self.calibration = calibration;
-            }
+    /// Takes back what the newest waypoint of the routine being taught counted.
+    pub(super) fn undo(&mut self) {
+        let counted = self.counted.pop().unwrap_or_default();
+        if let Some(calibration) = counted.calibration_before {
+            self.calibration = calibration;
         }
         for (evidence, right) in counted.candidates {
             self.calibration.forget(&evidence, right);
@@ -162,14 +233,27 @@ impl Teacher {
         }
     }
 
+    /// The distances of the current routine's adjusted suggestions to the waypoints taught
+    /// (mm): what its verdicts teach the tolerance when it is finished.
+    pub(super) fn adjusted_mm(&self) -> impl Iterator<Item = f64> + '_ {
+        self.counted.iter().filter_map(|c| c.adjusted_mm)
+    }
+
+    /// The routine is finished: what its waypoints counted stays in the calibration for good.
+    pub(super) fn finish_routine(&mut self) {
+        self.counted.clear();
+    }
+
     /// The offer rule's prediction from the candidates: the likeliest one, offered when its
-    /// `p_useful` reaches the threshold (the model's own prediction when there is none).
+    /// `p_useful` reaches the threshold (the model's own prediction when there is none); `noisy`:
+    /// whether the cell's noise matters.
     pub(super) fn decide(
         &self,
         model: Prediction,
         candidates: &[Candidate],
         rule: &OfferRule,
         last: &Pose,
+        noisy: bool,
     ) -> Prediction {
         let Some((first, c)) = self.likeliest(candidates) else {
             return model;
@@ -177,7 +261,7 @@ impl Teacher {
         let p = self.calibration.chosen(first);
         let offered = match rule.threshold {
             Some(t) => p >= t,
-            None if self.noisy() => p >= OfferRule::HEAD_START,
+            None if noisy => p >= OfferRule::HEAD_START,
             None => self.calibration.offers(first, rule.target),
         };
         let c = *c;
@@ -196,10 +280,7 @@ impl Teacher {
     }
 
     /// The candidate with the highest first-stage `p_useful` (the first of equals), with it.
-    pub(super) fn likeliest<'a>(
-        &self,
-        candidates: &'a [Candidate],
-    ) -> Option<(f64, &'a Candidate)> {
+    fn likeliest<'a>(&self, candidates: &'a [Candidate]) -> Option<(f64, &'a Candidate)> {
         let mut best: Option<(f64, &Candidate)> = None;
         for c in candidates {
             let p = self.calibration.p_useful(&c.evidence);
@@ -333,12 +414,12 @@ mod tests {
             }
             assert_eq!(t.noise(), replayed.noise());
             assert_eq!(t.tolerance(), replayed.tolerance());
-            assert_eq!(t.acceptance, replayed.acceptance);
+            assert_eq!(t.noise.acceptance(), replayed.noise.acceptance());
             assert_eq!(t.calibration(), replayed.calibration());
             same_model(&t, &replayed);
             let prior = t.noise().tolerance();
             if judged {
-                assert!(t.acceptance.adjustments() >= MIN_ADJUSTMENTS);
+                assert!(t.noise.acceptance().adjustments() >= MIN_ADJUSTMENTS);
                 assert!(t.tolerance().mm < 0.85 * prior.mm, "{:?}", t.tolerance());
                 assert!(t.tolerance().mm >= t.noise().mm);
             } else {

@@ -12,7 +12,7 @@ use crate::kinematics::ReachPolicy;
 
 use super::wire::{In, Wire, both_ways, enum_both_ways};
 
-enum_both_ways!(Profile => Profile as "profile" { Seed, Default });
+enum_both_ways!(Profile => Profile as "profile" { Dissertation = Seed, Default });
 enum_both_ways!(ReachPolicy => ReachPolicy as "reach policy" { Withhold, Flag });
 enum_both_ways!(MergeRule => MergeRule as "merge rule" { Total, Incremental });
 

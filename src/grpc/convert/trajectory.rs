@@ -9,7 +9,10 @@ use crate::grpc::pb;
 
 use super::wire::{In, both_ways, enum_both_ways, required};
 
-enum_both_ways!(Criterion => SegmentCriterion as "segment criterion" { Direction, Seed });
+enum_both_ways!(Criterion => SegmentCriterion as "segment criterion" {
+    Direction,
+    ErrorOverStep = Seed,
+});
 
 both_ways!(TrajectorySample => TrajectorySample { t, pose, joints });
 both_ways!(TrajectorySettings => TrajectorySettings {

@@ -162,13 +162,17 @@ macro_rules! both_ways {
 
 /// An enum and its protobuf enum (an `i32` on the wire), variant for variant; the protobuf
 /// one's `Unspecified` is no value. An optional field refuses an unknown number (`"unknown
-/// {what} 7"`); a required one `Unspecified` too (`"{what} is required"`).
+/// {what} 7"`); a required one `Unspecified` too (`"{what} is required"`). A variant the
+/// protobuf enum names otherwise is written `Variant = ProtobufVariant` (the wire keeps its
+/// published name).
 macro_rules! enum_both_ways {
-    ($res:ident => $msg:ident as $what:literal { $($variant:ident),* $(,)? }) => {
+    ($res:ident => $msg:ident as $what:literal { $($variant:ident $(= $wire:ident)?),* $(,)? }) => {
         impl From<$res> for $crate::grpc::pb::$msg {
             fn from(v: $res) -> $crate::grpc::pb::$msg {
                 match v {
-                    $($res::$variant => $crate::grpc::pb::$msg::$variant,)*
+                    $($res::$variant => $crate::grpc::convert::wire::enum_both_ways!(
+                        @pb $msg, $variant $($wire)?
+                    ),)*
                 }
             }
         }
@@ -180,7 +184,8 @@ macro_rules! enum_both_ways {
             fn back(m: i32, _: &str) -> $crate::grpc::convert::wire::In<Option<$res>> {
                 match $crate::grpc::pb::$msg::try_from(m) {
                     Ok($crate::grpc::pb::$msg::Unspecified) => Ok(None),
-                    $(Ok($crate::grpc::pb::$msg::$variant) => Ok(Some($res::$variant)),)*
+                    $(Ok($crate::grpc::convert::wire::enum_both_ways!(@pb $msg, $variant $($wire)?))
+                        => Ok(Some($res::$variant)),)*
                     Err(_) => Err(tonic::Status::invalid_argument(format!(
                         concat!("unknown ", $what, " {}"),
                         m
@@ -200,6 +205,13 @@ macro_rules! enum_both_ways {
                     })
             }
         }
+    };
+    // The protobuf variant of a variant: its own name, or the one given.
+    (@pb $msg:ident, $variant:ident) => {
+        $crate::grpc::pb::$msg::$variant
+    };
+    (@pb $msg:ident, $variant:ident $wire:ident) => {
+        $crate::grpc::pb::$msg::$wire
     };
 }
 

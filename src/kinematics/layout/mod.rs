@@ -26,17 +26,18 @@
 //! reached counts first and the surrogate second (lexicographic), and the surrogate leads the
 //! optimiser towards unreached targets on a plateau of equal counts.
 //!
-//! The search: (1) seeds, on a subsample of the targets ([`LayoutOptions::sample_targets`],
-//! spread out in space): today's heuristic ([`super::placement`]: the per-axis median of the
-//! targets at a comfortable point in front of the base), the caller's
-//! [`LayoutOptions::extra_seeds`], a grid of bases around the median facing it, and random bases
-//! facing random targets (seeded, so results are deterministic); (2) Nelder–Mead (`argmin`)
-//! from the heuristic, the extra seeds and the best distinct seeds (`keep + 5` of them);
-//! (3) every refined candidate, the heuristic, the extra seeds and the best `4 · keep` distinct
-//! seeds evaluated on all targets, a last Nelder–Mead polish on all targets of the best `keep`
-//! distinct ones, and the best distinct [`LayoutOptions::keep`] returned. The heuristic and the extra seeds are always among the
-//! candidates scored on all targets, so the best placement never reaches fewer targets than
-//! they do.
+//! The search: (1) coarse bases, scored on a subsample of the targets
+//! ([`LayoutOptions::sample_targets`], spread out in space): today's heuristic
+//! ([`super::placement`]: the per-axis median of the targets at a comfortable point in front of
+//! the base), the caller's [`LayoutOptions::extra_bases`], a grid of bases around the median
+//! facing it, and random bases facing random targets (drawn from [`LayoutOptions::seed`], so
+//! results are deterministic); (2) Nelder–Mead (`argmin`) from the heuristic, the extra bases
+//! and the best distinct coarse bases (`keep + 5` of them); (3) every refined candidate, the
+//! heuristic, the extra bases and the best `4 · keep` distinct coarse bases evaluated on all
+//! targets, a last Nelder–Mead polish on all targets of the best `keep` distinct ones, and the
+//! best distinct [`LayoutOptions::keep`] returned. The heuristic and the extra bases are always
+//! among the candidates scored on all targets, so the best placement never reaches fewer
+//! targets than they do.
 
 use std::f64::consts::{FRAC_PI_4, PI};
 
@@ -76,16 +77,17 @@ pub struct LayoutOptions {
     pub mounting: BaseMounting,
     /// TCP in the flange (`tool0`) frame, mm; default identity (TCP at the flange).
     pub tool: PoseValues,
-    /// Seed of the random seeding stage: the same inputs and seed give the same placements.
+    /// Random seed of the coarse stage's random bases: the same inputs and seed give the same
+    /// placements.
     pub seed: u64,
-    /// Placement evaluations on the target subsample for seeding and refinement (default 1200;
-    /// 40 % seeding, 60 % Nelder–Mead). At least 20.
+    /// Placement evaluations on the target subsample for the coarse stage and refinement
+    /// (default 1200; 40 % coarse, 60 % Nelder–Mead). At least 20.
     pub evaluations: usize,
     /// Evaluations of the final Nelder–Mead polish on all targets, for each of the best
     /// [`LayoutOptions::keep`] distinct candidates (default 60; 0 skips it). Only used when there are more targets than
     /// [`LayoutOptions::sample_targets`].
     pub polish_evaluations: usize,
-    /// How many targets the seeding and refinement stages look at (default 64): half evenly
+    /// How many targets the coarse and refinement stages look at (default 64): half evenly
     /// spaced in program order, half the farthest from those (so outliers are seen). All targets
     /// are evaluated at the end.
     pub sample_targets: usize,
@@ -100,12 +102,12 @@ pub struct LayoutOptions {
     /// How far beyond the targets' bounding box the base origin may stand (mm); default (`None`):
     /// the arm's reach plus its shoulder height.
     pub bound_margin_mm: Option<f64>,
-    /// Where the heuristic seed puts the targets' per-axis median in the base frame (mm);
+    /// Where the heuristic base puts the targets' per-axis median in the base frame (mm);
     /// default (`None`): half the arm's reach in front of the base at shoulder height.
     pub median_in_base_mm: Option<[f64; 3]>,
     /// Further bases (work frame, mm) to start from and to score as given, e.g. the cell's
     /// current placement; the result is never worse than any of them.
-    pub extra_seeds: Vec<PoseValues>,
+    pub extra_bases: Vec<PoseValues>,
     /// A chosen solution whose smallest Jacobian singular value (in reach units,
     /// [`crate::kinematics::Robot::sigma_min`]) is below this is singular (default
     /// [`DEFAULT_MIN_SINGULAR_VALUE`], as [`ReachConfig`]).
@@ -132,7 +134,7 @@ impl Default for LayoutOptions {
             distinct_yaw_rad: PI / 6.0,
             bound_margin_mm: None,
             median_in_base_mm: None,
-            extra_seeds: Vec::new(),
+            extra_bases: Vec::new(),
             min_singular_value: DEFAULT_MIN_SINGULAR_VALUE,
             comfort_joint_margin_rad: 0.35,
             comfort_sigma: 0.05,
@@ -210,7 +212,7 @@ pub fn search_layout(
     let full: Vec<usize> = (0..n).collect();
     let bounds = eval.bounds(options.bound_margin_mm);
 
-    // (1) Seeds, scored on the sample.
+    // (1) Coarse bases, scored on the sample.
     let median = median_position(targets);
     let comfort = options
         .median_in_base_mm
@@ -218,37 +220,37 @@ pub fn search_layout(
         .unwrap_or_else(|| eval.shell.comfort_point_mm());
     let heuristic = eval.base_facing(&median, 0.0, &comfort);
     let extras: Vec<Pose> = options
-        .extra_seeds
+        .extra_bases
         .iter()
         .filter_map(|v| v.to_pose().ok())
         .collect();
-    let mut seeds: Vec<Params> = vec![heuristic];
-    seeds.extend(extras.iter().map(|p| eval.params_of(p)));
+    let mut coarse_bases: Vec<Params> = vec![heuristic];
+    coarse_bases.extend(extras.iter().map(|p| eval.params_of(p)));
     let reach = eval.shell.reach_mm;
     let shoulder = eval.shell.shoulder_height_mm;
     'grid: for d in [0.3, 0.5, 0.7] {
         for h in [shoulder - 0.3 * reach, shoulder, shoulder + 0.3 * reach] {
             for k in 0..8 {
                 let yaw = k as f64 * FRAC_PI_4;
-                seeds.push(eval.base_facing(&median, yaw, &Vector3::new(d * reach, 0.0, h)));
-                if seeds.len() >= options.evaluations / 4 {
+                coarse_bases.push(eval.base_facing(&median, yaw, &Vector3::new(d * reach, 0.0, h)));
+                if coarse_bases.len() >= options.evaluations / 4 {
                     break 'grid;
                 }
             }
         }
     }
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
-    let coarse_budget = (options.evaluations * 2 / 5).max(seeds.len());
-    while seeds.len() < coarse_budget {
+    let coarse_budget = (options.evaluations * 2 / 5).max(coarse_bases.len());
+    while coarse_bases.len() < coarse_budget {
         let anchor = targets[sample[rng.random_range(0..sample.len())]].position();
         let yaw = rng.random_range(-PI..PI);
         let d = rng.random_range(0.2..0.8) * reach;
         let h = shoulder + rng.random_range(-0.5..0.5) * reach;
         let mut p = eval.base_facing(&anchor, yaw, &Vector3::new(d, 0.0, h));
         p[3] = wrap_angle(p[3] + rng.random_range(-0.4..0.4));
-        seeds.push(p);
+        coarse_bases.push(p);
     }
-    let mut coarse: Vec<(Params, f64)> = seeds
+    let mut coarse: Vec<(Params, f64)> = coarse_bases
         .iter()
         .map(|p| {
             let p = bounds.clamp(p);
@@ -256,10 +258,10 @@ pub fn search_layout(
         })
         .collect();
     let used = coarse.len();
-    // Best first; the sort is stable, so ties keep seed order (the heuristic first).
+    // Best first; the sort is stable, so ties keep their order (the heuristic first).
     coarse.sort_by(|a, b| b.1.total_cmp(&a.1));
 
-    // (2) Nelder–Mead from the heuristic, the extra seeds and the best distinct seeds.
+    // (2) Nelder–Mead from the heuristic, the extra bases and the best distinct coarse ones.
     let mut starts: Vec<Params> = vec![bounds.clamp(&heuristic)];
     starts.extend(extras.iter().map(|p| bounds.clamp(&eval.params_of(p))));
     let wanted = starts.len() + options.keep + 5;
@@ -278,8 +280,8 @@ pub fn search_layout(
         let p = nelder_mead(&eval, &bounds, &sample, s, per_start);
         pool.push(Candidate::of(&eval, &eval.base_pose(&p)));
     }
-    // (3) Candidates on all targets: the refined ones, the heuristic, the extra seeds as given,
-    // and the best distinct seeds.
+    // (3) Candidates on all targets: the refined ones, the heuristic, the extra bases as given,
+    // and the best distinct coarse ones.
     pool.push(Candidate::of(&eval, &eval.base_pose(&heuristic)));
     pool.extend(extras.iter().map(|p| Candidate::of(&eval, p)));
     let mut added = 0;
@@ -376,9 +378,9 @@ impl LayoutOptions {
         {
             return bad("median_in_base_mm must be finite");
         }
-        if let Some(i) = self.extra_seeds.iter().position(|s| s.to_pose().is_err()) {
+        if let Some(i) = self.extra_bases.iter().position(|s| s.to_pose().is_err()) {
             return Err(LayoutError::BadOptions(format!(
-                "extra_seeds[{i}] is not a valid pose"
+                "extra_bases[{i}] is not a valid pose"
             )));
         }
         if !(self.min_singular_value.is_finite() && self.min_singular_value >= 0.0) {
@@ -587,7 +589,7 @@ mod tests {
             &robot,
             &targets,
             &LayoutOptions {
-                extra_seeds: vec![heuristic.values()],
+                extra_bases: vec![heuristic.values()],
                 ..options
             },
         )
@@ -660,7 +662,7 @@ mod tests {
                 ..ok.clone()
             },
             LayoutOptions {
-                extra_seeds: vec![PoseValues {
+                extra_bases: vec![PoseValues {
                     x: f64::INFINITY,
                     ..Pose::identity().values()
                 }],

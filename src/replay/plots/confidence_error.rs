@@ -180,7 +180,7 @@ mod tests {
             ..EngineConfig::default()
         };
         assert!(confidence_desc(&no_rule).contains("misfit"));
-        let seed = EngineConfig::profile(crate::engine::Profile::Seed);
-        assert_eq!(confidence_desc(&seed), "confidence = φ");
+        let dissertation = EngineConfig::profile(crate::engine::Profile::Dissertation);
+        assert_eq!(confidence_desc(&dissertation), "confidence = φ");
     }
 }

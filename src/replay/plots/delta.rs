@@ -1,4 +1,4 @@
-//! Median Cartesian and angle error of the offered guesses versus the complexity δ (seed
+//! Median Cartesian and angle error of the offered guesses versus the complexity δ (dissertation
 //! Fig. 4.10), from the δ sweep.
 
 use plotters::coord::Shift;

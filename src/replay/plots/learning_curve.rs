@@ -1,4 +1,4 @@
-//! Median error versus the number of moves the model had assimilated when it guessed (seed
+//! Median error versus the number of moves the model had assimilated when it guessed (dissertation
 //! Fig. 4.13), pooled over programs in bins that double in width, with the offered and useful %
 //! of each bin below.
 

@@ -1,15 +1,16 @@
-//! Plots of a replay: the seed's figures 4.10–4.13 and a confidence/error scatter, as PNG and SVG.
+//! Plots of a replay: the dissertation's figures 4.10–4.13 and a confidence/error scatter, as PNG
+//! and SVG.
 //!
 //! Six figures ([`Figure`]), all over the scoreboard's headline population (waypoints with at
 //! least two predecessors), one file each:
 //!
 //! - [`phi_min`] ([`Figure::PhiMin`]): offered % and useful % of predictable waypoints versus
-//!   the confidence threshold φ_min (seed Fig. 4.11).
+//!   the confidence threshold φ_min (dissertation Fig. 4.11).
 //! - [`delta`] ([`Figure::Delta`]): median Cartesian and angle error of the offered guesses
-//!   versus the complexity δ (seed Fig. 4.10).
+//!   versus the complexity δ (dissertation Fig. 4.10).
 //! - [`learning_curve`] ([`Figure::LearningCurve`]): median error versus the number of moves
-//!   the model had assimilated when it guessed (seed Fig. 4.13), pooled over programs in bins
-//!   that double in width, with the offered and useful % of each bin below.
+//!   the model had assimilated when it guessed (dissertation Fig. 4.13), pooled over programs in
+//!   bins that double in width, with the offered and useful % of each bin below.
 //! - [`confidence_error`] ([`Figure::ConfidenceError`]): the engine's confidence figure
 //!   (`p_useful` under the experts' offer rule) against the Cartesian error of each offered
 //!   guess.

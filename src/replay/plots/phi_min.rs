@@ -1,5 +1,5 @@
 //! Offered % and useful % of predictable waypoints versus the confidence threshold φ_min
-//! (seed Fig. 4.11), from the φ_min sweep.
+//! (dissertation Fig. 4.11), from the φ_min sweep.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -1,7 +1,7 @@
-//! A method's figures at another's precision. The seed's cost model lets a method that offers
-//! more at a lower precision save more, so "saves more than the engine" may only mean "is less
-//! choosy". Here a method offers only its guesses whose own confidence figure reaches a cut, and
-//! the cut that saves most while its offers are at least as precise as a floor (the engine's
+//! A method's figures at another's precision. The dissertation's cost model lets a method that
+//! offers more at a lower precision save more, so "saves more than the engine" may only mean "is
+//! less choosy". Here a method offers only its guesses whose own confidence figure reaches a cut,
+//! and the cut that saves most while its offers are at least as precise as a floor (the engine's
 //! precision on the same programs) is taken: the scoreboard's row *best baseline at the engine's
 //! precision*. Over the headline population (waypoints with ≥ 2 predecessors), pooled over the
 //! programs. A guess without a confidence figure is offered only when every guess is.

@@ -1,4 +1,4 @@
-//! The scoreboard figures of replayed records (ALGORITHM §5, seed §4.3.1).
+//! The scoreboard figures of replayed records (ALGORITHM §5, dissertation §4.3.1).
 //!
 //! [`Scores`] turns a set of [`WaypointRecord`]s (from [`replay_program`]) into the scoreboard
 //! line of one method. Totals are pooled over waypoints (not averaged over programs): a

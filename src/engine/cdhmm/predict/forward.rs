@@ -1,5 +1,5 @@
-//! The HMM forward recursion over a window of moves, in log space (ALGORITHM §3, seed §3.10):
-//! the posterior over the current state, the window's likelihood and misfit, and ν, the pmf
+//! The HMM forward recursion over a window of moves, in log space (ALGORITHM §3, dissertation
+//! §3.10): the posterior over the current state, the window's likelihood and misfit, and ν, the pmf
 //! over the next state.
 //!
 //! With `match_radius` set, states farther than that from a window move are treated as not

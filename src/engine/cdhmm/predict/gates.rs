@@ -1,4 +1,4 @@
-//! The gates that decide whether a proposal is offered (ALGORITHM §3, seed §3.11), and the
+//! The gates that decide whether a proposal is offered (ALGORITHM §3, dissertation §3.11), and the
 //! figures they read. In order:
 //!
 //! - **end of routine**: the probability that the matched states are where routines end (or that
@@ -7,7 +7,8 @@
 //! - **match quality** (`misfit`): the window's mean squared Mahalanobis distance to the states the
 //!   forward pass put it in. The log-space recursion yields a sharp posterior even for a window
 //!   the model has never seen; the misfit says whether it was seen.
-//! - **confidence φ** = `1 − H(ν)/log₂|Q|`, the seed's gate: how unambiguous the next state is.
+//! - **confidence φ** = `1 − H(ν)/log₂|Q|`, the dissertation's gate: how unambiguous the next state
+//!   is.
 //! - **spread**: the expected squared Mahalanobis distance between the proposal and the moves
 //!   that followed the matched states (the spread of ν around the mode plus each state's own
 //!   scatter). A proposal from a loosely merged state is not precise enough to offer.

@@ -1,5 +1,5 @@
-//! Prediction and confidence (ALGORITHM §3, seed §3.10–3.11, §4.5.1): the orchestration that
-//! turns the moves of the routine being taught into a [`Prediction`].
+//! Prediction and confidence (ALGORITHM §3, dissertation §3.10–3.11, §4.5.1): the orchestration
+//! that turns the moves of the routine being taught into a [`Prediction`].
 //!
 //! In the order the window meets them: the predictor conditions on the last `h` moves (the
 //! *window*) and runs the HMM forward recursion in log space (`forward`, over the

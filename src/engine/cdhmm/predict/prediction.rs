@@ -60,7 +60,7 @@ pub struct Prediction {
     pub pose: Option<Pose>,
     /// The proposed move from the last waypoint (SRHCT 7-vector, canonical sign).
     pub relative: Option<Observation>,
-    /// The seed's confidence φ ∈ [0, 1].
+    /// The dissertation's confidence φ ∈ [0, 1].
     pub phi: f64,
     /// ψ: maps the taught window onto the model (a 2× copy of a pattern gives 0.5).
     pub psi: f64,
@@ -120,7 +120,7 @@ impl Prediction {
     }
 
     /// Composes the proposed move onto the last taught pose.
-    pub(crate) fn place(mut self, last: &Pose) -> Prediction {
+    pub(crate) fn placed_after(mut self, last: &Pose) -> Prediction {
         if let Some(x) = &self.relative {
             match Move::from_observation(x) {
                 Ok(m) => self.pose = Some(last.then(&m)),

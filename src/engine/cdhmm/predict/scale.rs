@@ -1,5 +1,5 @@
-//! Scale estimation (ALGORITHM §4, seed §4.2.2): how much larger or smaller the taught routine
-//! is than a learned pattern.
+//! Scale estimation (ALGORITHM §4, dissertation §4.2.2): how much larger or smaller the taught
+//! routine is than a learned pattern.
 //!
 //! **Convention.** ψ maps the taught window onto the model: only translations are scaled,
 //! `Ψ = diag(ψ, ψ, ψ, 1, 1, 1, 1)`, and the model is asked about `Ψx`. A copy of a learned

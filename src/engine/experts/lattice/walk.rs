@@ -594,7 +594,7 @@ pub(crate) mod tests {
         assert!(w.rms_mm < 1.0 && w.rms_mm > 0.1, "{}", w.rms_mm);
     }
 
-    /// A joystick operator's scatter: 11.5 mm per axis (20 mm 3-D RMS, the seed's online
+    /// A joystick operator's scatter: 11.5 mm per axis (20 mm 3-D RMS, the dissertation's online
     /// teaching), matched at the engine's widened tolerances for poses (1.5 × √6 σ) and for
     /// moves (1.5 × √12 σ).
     const JOYSTICK_SIGMA: f64 = 11.5;

@@ -4,8 +4,8 @@
 //! with an error; [`Noise`] is its one-sigma per axis, in position (mm) and in rotation (rad,
 //! per axis of the rotation vector). Offline programs are exact ([`Noise::EXACT`]).
 //!
-//! **Where it comes from.** Set from a calibration routine, the seed's §4.5.1: the operator jogs
-//! to one unreferenced point several times and the scatter of the recorded poses is the noise
+//! **Where it comes from.** Set from a calibration routine, the dissertation's §4.5.1: the operator
+//! jogs to one unreferenced point several times and the scatter of the recorded poses is the noise
 //! ([`Noise::from_scatter`]; the simulation's cells are set that way).
 //!
 //! **What it changes.** Two elements read from noisy waypoints differ even when they mean the
@@ -28,7 +28,7 @@ pub const MATCH_SIGMAS: f64 = 1.5;
 
 /// Per-axis sigmas from the meant waypoint within which an operator takes a suggestion as is:
 /// half the effective target width 4.133 σ (Crossman; MacKenzie 1992), as the simulated
-/// operator decides (`sim/operator.rs`).
+/// operator decides (`simulation/operator.rs`).
 pub const ACCEPT_SIGMAS: f64 = 4.133 / 2.0;
 
 /// Teaching noise: one-sigma error per axis of a taught waypoint.
@@ -100,12 +100,12 @@ impl Noise {
 
     /// The tolerance an operator with this noise accepts a suggestion within, before any
     /// feedback tells: half the effective target width of their own placements (Crossman's
-    /// 4.133 σ, as the simulated operator has it, [`ACCEPT_SIGMAS`]), never tighter than the
-    /// seed's 1 mm / 0.1 rad.
+    /// 4.133 σ, as the simulated operator has it, [`ACCEPT_SIGMAS`]), never tighter than
+    /// [`Tolerance::USEFUL`] (1 mm / 0.1 rad).
     pub fn tolerance(&self) -> Tolerance {
         Tolerance {
-            mm: Tolerance::SEED.mm.max(ACCEPT_SIGMAS * self.mm),
-            rad: Tolerance::SEED.rad.max(ACCEPT_SIGMAS * self.rad),
+            mm: Tolerance::USEFUL.mm.max(ACCEPT_SIGMAS * self.mm),
+            rad: Tolerance::USEFUL.rad.max(ACCEPT_SIGMAS * self.rad),
         }
     }
 
@@ -208,7 +208,7 @@ pub(crate) mod tests {
     #[test]
     fn outcomes_are_judged_with_the_taught_waypoints_error() {
         let at = |x: f64| Pose::new([x, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]).unwrap();
-        let t = Tolerance::SEED;
+        let t = Tolerance::USEFUL;
         assert_eq!(Noise::EXACT.judging(&t), t);
         assert_eq!(Noise::EXACT.outcome(&t, &at(0.9), &at(0.0)), 1.0);
         assert_eq!(Noise::EXACT.outcome(&t, &at(1.1), &at(0.0)), 0.0);
@@ -234,14 +234,17 @@ pub(crate) mod tests {
     #[test]
     fn widening_keeps_an_exact_cells_tolerance_and_grows_with_the_noise() {
         for frame in Frame::ALL {
-            assert_eq!(Noise::EXACT.widen(Tolerance::SEED, frame), Tolerance::SEED);
+            assert_eq!(
+                Noise::EXACT.widen(Tolerance::USEFUL, frame),
+                Tolerance::USEFUL
+            );
         }
         let n = Noise {
             mm: 10.0,
             rad: 0.02,
         };
-        let pose = n.widen(Tolerance::SEED, Frame::Absolute);
-        let moves = n.widen(Tolerance::SEED, Frame::Work);
+        let pose = n.widen(Tolerance::USEFUL, Frame::Absolute);
+        let moves = n.widen(Tolerance::USEFUL, Frame::Work);
         assert!((pose.mm - MATCH_SIGMAS * 6f64.sqrt() * 10.0).abs() < 1e-9);
         assert!(moves.mm > pose.mm, "a move carries two errors");
         assert_eq!(

@@ -1,10 +1,10 @@
-//! The seed's comparison of its learner with MAP structure estimation (§4.4.1, Figure 4.14),
-//! on a corpus: for the engine (Learn-HMM at the run's settings) and for [`MapMethod`] (the same
-//! prediction over a MAP-merged model), the model size (states, edges, perplexity = mean
-//! out-degree, mean over programs as the seed reports them), the wall-clock time of learning and
-//! predicting every program, and, over a grid of confidence thresholds φ_min, the offered and
-//! useful shares and the median errors of what is offered (headline population: waypoints with
-//! ≥ 2 predecessors).
+//! The dissertation's comparison of its learner with MAP structure estimation (§4.4.1, Figure
+//! 4.14), on a corpus: for the engine (Learn-HMM at the run's settings) and for [`MapMethod`] (the
+//! same prediction over a MAP-merged model), the model size (states, edges, perplexity = mean
+//! out-degree, mean over programs as the dissertation reports them), the wall-clock time of
+//! learning and predicting every program, and, over a grid of confidence thresholds φ_min, the
+//! offered and useful shares and the median errors of what is offered (headline population:
+//! waypoints with ≥ 2 predecessors).
 //!
 //! Each method is replayed once at φ_min = 0 and its offered guesses are filtered by φ ≥ φ_min.
 //! Under the `seed` profile φ is the only gate, so this is exactly a replay at each φ_min; under a
@@ -74,7 +74,7 @@ pub struct Threshold {
     /// Pooled over the group's offered guesses.
     pub median_cart_mm: Option<f64>,
     pub median_angle_rad: Option<f64>,
-    /// The seed's "average median error": the mean over programs of each program's median.
+    /// The dissertation's "average median error": the mean over programs of each program's median.
     pub mean_program_median_mm: Option<f64>,
 }
 

@@ -1,11 +1,13 @@
-//! The seed's comparison learner: Stolcke and Omohundro's best-first MAP state merging
-//! (seed §3.9, Theorem 3.9, Eq. 3.3–3.6; proofs A.1.7 and A.2.1; compared in §4.4.1).
+//! The dissertation's comparison learner: Stolcke and Omohundro's best-first MAP state merging
+//! (dissertation §3.9, Theorem 3.9, Eq. 3.3–3.6; proofs A.1.7 and A.2.1; compared in §4.4.1).
 //!
-//! **Why it is here.** The seed argues that its similarity merge (Learn-HMM, [`crate::engine::cdhmm::learner`])
-//! beats MAP structure estimation on teach-pendant data, and reports the MAP learner's models and
-//! errors (Figure 4.14). This module is that learner, so the replay scoreboard can measure the
-//! claim on our corpus; nothing but the replay uses it, so it lives with the replay's methods. It builds the same [`ObservationGraph`] the engine predicts from (through
-//! [`ObservationGraph::push_to`]), so prediction is the engine's own; only the structure differs.
+//! **Why it is here.** The dissertation argues that its similarity merge (Learn-HMM,
+//! [`crate::engine::cdhmm::learner`]) beats MAP structure estimation on teach-pendant data, and
+//! reports the MAP learner's models and errors (Figure 4.14). This module is that learner, so the
+//! replay scoreboard can measure the claim on our corpus; nothing but the replay uses it, so it
+//! lives with the replay's methods. It builds the same [`ObservationGraph`] the engine predicts
+//! from (through [`ObservationGraph::push_to`]), so prediction is the engine's own; only the
+//! structure differs.
 //!
 //! **The algorithm.** Each finished routine's moves (SRHCT observations, as the engine learns
 //! them) become new states chained in order: one state per observation, which is the Viterbi
@@ -48,8 +50,8 @@
 //!   every model starts from singleton states, and a merge of two singletons gains at most
 //!   `4 log 2 + 1 + 2 log(|Q| − 1)` nats (start and one shared source pooled, at most two edges
 //!   saved; pooling rows or observations never gains), less than 36.8 below `|Q| ≈ 10⁷`. The
-//!   seed's MAP models (≈ 249 states against Learn-HMM's ≈ 199) merged most observations, so
-//!   that cannot be what it ran. Taken literally (a determinant, no log) the term is `10⁻¹⁶` in
+//!   dissertation's MAP models (≈ 249 states against Learn-HMM's ≈ 199) merged most observations,
+//!   so that cannot be what it ran. Taken literally (a determinant, no log) the term is `10⁻¹⁶` in
 //!   raw units or 1 whitened: negligible either way.
 //!
 //! **Making it fast.** The prior's pair-independent part `|E| log(|Q|/(|Q|−1))` and the

@@ -1,11 +1,11 @@
-//! `map`: the seed's comparison learner under replay (seed §3.9, §4.4.1). The structure is
-//! learned by best-first MAP state merging ([`MapLearner`]); predictions are the engine's own
-//! ([`predict_move`] over the learned graph with the run's prediction settings: the forward
-//! recursion, the next-state mixture's mode, the φ gate and whatever else the profile turns on).
-//! Under the `seed` profile the only difference from the engine is therefore the learner.
+//! `map`: the dissertation's comparison learner under replay (dissertation §3.9, §4.4.1). The
+//! structure is learned by best-first MAP state merging ([`MapLearner`]); predictions are the
+//! engine's own ([`predict_move`] over the learned graph with the run's prediction settings: the
+//! forward recursion, the next-state mixture's mode, the φ gate and whatever else the profile turns
+//! on). Under the `seed` profile the only difference from the engine is therefore the learner.
 //!
-//! Like the seed's engine, it learns a routine when the routine is finished (never within it),
-//! from its unscaled moves (`scale.learn_scaled` and `learn_within_routine` do not apply).
+//! Like the dissertation's engine, it learns a routine when the routine is finished (never within
+//! it), from its unscaled moves (`scale.learn_scaled` and `learn_within_routine` do not apply).
 
 use super::merge::{MapLearner, MapSettings};
 use crate::engine::metric::Metric;
@@ -79,7 +79,7 @@ impl Method for MapMethod {
             &self.moves,
             &self.opts,
         )
-        .place(last);
+        .placed_after(last);
         if !p.offered() {
             return None;
         }

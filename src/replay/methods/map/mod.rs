@@ -1,7 +1,8 @@
-//! `map`: the seed's comparison learner (seed §3.9, §4.4.1), used only by the replay.
+//! `map`: the dissertation's comparison learner (dissertation §3.9, §4.4.1), used only by the
+//! replay.
 //!
-//! The seed argues that its similarity merge beats MAP structure estimation on teach-pendant
-//! data; these modules let the scoreboard measure that claim on our corpus.
+//! The dissertation argues that its similarity merge beats MAP structure estimation on
+//! teach-pendant data; these modules let the scoreboard measure that claim on our corpus.
 //!
 //! - [`merge`]: best-first MAP state merging ([`MapLearner`], [`MapSettings`]), building the
 //!   same observation graph the engine predicts from.

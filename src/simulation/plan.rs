@@ -1,12 +1,12 @@
-//! The experiment: conditions (the seed's Table 4.1 rows and our default profile), seeds, the
-//! arm's placement per program, the random stream per waypoint, and what one taught routine
+//! The experiment: conditions (the dissertation's Table 4.1 rows and our default profile), seeds,
+//! the arm's placement per program, the random stream per waypoint, and what one taught routine
 //! yields.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::SimError;
+use super::SimulationError;
 use super::operator::{OperatorModel, Time};
 use crate::engine::Noise;
 use crate::engine::Tolerance;
@@ -15,14 +15,14 @@ use crate::kinematics::ReachPolicy;
 use crate::kinematics::placement::{PlacedArm, ReachCheck, ReachSetup};
 use crate::program::Program;
 
-/// One row of the seed's Table 4.1.
+/// One row of the dissertation's Table 4.1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SeedFigure {
+pub struct DissertationFigure {
     pub mean_s: f64,
     pub std_s: f64,
     /// Change of the mean against the baseline, %.
     pub change_pct: Option<f64>,
-    /// The seed's "Wilcoxon confidence", % (1 − p).
+    /// The dissertation's "Wilcoxon confidence", % (1 − p).
     pub confidence_pct: Option<f64>,
 }
 
@@ -48,27 +48,29 @@ pub struct Condition {
     /// operator's "close enough"). Without, the cell is the one a pendant creates: its arm and
     /// where it stands, nothing else.
     pub operator_known: bool,
-    /// The seed's figure for this row, for reference.
-    pub seed: Option<SeedFigure>,
+    /// The dissertation's figure for this row, for reference (`seed` in the JSON).
+    #[serde(rename = "seed")]
+    pub dissertation: Option<DissertationFigure>,
 }
 
-/// δ of the seed's lab study (§4.5.3).
-pub const SEED_LAB_DELTA: f64 = 0.8;
+/// δ of the dissertation's lab study (§4.5.3).
+pub const DISSERTATION_LAB_DELTA: f64 = 0.8;
 
-/// The seed's Table 4.1 rows (seed profile, δ = 0.8) and the default profile.
+/// The dissertation's Table 4.1 rows (seed profile, δ = 0.8) and the default profile.
 pub fn table_4_1_conditions() -> Vec<Condition> {
-    let seed_row = |key: &str, label: &str, phi: f64, h: usize, fig: SeedFigure| Condition {
-        key: key.into(),
-        label: label.into(),
-        predictions: true,
-        profile: Profile::Seed,
-        delta: Some(SEED_LAB_DELTA),
-        phi_min: Some(phi),
-        horizon: Some(h),
-        offer_threshold: None,
-        operator_known: true,
-        seed: Some(fig),
-    };
+    let dissertation_row =
+        |key: &str, label: &str, phi: f64, h: usize, fig: DissertationFigure| Condition {
+            key: key.into(),
+            label: label.into(),
+            predictions: true,
+            profile: Profile::Dissertation,
+            delta: Some(DISSERTATION_LAB_DELTA),
+            phi_min: Some(phi),
+            horizon: Some(h),
+            offer_threshold: None,
+            operator_known: true,
+            dissertation: Some(fig),
+        };
     vec![
         Condition {
             key: "none".into(),
@@ -80,31 +82,31 @@ pub fn table_4_1_conditions() -> Vec<Condition> {
             horizon: None,
             offer_threshold: None,
             operator_known: false,
-            seed: Some(SeedFigure {
+            dissertation: Some(DissertationFigure {
                 mean_s: 292.2,
                 std_s: 78.61,
                 change_pct: None,
                 confidence_pct: None,
             }),
         },
-        seed_row(
+        dissertation_row(
             "seed_phi08_h3",
             "seed profile, φ ≥ 0.8, h = 3",
             0.8,
             3,
-            SeedFigure {
+            DissertationFigure {
                 mean_s: 193.2,
                 std_s: 32.07,
                 change_pct: Some(-33.88),
                 confidence_pct: Some(99.95),
             },
         ),
-        seed_row(
+        dissertation_row(
             "seed_phi05_h2",
             "seed profile, φ ≥ 0.5, h = 2",
             0.5,
             2,
-            SeedFigure {
+            DissertationFigure {
                 mean_s: 178.0,
                 std_s: 33.39,
                 change_pct: Some(-39.08),
@@ -145,13 +147,13 @@ fn default_row(
         horizon: None,
         offer_threshold,
         operator_known,
-        seed: None,
+        dissertation: None,
     }
 }
 
 /// The offer threshold of the default profile's calibrated row: a suggestion more likely right than
-/// not (as the seed's second row lowers φ to 0.5). For a joystick operator a near miss is still
-/// a head start: fine-tuning from it is quicker than jogging the whole way.
+/// not (as the dissertation's second row lowers φ to 0.5). For a joystick operator a near miss is
+/// still a head start: fine-tuning from it is quicker than jogging the whole way.
 pub const JOYSTICK_OFFER_THRESHOLD: f64 = 0.5;
 
 /// What the cell already knows when the operator starts.
@@ -161,12 +163,12 @@ pub enum History {
     /// An empty model: the program is new to the cell.
     None,
     /// The programs of the same repository that come before it (in the order given) were
-    /// taught exactly, as offline programs, in the same cell: like the seed's lab study, whose
-    /// model was built from earlier programs of the same tasks.
+    /// taught exactly, as offline programs, in the same cell: like the dissertation's lab study,
+    /// whose model was built from earlier programs of the same tasks.
     Repository,
     /// As [`History::Repository`], but the earlier programs were taught online: each of their
     /// waypoints carries the plan's operator's placement error ([`Plan::as_taught_online`]), as
-    /// the seed's lab model was built from other users' joystick-taught programs (§4.5.3).
+    /// the dissertation's lab model was built from other users' joystick-taught programs (§4.5.3).
     RepositoryOnline,
 }
 
@@ -180,19 +182,19 @@ pub struct Plan {
     pub history: History,
     /// What the service does with suggestions the arm cannot reach.
     pub reach_policy: ReachPolicy,
-    /// Set the cell's σ_t and σ_q to the operator's repeatability (as the seed set its
+    /// Set the cell's σ_t and σ_q to the operator's repeatability (as the dissertation set its
     /// precision matrix from the users' scatter, §4.5.1) when larger than the profile's.
     pub calibrate_sigma: bool,
 }
 
 impl Plan {
     /// The cell's teaching noise and acceptance tolerance under this plan. With calibrated σs:
-    /// the noise the operator's calibration routine shows (the seed's §4.5.1: one unreferenced
-    /// point recorded [`CALIBRATION_POSES`] times, [`Noise::from_scatter`]) and the operator's
-    /// "close enough"; otherwise an exact cell with the seed's tolerance.
+    /// the noise the operator's calibration routine shows (the dissertation's §4.5.1: one
+    /// unreferenced point recorded [`CALIBRATION_POSES`] times, [`Noise::from_scatter`]) and the
+    /// operator's "close enough"; otherwise an exact cell with the dissertation's tolerance.
     pub fn noise(&self) -> (Noise, Tolerance) {
         if !self.calibrate_sigma {
-            return (Noise::EXACT, Tolerance::SEED);
+            return (Noise::EXACT, Tolerance::USEFUL);
         }
         let o = &self.operator;
         let point = Pose::identity();
@@ -240,7 +242,7 @@ impl Plan {
 /// ([`ReachSetup::default`]: the arm the program names, else the smallest library arm for its
 /// language that reaches every taught waypoint, placed by the layout search). Searched once
 /// per program; every session of the program uses it.
-pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
+pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimulationError> {
     let check = ReachCheck::new(ReachSetup::default())?;
     programs
         .iter()
@@ -248,8 +250,8 @@ pub fn placements(programs: &[Program]) -> Result<Vec<PlacedArm>, SimError> {
             let poses: Vec<Pose> = p.poses().copied().collect();
             check
                 .place(p.language_name(), p.arm_designation(), &poses)
-                .map_err(|e| SimError::Layout(p.name.clone(), e))?
-                .ok_or_else(|| SimError::NoPlacement(p.name.clone()))
+                .map_err(|e| SimulationError::Layout(p.name.clone(), e))?
+                .ok_or_else(|| SimulationError::NoPlacement(p.name.clone()))
         })
         .collect()
 }
@@ -367,11 +369,11 @@ mod tests {
             calibrate_sigma: false,
             ..plan
         };
-        assert_eq!(exact.noise(), (Noise::EXACT, Tolerance::SEED));
+        assert_eq!(exact.noise(), (Noise::EXACT, Tolerance::USEFUL));
     }
 
     #[test]
-    fn the_table_has_the_seed_rows() {
+    fn the_table_has_the_dissertation_rows() {
         let c = table_4_1_conditions();
         assert_eq!(c.len(), 6);
         assert!(!c[0].predictions);
@@ -389,7 +391,7 @@ mod tests {
         );
         assert_eq!(c[1].phi_min, Some(0.8));
         assert_eq!(c[2].horizon, Some(2));
-        assert_eq!(c[1].seed.and_then(|s| s.change_pct), Some(-33.88));
+        assert_eq!(c[1].dissertation.and_then(|s| s.change_pct), Some(-33.88));
     }
 
     #[test]

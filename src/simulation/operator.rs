@@ -16,17 +16,18 @@
 //! target and takes longer. `a = 0.99 s`, `b = 0.22 s/bit` are the rate-controlled joystick's
 //! constants of Card, English & Burr (1978). A robot is slower to aim than a cursor (six
 //! degrees of freedom, jog-mode switches, looking from several sides), so `k` scales both: it is
-//! set so that the seed's lab waypoint (186 mm mean spacing, online precision) takes
-//! 292.2 s / 9.75 = 30.0 s, the seed's baseline (Table 4.1; tasks of 13, 6, 10 and 10 waypoints).
+//! set so that the dissertation's lab waypoint (186 mm mean spacing, online precision) takes
+//! 292.2 s / 9.75 = 30.0 s, the dissertation's baseline (Table 4.1; tasks of 13, 6, 10 and 10
+//! waypoints).
 //!
 //! **Precision.** A manually placed waypoint is the intended one plus Gaussian error:
-//! [`OperatorModel::online`] has a 3-D RMS error of 20 mm (the seed's ~2 cm one-sigma for
+//! [`OperatorModel::online`] has a 3-D RMS error of 20 mm (the dissertation's ~2 cm one-sigma for
 //! online teaching without external references, §3), [`OperatorModel::precise`] 0.05 mm (what
 //! offline-programmed, arc-welding-grade waypoints have).
 //!
-//! **A suggestion** (the service's prediction for this waypoint) is handled as in the seed's
-//! lab study (§4.5.3): the operator hears it, lets the arm move there (a joint move while a
-//! button is held), looks, and then
+//! **A suggestion** (the service's prediction for this waypoint) is handled as in the
+//! dissertation's lab study (§4.5.3): the operator hears it, lets the arm move there (a joint move
+//! while a button is held), looks, and then
 //!
 //! - *accepts* it when it is within tolerance of the intended target (records it as is:
 //!   feedback `accepted`);
@@ -35,11 +36,11 @@
 //!   taught by hand: feedback `rejected`), whichever the time model says is quicker. That is a
 //!   rational operator who judges distances correctly, an assumption in the suggestion's favour.
 //!
-//! Looking at a suggestion costs [`OperatorModel::look_s`] whatever follows: 10 % of the seed's
-//! mean waypoint time, the seed's own cost of a suggestion (§4.3.5: a useful prediction saves
-//! about 90 %, a useless one costs about 10 %). A suggestion the service flags as unreachable is
-//! rejected after a look, without moving. A suggestion made after the routine's last waypoint is
-//! dismissed after a look (feedback `rejected`).
+//! Looking at a suggestion costs [`OperatorModel::look_s`] whatever follows: 10 % of the
+//! dissertation's mean waypoint time, the dissertation's own cost of a suggestion (§4.3.5: a useful
+//! prediction saves about 90 %, a useless one costs about 10 %). A suggestion the service flags as
+//! unreachable is rejected after a look, without moving. A suggestion made after the routine's last
+//! waypoint is dismissed after a look (feedback `rejected`).
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::Rng;
@@ -48,14 +49,14 @@ use serde::Serialize;
 use super::arm::Arm;
 use crate::engine::Pose;
 
-/// The seed's baseline programming time of one lab task, s (Table 4.1).
-pub const SEED_BASELINE_S: f64 = 292.2;
-/// Mean waypoints of the seed's four lab tasks (13, 6, 10, 10; §4.5).
-pub const SEED_TASK_WAYPOINTS: f64 = 9.75;
-/// Mean distance between waypoints of the seed's lab tasks, mm (§4.5).
-pub const SEED_SPACING_MM: f64 = 186.0;
-/// The seed's online repeatability: one-sigma Cartesian error, mm (§3).
-pub const SEED_ONLINE_REPEATABILITY_MM: f64 = 20.0;
+/// The dissertation's baseline programming time of one lab task, s (Table 4.1).
+pub const DISSERTATION_BASELINE_S: f64 = 292.2;
+/// Mean waypoints of the dissertation's four lab tasks (13, 6, 10, 10; §4.5).
+pub const DISSERTATION_TASK_WAYPOINTS: f64 = 9.75;
+/// Mean distance between waypoints of the dissertation's lab tasks, mm (§4.5).
+pub const DISSERTATION_SPACING_MM: f64 = 186.0;
+/// The dissertation's online repeatability: one-sigma Cartesian error, mm (§3).
+pub const DISSERTATION_ONLINE_REPEATABILITY_MM: f64 = 20.0;
 /// Effective target width per one-sigma of end-point scatter (Crossman; MacKenzie 1992).
 pub const EFFECTIVE_WIDTH_PER_SIGMA: f64 = 4.133;
 /// Rate-controlled joystick, Card, English & Burr (1978): intercept, s.
@@ -154,17 +155,17 @@ pub struct OperatorModel {
     pub look_s: f64,
     /// Recording a waypoint, s.
     pub record_s: f64,
-    /// The arm moves to a suggestion before the operator judges it (the seed's pendant); when
-    /// false the operator judges it on a display and a rejection costs only the look.
+    /// The arm moves to a suggestion before the operator judges it (the dissertation's pendant);
+    /// when false the operator judges it on a display and a rejection costs only the look.
     pub inspect_by_moving: bool,
 }
 
 impl OperatorModel {
-    /// An operator teaching online at the seed's precision (20 mm RMS; seed §3), who accepts
-    /// a suggestion as good as their own placement (within half the effective width, about
-    /// 24 mm) and 0.1 rad (the seed's angular tolerance, §4.3.1).
+    /// An operator teaching online at the dissertation's precision (20 mm RMS; dissertation §3),
+    /// who accepts a suggestion as good as their own placement (within half the effective width,
+    /// about 24 mm) and 0.1 rad (the dissertation's angular tolerance, §4.3.1).
     pub fn online(tcp_mm_s: f64) -> OperatorModel {
-        let repeatability_mm = SEED_ONLINE_REPEATABILITY_MM;
+        let repeatability_mm = DISSERTATION_ONLINE_REPEATABILITY_MM;
         let mut m = OperatorModel {
             name: "online".into(),
             repeatability_mm,
@@ -174,7 +175,7 @@ impl OperatorModel {
             fitts_a_s: JOYSTICK_A_S,
             fitts_b_s: JOYSTICK_B_S,
             fitts_scale: 1.0,
-            look_s: 0.1 * SEED_BASELINE_S / SEED_TASK_WAYPOINTS,
+            look_s: 0.1 * DISSERTATION_BASELINE_S / DISSERTATION_TASK_WAYPOINTS,
             record_s: RECORD_S,
             inspect_by_moving: true,
         };
@@ -186,7 +187,8 @@ impl OperatorModel {
     /// A joystick operator as [`OperatorModel::online`] (the same person: the same Fitts `k`,
     /// `a` and `b`) placing waypoints to `repeatability_mm` 3-D RMS instead of 20 mm, the
     /// rotation error in proportion, and accepting within half their own effective width. For
-    /// checking settings against operators other than the seed's (`simulate --operator-mm`).
+    /// checking settings against operators other than the dissertation's (`simulate
+    /// --operator-mm`).
     pub fn online_at(tcp_mm_s: f64, repeatability_mm: f64) -> OperatorModel {
         let online = OperatorModel::online(tcp_mm_s);
         let ratio = repeatability_mm / online.repeatability_mm;
@@ -201,8 +203,8 @@ impl OperatorModel {
     }
 
     /// An operator placing waypoints to 0.05 mm RMS (arc-welding grade), who accepts a
-    /// suggestion within the seed's "useful" tolerance of 1 mm and 0.1 rad (§4.3.1). Same `k`,
-    /// `a`, `b` as [`OperatorModel::online`]: only the target width differs.
+    /// suggestion within the dissertation's "useful" tolerance of 1 mm and 0.1 rad (§4.3.1). Same
+    /// `k`, `a`, `b` as [`OperatorModel::online`]: only the target width differs.
     pub fn precise(tcp_mm_s: f64) -> OperatorModel {
         let online = OperatorModel::online(tcp_mm_s);
         OperatorModel {
@@ -246,18 +248,20 @@ impl OperatorModel {
         self.fitts_scale * (self.fitts_a_s + self.fitts_b_s * bits)
     }
 
-    /// The `k` that makes a waypoint at the seed's mean spacing (pure translation, travel at
-    /// `tcp_mm_s`) take the seed's mean waypoint time.
+    /// The `k` that makes a waypoint at the dissertation's mean spacing (pure translation, travel
+    /// at `tcp_mm_s`) take the dissertation's mean waypoint time.
     fn calibrated_scale(&self, tcp_mm_s: f64) -> f64 {
-        let target = SEED_BASELINE_S / SEED_TASK_WAYPOINTS;
-        let rest = target - self.record_s - SEED_SPACING_MM / tcp_mm_s;
-        let bits = (1.0 + SEED_SPACING_MM / self.width_mm()).log2();
+        let target = DISSERTATION_BASELINE_S / DISSERTATION_TASK_WAYPOINTS;
+        let rest = target - self.record_s - DISSERTATION_SPACING_MM / tcp_mm_s;
+        let bits = (1.0 + DISSERTATION_SPACING_MM / self.width_mm()).log2();
         rest / (self.fitts_a_s + self.fitts_b_s * bits)
     }
 
-    /// The manual time of a waypoint at the seed's mean spacing (the calibration point).
+    /// The manual time of a waypoint at the dissertation's mean spacing (the calibration point).
     pub fn anchor_time(&self, tcp_mm_s: f64) -> f64 {
-        SEED_SPACING_MM / tcp_mm_s + self.aim_time(SEED_SPACING_MM, 0.0) + self.record_s
+        DISSERTATION_SPACING_MM / tcp_mm_s
+            + self.aim_time(DISSERTATION_SPACING_MM, 0.0)
+            + self.record_s
     }
 
     /// `intended` with this operator's placement error, drawn from `rng`.
@@ -401,7 +405,7 @@ impl Operator {
 mod tests {
     use super::*;
     use crate::kinematics::{Mounting, bundled_robots_dir, load_robot};
-    use crate::sim::arm::JogLimits;
+    use crate::simulation::arm::JogLimits;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
@@ -422,8 +426,8 @@ mod tests {
         )
     }
 
-    /// An operator at another precision is the seed's online operator with the error and the
-    /// tolerance scaled: at 20 mm they are the same, at 5 mm the tolerance is a quarter, and
+    /// An operator at another precision is the dissertation's online operator with the error and
+    /// the tolerance scaled: at 20 mm they are the same, at 5 mm the tolerance is a quarter, and
     /// their placements scatter by what they were asked (within 10 % over 4,000 draws).
     #[test]
     fn an_online_operator_at_another_precision_scales_error_and_tolerance() {
@@ -458,10 +462,10 @@ mod tests {
     }
 
     #[test]
-    fn the_calibration_reproduces_the_seed_waypoint_time() {
+    fn the_calibration_reproduces_the_dissertations_waypoint_time() {
         let v = JogLimits::default().tcp_mm_s;
         let m = OperatorModel::online(v);
-        let want = SEED_BASELINE_S / SEED_TASK_WAYPOINTS;
+        let want = DISSERTATION_BASELINE_S / DISSERTATION_TASK_WAYPOINTS;
         assert!(
             (m.anchor_time(v) - want).abs() < 1e-9,
             "{}",

@@ -1,20 +1,20 @@
 //! The simulated arm and operator (issue 7): the pure half of `nextpose simulate`.
 //!
-//! We cannot bring operators in to repeat the seed's lab study (Table 4.1), so a simulated
+//! We cannot bring operators in to repeat the dissertation's lab study (Table 4.1), so a simulated
 //! operator teaches corpus programs on a simulated arm, against the real service, and the
 //! simulated programming times are compared across prediction settings. Everything here is
 //! deterministic given a seed and does no I/O beyond loading the bundled robot models; the
-//! driver that talks to a server is [`crate::simulate`].
+//! driver that talks to a server is [`crate::simulation_driver`].
 //!
 //! - [`arm`]: a six-joint arm from the URDF models: joints, FK/IK, joint and Cartesian jogs
 //!   timed by the TCP speed limit and the joints' velocity limits.
 //! - [`operator`]: the operator's time model (arm travel + Fitts aiming + recording), placement
 //!   error, and decisions on suggestions (accept, fine-tune, reject), each mapped to the
 //!   feedback the service expects.
-//! - [`lab`]: the seed's online lab (§4.5) as programs: four tasks, three users, work pieces
-//!   placed anew and waypoints taught with a joystick operator's error; and a welding cell.
+//! - [`lab`]: the dissertation's online lab (§4.5) as programs: four tasks, three users, work
+//!   pieces placed anew and waypoints taught with a joystick operator's error; and a welding cell.
 //! - [`pattern`]: pallets, machine-tending trays and grids, a tuning and a held-out set.
-//! - [`plan`]: the conditions (the seed's φ_min/h rows and our default profile), the arm's
+//! - [`plan`]: the conditions (the dissertation's φ_min/h rows and our default profile), the arm's
 //!   placement per program, the random stream per waypoint, the per-routine result.
 //! - [`stats`]: mean, standard deviation, Wilcoxon rank-sum test.
 //! - [`table`]: the summary per condition, as Markdown, an SVG bar chart, and JSON (serde).
@@ -39,7 +39,7 @@ pub use table::{
 
 /// Why a simulation cannot be set up or summarised.
 #[derive(Debug, Error)]
-pub enum SimError {
+pub enum SimulationError {
     #[error(transparent)]
     Kinematics(#[from] crate::kinematics::KinematicsError),
     #[error(transparent)]

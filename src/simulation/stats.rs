@@ -1,5 +1,5 @@
-//! Summary statistics of simulated programming times and the Wilcoxon rank-sum test the seed
-//! used for Table 4.1 (Fraser 1957; equivalently the Mann–Whitney U test).
+//! Summary statistics of simulated programming times and the Wilcoxon rank-sum test the
+//! dissertation used for Table 4.1 (Fraser 1957; equivalently the Mann–Whitney U test).
 
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};

@@ -55,13 +55,19 @@
 //! come within one long routine learns its operator there and then). The teacher keeps those
 //! pairs with their waypoint, so undo takes them back, and a rebuild that learns the same
 //! routines in the same order gets the same estimate.
+//!
+//! The estimator's parts: [`stretches`] aligns two stretches of waypoints and gives the pair's
+//! misfits; [`mixture`] fits the noise to the pairs' misfits.
 
-use nalgebra::Point3;
-use statrs::function::gamma::ln_gamma;
+mod mixture;
+mod stretches;
 
 use super::Noise;
-use crate::engine::experts::alignment::rigid_fit;
 use crate::engine::pose::Pose;
+pub use mixture::{MIN_REPEATS, OTHER_MAX_MM2, OTHER_MIN_MM2, Pair};
+use mixture::{SIGMA_CAP_MM, SIGMA_FLOOR_MM, fit_mixture};
+pub use stretches::{MIN_EXTENT_MM, STEP_GATE_MM, STRETCH, TURN_GATE_RAD};
+use stretches::{compare, extent, moves_as_long_as, steps_match};
 
 /// A waypoint this close to an earlier one, mm, is an exact revisit.
 pub const EXACT_REVISIT_MM: f64 = 1e-3;
@@ -83,63 +89,17 @@ pub const RETURN_RAD: f64 = 0.2;
 /// … after the arm went at least this far from it, mm (or in another routine).
 pub const RETURN_AWAY_MM: f64 = 150.0;
 
-/// Waypoints in a stretch aligned at once.
-pub const STRETCH: usize = 6;
-/// How far apart the lengths of two corresponding steps may be, mm: a 20 mm RMS operator's step
-/// lengths differ by about 16 mm (one sigma) between two repeats.
-pub const STEP_GATE_MM: f64 = 60.0;
-/// How far the turns between corresponding steps may differ, rad (only between steps longer than
-/// [`STEP_GATE_MM`]).
-pub const TURN_GATE_RAD: f64 = 0.6;
-/// A stretch spanning less than this about its centroid, mm, fixes no rotation and is passed
-/// over.
-pub const MIN_EXTENT_MM: f64 = 25.0;
 /// Earlier stretches aligned with each new one, at the most.
 pub const MAX_PAIRS: usize = 16;
 /// Earlier stretches of about the same last step looked at for each new one, at the most.
 pub const MAX_EXAMINED: usize = 256;
-/// Pairs read as repeats before there is an estimate.
-pub const MIN_REPEATS: f64 = 10.0;
 /// Pairs kept, the newest (a cell's operator may change; the estimate follows the recent ones).
 pub const MAX_SAMPLES: usize = 4_000;
-/// The misfits of stretches that are not repeats spread from this, mm² (a pair of unrelated
-/// stretches does not fit within a tenth of a millimetre) …
-pub const OTHER_MIN_MM2: f64 = 1e-2;
-/// … to this.
-pub const OTHER_MAX_MM2: f64 = 1e7;
-/// The smallest σ the fit goes down to, mm (an exact program's).
-const SIGMA_FLOOR_MM: f64 = 1e-3;
-/// The largest, mm per axis: beyond a 45 mm RMS operator, repeats cannot be told from other
-/// stretches of the same step lengths ([`STEP_GATE_MM`]).
-const SIGMA_CAP_MM: f64 = 25.0;
-/// EM iterations (it converges in a handful; the cap bounds the cost).
-const EM_STEPS: usize = 50;
 
 /// The fewest waypoints of a routine shorter than [`STRETCH`] that is aligned whole with the
 /// earlier routines of its length: three fix a rigid transform and leave three degrees of
 /// freedom of misfit.
 pub const SHORT_ROUTINE: usize = 3;
-
-/// One pair of stretches: its squared misfits and their degrees of freedom (module doc).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pair {
-    /// Sum of squared position residuals after the rigid fit, mm².
-    ss_mm: f64,
-    /// Sum of squared angles between corresponding relative rotations, rad².
-    ss_rad: f64,
-    /// Degrees of freedom of `ss_mm` (`3n − 6` for `n` waypoints) …
-    nu_mm: f64,
-    /// … and of `ss_rad` (`3(n − 1)`).
-    nu_rad: f64,
-}
-
-impl Pair {
-    /// Whether the pair could be a repeat: its misfit reads as a per-axis error no larger than
-    /// the largest the fit believes ([`SIGMA_CAP_MM`]). Unrelated stretches fit far worse.
-    pub fn could_repeat(&self) -> bool {
-        self.nu_mm > 0.0 && self.ss_mm / (2.0 * self.nu_mm) <= SIGMA_CAP_MM * SIGMA_CAP_MM
-    }
-}
 
 /// What the routine being taught showed of the noise so far ([`NoiseEstimator::estimate_with`]):
 /// the pairs its stretches made, its waypoints taught by hand, and the exact revisits and
@@ -460,87 +420,6 @@ fn revisit_cell(w: &Pose) -> [i64; 3] {
     [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64]
 }
 
-/// The entries of `index` (sorted by length) whose move is within [`STEP_GATE_MM`] of `last`:
-/// (routine, end).
-fn moves_as_long_as(
-    index: &[(f64, u32, u32)],
-    last: f64,
-) -> impl Iterator<Item = (u32, usize)> + '_ {
-    let lo = index.partition_point(|e| e.0 < last - STEP_GATE_MM);
-    index[lo..]
-        .iter()
-        .take_while(move |e| e.0 <= last + STEP_GATE_MM)
-        .map(|&(_, r, e)| (r, e as usize))
-}
-
-/// How far the stretch's positions reach from their centroid, mm (the largest).
-fn extent(stretch: &[Pose]) -> f64 {
-    let n = stretch.len() as f64;
-    let c = stretch
-        .iter()
-        .map(|p| p.position())
-        .sum::<nalgebra::Vector3<f64>>()
-        / n;
-    stretch
-        .iter()
-        .map(|p| (p.position() - c).norm())
-        .fold(0.0, f64::max)
-}
-
-/// Whether every step of `a` is within [`STEP_GATE_MM`] as long as `b`'s, and every turn
-/// between two steps within [`TURN_GATE_RAD`] of `b`'s (no rigid transform changes either).
-fn steps_match(a: &[Pose], b: &[Pose]) -> bool {
-    let lengths = a
-        .windows(2)
-        .zip(b.windows(2))
-        .all(|(x, y)| (x[0].distance_to(&x[1]) - y[0].distance_to(&y[1])).abs() <= STEP_GATE_MM);
-    lengths
-        && a.windows(3)
-            .zip(b.windows(3))
-            .all(|(x, y)| match (turn_angle(x), turn_angle(y)) {
-                (Some(tx), Some(ty)) => (tx - ty).abs() <= TURN_GATE_RAD,
-                _ => true,
-            })
-}
-
-/// The angle between the steps into and out of the middle of three poses; `None` when a step
-/// is too short to have a direction under the noise.
-fn turn_angle(p: &[Pose]) -> Option<f64> {
-    let (a, b) = (
-        p[1].position() - p[0].position(),
-        p[2].position() - p[1].position(),
-    );
-    (a.norm() >= STEP_GATE_MM && b.norm() >= STEP_GATE_MM).then(|| a.angle(&b))
-}
-
-/// The misfits of aligning stretch `a` onto `b` (module doc).
-fn compare(a: &[Pose], b: &[Pose]) -> Option<Pair> {
-    let pa: Vec<Point3<f64>> = a.iter().map(|p| Point3::from(p.position())).collect();
-    let pb: Vec<Point3<f64>> = b.iter().map(|p| Point3::from(p.position())).collect();
-    let g = rigid_fit(&pa, &pb)?;
-    let n = a.len().min(b.len()) as f64;
-    let ss_mm = pa
-        .iter()
-        .zip(&pb)
-        .map(|(p, q)| (g * p - q).norm_squared())
-        .sum();
-    let ss_rad = a
-        .windows(2)
-        .zip(b.windows(2))
-        .map(|(x, y)| {
-            let rx = x[0].rotation().inverse() * x[1].rotation();
-            let ry = y[0].rotation().inverse() * y[1].rotation();
-            rx.angle_to(&ry).powi(2)
-        })
-        .sum();
-    Some(Pair {
-        ss_mm,
-        ss_rad,
-        nu_mm: 3.0 * n - 6.0,
-        nu_rad: 3.0 * (n - 1.0),
-    })
-}
-
 /// The noise `returns` returns show by their summed squared gaps `(mm², rad²)`: two placements
 /// of one meant pose differ by `σ·√2` per axis, so the mean squared gap is `6σ²`. Used while no
 /// repeats were fitted (module doc, "Returns"); `None` before [`MIN_RETURNS`].
@@ -552,101 +431,6 @@ fn from_returns(returns: usize, (mm2, rad2): (f64, f64)) -> Option<Noise> {
             rad: (rad2 / n).sqrt(),
         }
     })
-}
-
-/// The noise the pairs show (module doc), or `None` when too few read as repeats; and the
-/// mixture fitted (σ², share of repeats), starting from `start` when given.
-fn fit_mixture(pairs: &[Pair], start: Option<(f64, f64)>) -> (Option<Noise>, Option<(f64, f64)>) {
-    if (pairs.len() as f64) < MIN_REPEATS {
-        return (None, None);
-    }
-    // ln of the χ²(ν) density.
-    let chi_ln_pdf = |x: f64, nu: f64| {
-        let half = nu / 2.0;
-        (half - 1.0) * x.ln() - x / 2.0 - half * 2f64.ln() - ln_gamma(half)
-    };
-    let ln_range = (OTHER_MAX_MM2 / OTHER_MIN_MM2).ln();
-    // Log-density of a pair's misfit if it is not a repeat.
-    let other = |ss: f64| {
-        if (OTHER_MIN_MM2..=OTHER_MAX_MM2).contains(&ss) {
-            -ss.ln() - ln_range.ln()
-        } else {
-            f64::NEG_INFINITY
-        }
-    };
-    // Start from the last fit's σ, or from the lowest decile's, and an even mixture (the last
-    // share could be near 0 before the first repeats, and EM would not leave it). From below:
-    // a task's repeats are the pairs that fit best, and stretches of about the same shape that
-    // are no repeats (welds of another pitch) fit worse; EM climbs to the first cluster.
-    let floor = SIGMA_FLOOR_MM * SIGMA_FLOOR_MM;
-    let mut var = start.map_or_else(
-        || {
-            let mut sorted: Vec<f64> = pairs.iter().map(|p| p.ss_mm / (2.0 * p.nu_mm)).collect();
-            sorted.sort_by(f64::total_cmp);
-            sorted[sorted.len() / 10].max(floor)
-        },
-        |(v, _)| v,
-    );
-    let mut share: f64 = 0.5;
-    let mut weights = vec![0.0; pairs.len()];
-    for _ in 0..EM_STEPS {
-        let scale = 2.0 * var;
-        for (w, p) in weights.iter_mut().zip(pairs) {
-            let repeat = share.ln() + chi_ln_pdf(p.ss_mm.max(1e-300) / scale, p.nu_mm) - scale.ln();
-            let not = (1.0 - share).ln() + other(p.ss_mm);
-            *w = if not == f64::NEG_INFINITY {
-                1.0
-            } else {
-                1.0 / (1.0 + (not - repeat).exp())
-            };
-        }
-        let total: f64 = weights.iter().sum();
-        if total <= 0.0 {
-            return (None, None);
-        }
-        let next = weights
-            .iter()
-            .zip(pairs)
-            .map(|(w, p)| w * p.ss_mm)
-            .sum::<f64>()
-            / (2.0
-                * weights
-                    .iter()
-                    .zip(pairs)
-                    .map(|(w, p)| w * p.nu_mm)
-                    .sum::<f64>());
-        share = (total / pairs.len() as f64).clamp(1e-6, 1.0 - 1e-6);
-        let next = next.clamp(floor, SIGMA_CAP_MM * SIGMA_CAP_MM);
-        let converged = (next / var - 1.0).abs() < 1e-6;
-        var = next;
-        if converged {
-            break;
-        }
-    }
-    let mixture = Some((var, share));
-    let total: f64 = weights.iter().sum();
-    if total < MIN_REPEATS {
-        return (None, mixture);
-    }
-    // The rotations: the median over the pairs read surely as repeats (a few pairs read
-    // wrongly would otherwise carry their large turns into the mean).
-    // Each pair's squared angles over the median of its χ² (Wilson–Hilferty), so that pairs
-    // of other lengths read alike.
-    let median_chi = |nu: f64| nu * (1.0 - 2.0 / (9.0 * nu)).powi(3);
-    let mut rad: Vec<f64> = weights
-        .iter()
-        .zip(pairs)
-        .filter(|(w, _)| **w >= 0.9)
-        .map(|(_, p)| p.ss_rad / (4.0 * median_chi(p.nu_rad)))
-        .collect();
-    rad.sort_by(f64::total_cmp);
-    let var_rad = rad.get(rad.len() / 2).copied().unwrap_or(0.0);
-    let mm = var.sqrt();
-    let noise = Noise {
-        mm: if mm <= SIGMA_FLOOR_MM { 0.0 } else { mm },
-        rad: var_rad.sqrt(),
-    };
-    (Some(noise), mixture)
 }
 
 #[cfg(test)]
@@ -800,7 +584,7 @@ pub(crate) mod tests {
             e.learn(&wander(10, &mut rng));
         }
         let n = e.estimate().expect("an estimate");
-        assert!(n.is_negligible(&Tolerance::SEED), "{n:?}");
+        assert!(n.is_negligible(&Tolerance::USEFUL), "{n:?}");
     }
 
     /// Without repeats there is nothing to learn from: no estimate, whatever the noise.

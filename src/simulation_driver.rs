@@ -1,4 +1,4 @@
-//! The driver of `nextpose simulate`: the simulated operator ([`crate::sim`]) teaching corpus
+//! The driver of `nextpose simulate`: the simulated operator ([`crate::simulation`]) teaching corpus
 //! programs against a real nextpose server through the typed client ([`crate::client`]), over
 //! REST or gRPC.
 //!
@@ -28,9 +28,9 @@ use crate::engine::{Pose, Profile};
 use crate::kinematics::ReachPolicy;
 use crate::kinematics::placement::{PlacedArm, ProgramArm};
 use crate::replay::Program;
-pub use crate::sim::plan::placements;
-use crate::sim::plan::{RoutineResult, repository, waypoint_rng};
-use crate::sim::{
+pub use crate::simulation::plan::placements;
+use crate::simulation::plan::{RoutineResult, repository, waypoint_rng};
+use crate::simulation::{
     Arm, Condition, ConditionSummary, Decision, Feedback, History, Operator, Plan, Suggestion,
     Time, summarise,
 };

@@ -1,14 +1,14 @@
-//! The programming-time table in the shape of the seed's Table 4.1: per condition the mean and
-//! standard deviation of the time to teach a routine, the change against the baseline, and the
-//! rank-sum test against the baseline, with the seed's figures beside them.
+//! The programming-time table in the shape of the dissertation's Table 4.1: per condition the mean
+//! and standard deviation of the time to teach a routine, the change against the baseline, and the
+//! rank-sum test against the baseline, with the dissertation's figures beside them.
 
 use std::fmt::Write;
 
 use serde::Serialize;
 
-use super::SimError;
+use super::SimulationError;
 use super::operator::Time;
-use super::plan::{Condition, RoutineResult, SeedFigure};
+use super::plan::{Condition, DissertationFigure, RoutineResult};
 use super::stats::{RankSum, mean, rank_sum, std_dev};
 use crate::kinematics::placement::ProgramArm;
 
@@ -40,16 +40,18 @@ pub struct ConditionSummary {
     pub offered_unreachable: usize,
     /// Taught waypoints outside the arm's reach.
     pub unreachable_waypoints: usize,
-    pub seed: Option<SeedFigure>,
+    /// The dissertation's figure for the condition (`seed` in the JSON).
+    #[serde(rename = "seed")]
+    pub dissertation: Option<DissertationFigure>,
 }
 
 /// Summarises `results` per condition; the first condition is the baseline.
 pub fn summarise(
     conditions: &[Condition],
     results: &[RoutineResult],
-) -> Result<Vec<ConditionSummary>, SimError> {
+) -> Result<Vec<ConditionSummary>, SimulationError> {
     let Some(baseline) = conditions.first() else {
-        return Err(SimError::EmptyPlan);
+        return Err(SimulationError::EmptyPlan);
     };
     let times = |key: &str| -> Vec<f64> {
         results
@@ -64,7 +66,7 @@ pub fn summarise(
     for (i, c) in conditions.iter().enumerate() {
         let rs: Vec<&RoutineResult> = results.iter().filter(|r| r.condition == c.key).collect();
         let t = times(&c.key);
-        let m = mean(&t).ok_or_else(|| SimError::NoResults(c.key.clone()))?;
+        let m = mean(&t).ok_or_else(|| SimulationError::NoResults(c.key.clone()))?;
         let mut mean_time = Time::default();
         for r in &rs {
             mean_time.add(&r.time);
@@ -100,7 +102,7 @@ pub fn summarise(
             dismissed: sum(|r| r.dismissed),
             offered_unreachable: sum(|r| r.offered_unreachable),
             unreachable_waypoints: sum(|r| r.unreachable_waypoints),
-            seed: c.seed,
+            dissertation: c.dissertation,
         });
     }
     Ok(rows)
@@ -118,7 +120,7 @@ fn p_value(p: f64) -> String {
     }
 }
 
-/// The table as Markdown: our figures, then the seed's for the same row.
+/// The table as Markdown: our figures, then the dissertation's for the same row.
 /// The programs' arms as a Markdown table: which arm, how it was chosen, where it stands and how
 /// many of the taught waypoints it reaches, with the total.
 pub fn arms_markdown(programs: &[String], arms: &[ProgramArm]) -> String {
@@ -179,10 +181,12 @@ pub fn markdown(rows: &[ConditionSummary]) -> String {
             r.accepted,
             r.adjusted,
             r.rejected,
-            opt(r.seed.map(|f| f.mean_s), |v| format!("{v:.1}")),
-            opt(r.seed.map(|f| f.std_s), |v| format!("{v:.2}")),
-            opt(r.seed.and_then(|f| f.change_pct), |c| format!("{c:+.2} %")),
-            opt(r.seed.and_then(|f| f.confidence_pct), |c| format!(
+            opt(r.dissertation.map(|f| f.mean_s), |v| format!("{v:.1}")),
+            opt(r.dissertation.map(|f| f.std_s), |v| format!("{v:.2}")),
+            opt(r.dissertation.and_then(|f| f.change_pct), |c| format!(
+                "{c:+.2} %"
+            )),
+            opt(r.dissertation.and_then(|f| f.confidence_pct), |c| format!(
                 "{c:.2} %"
             )),
         );
@@ -216,7 +220,8 @@ pub fn breakdown_markdown(rows: &[ConditionSummary]) -> String {
 }
 
 /// A bar chart (SVG) of the change in mean programming time against the baseline, simulated
-/// beside the seed's, per condition with predictions. Written by hand (no plotting dependency).
+/// beside the dissertation's, per condition with predictions. Written by hand (no plotting
+/// dependency).
 pub fn change_chart_svg(rows: &[ConditionSummary], title: &str) -> String {
     let bars: Vec<(&str, Option<f64>, Option<f64>)> = rows
         .iter()
@@ -225,7 +230,7 @@ pub fn change_chart_svg(rows: &[ConditionSummary], title: &str) -> String {
             (
                 r.label.as_str(),
                 r.change_pct,
-                r.seed.and_then(|f| f.change_pct),
+                r.dissertation.and_then(|f| f.change_pct),
             )
         })
         .collect();
@@ -264,10 +269,13 @@ pub fn change_chart_svg(rows: &[ConditionSummary], title: &str) -> String {
         );
         tick -= 10.0;
     }
-    for (i, (label, ours, seed)) in bars.iter().enumerate() {
+    for (i, (label, ours, dissertation)) in bars.iter().enumerate() {
         let x0 = left + group * i as f64;
         let bw = group * 0.3;
-        for (j, (v, colour)) in [(ours, "#3b6ea5"), (seed, "#aaaaaa")].iter().enumerate() {
+        for (j, (v, colour)) in [(ours, "#3b6ea5"), (dissertation, "#aaaaaa")]
+            .iter()
+            .enumerate()
+        {
             let Some(v) = v else { continue };
             let x = x0 + group * 0.15 + bw * j as f64 + 2.0 * j as f64;
             let (ya, yb) = (y(0.0), y(v.min(0.0)));
@@ -311,7 +319,7 @@ fn escape(t: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::plan::table_4_1_conditions;
+    use crate::simulation::plan::table_4_1_conditions;
 
     fn result(condition: &str, time_s: f64) -> RoutineResult {
         RoutineResult {
@@ -368,6 +376,6 @@ mod tests {
             "{svg}"
         );
         let missing = summarise(&conditions, &results[..1]);
-        assert!(matches!(missing, Err(SimError::NoResults(_))));
+        assert!(matches!(missing, Err(SimulationError::NoResults(_))));
     }
 }
