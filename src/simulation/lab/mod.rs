@@ -353,7 +353,10 @@ mod tests {
         for p in &lab {
             let poses: Vec<Pose> = p.program.poses().copied().collect();
             let named = p.program.arm_designation();
-            let arm = check.place(LAB_LANGUAGE.as_str(), named, &poses).unwrap().unwrap();
+            let arm = check
+                .place(LAB_LANGUAGE.as_str(), named, &poses)
+                .unwrap()
+                .unwrap();
             assert_eq!(
                 (arm.arm.robot.as_str(), arm.arm.chosen),
                 ("abb_irb140", ArmChoice::Named)
