@@ -239,12 +239,13 @@ fn main() -> anyhow::Result<()> {
     let all: Vec<&Row> = rows.iter().collect();
     let m = fit(&all)?;
     let mut text = String::from(
-        "//! The offer rule's logistic model of agreement ([`super::agreement::Scorer`]), fitted on\n\
-         //! the shared corpora by `examples/fit_offer_rule.rs` (its module doc says how). Generated:\n\
-         //! do not edit by hand; run the example again with `--write` and commit the result.\n\n",
+        "//! The offer rule's logistic model of agreement (read by `agreement::Scorer`, which checks\n\
+         //! the length), fitted on the shared corpora by `examples/fit_offer_rule.rs` (its module doc\n\
+         //! says how). Generated: do not edit by hand; run the example again with `--write` and\n\
+         //! commit the result.\n\n",
     );
     text += &format!("pub const INTERCEPT: f64 = {:?};\n\n", m.intercept);
-    text += "pub const WEIGHTS: [f64; super::agreement::FEATURES] = [\n";
+    text += &format!("pub const WEIGHTS: [f64; {FEATURES}] = [\n");
     for (name, w) in NAMES.iter().zip(m.weights) {
         text += &format!("    {w:?}, // {name}\n");
     }

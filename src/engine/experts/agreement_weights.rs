@@ -1,10 +1,11 @@
-//! The offer rule's logistic model of agreement ([`super::agreement::Scorer`]), fitted on
-//! the shared corpora by `examples/fit_offer_rule.rs` (its module doc says how). Generated:
-//! do not edit by hand; run the example again with `--write` and commit the result.
+//! The offer rule's logistic model of agreement (read by `agreement::Scorer`, which checks
+//! the length), fitted on the shared corpora by `examples/fit_offer_rule.rs` (its module doc
+//! says how). Generated: do not edit by hand; run the example again with `--write` and
+//! commit the result.
 
 pub const INTERCEPT: f64 = -3.632386414741906;
 
-pub const WEIGHTS: [f64; super::agreement::FEATURES] = [
+pub const WEIGHTS: [f64; 21] = [
     1.0621527243978683,   // log_size
     0.32561154302527734,  // kinds
     2.9962509232471253,   // p_first
