@@ -1,6 +1,10 @@
-//! The counts behind `engine::experts::calibration::PRIOR`: the programs given are taught
-//! through the engine (default profile), each in a fresh cell, and the outcomes of every
-//! candidate are summed per coarse class of evidence. Printed as the Rust table the engine holds.
+//! The counts behind `engine::experts::calibration::PRIOR` and `CHOSEN_PRIOR`: the programs given are
+//! taught through the engine (default profile), each in a fresh cell, and the outcomes of every
+//! candidate are summed per coarse class of evidence, and those of the chosen candidates per
+//! band of their first-stage estimate. Printed as the Rust tables the engine holds.
+//!
+//! The two stages are measured in two passes: `CHOSEN_PRIOR` is counted with the engine's own
+//! `PRIOR`, so refit `PRIOR` first, build, and run again for `CHOSEN_PRIOR`.
 //!
 //! `cargo run --release --example calibration_prior -- FILES…` (docs/results/scoreboard.md,
 //! "The offer threshold by halves", says which half of the shared corpus the engine's table was
@@ -9,7 +13,7 @@
 
 use std::collections::BTreeMap;
 
-use nextpose::engine::experts::calibration::Count;
+use nextpose::engine::experts::calibration::{BANDS, Count};
 use nextpose::engine::{EngineConfig, Teacher};
 use nextpose::replay::load_paths;
 
@@ -17,6 +21,7 @@ fn main() -> anyhow::Result<()> {
     let paths: Vec<std::path::PathBuf> = std::env::args().skip(1).map(Into::into).collect();
     let programs = load_paths(&paths)?;
     let mut total: BTreeMap<_, Count> = BTreeMap::new();
+    let mut chosen = [Count::default(); BANDS.len()];
     for p in &programs {
         let mut t = Teacher::new(EngineConfig::default())?;
         for r in &p.routines {
@@ -29,6 +34,10 @@ fn main() -> anyhow::Result<()> {
             let e = total.entry(k).or_default();
             e.n += c.n;
             e.useful += c.useful;
+        }
+        for (sum, c) in chosen.iter_mut().zip(t.calibration().chosen_counts()) {
+            sum.n += c.n;
+            sum.useful += c.useful;
         }
     }
     println!("// {} programs", programs.len());
@@ -48,6 +57,11 @@ fn main() -> anyhow::Result<()> {
             c.n,
             c.useful
         );
+    }
+    println!("];");
+    println!("pub const CHOSEN_PRIOR: [(u32, u32); {}] = [", BANDS.len());
+    for c in chosen {
+        println!("    ({}, {}),", c.n, c.useful);
     }
     println!("];");
     Ok(())

@@ -316,10 +316,10 @@ settings! {
         };
 
     /// A fixed offer threshold: a suggestion is offered when its `p_useful` reaches it (0–1).
-    /// Null: the cell chooses its own threshold so that `target_precision` of its offers are
+    /// Null: the cell steers its own threshold so that `target_precision` of its offers are
     /// right (the default profile), or the profile has no offer rule (seed).
     given(
-        doc = "The cell's offer threshold on `p_useful`, 0 to 1 (left out: the cell's own).",
+        doc = "The cell's offer threshold on `p_useful`, 0 to 1 (left out: steered).",
         schema(minimum = 0.0, maximum = 1.0),
     )
     stored(serde(default))
@@ -329,10 +329,10 @@ settings! {
             o.threshold = *v;
         };
 
-    /// The share of offers that should be right (0–1, default 0.9) when the cell chooses its
+    /// The share of offers that should be right (0–1, default 0.85) when the cell steers its
     /// own threshold. Unused with a fixed `offer_threshold` or without an offer rule.
     given(
-        doc = "The precision the cell chooses its threshold for, 0 to 1.",
+        doc = "The precision the cell steers its threshold to, 0 to 1.",
         schema(minimum = 0.0, maximum = 1.0),
     )
     stored(serde(default = "target_precision"))

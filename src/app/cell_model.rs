@@ -361,7 +361,6 @@ impl CellModel {
         self.info() == other.info()
             && self.teaching() == other.teaching()
             && self.teacher.calibration() == other.teacher.calibration()
-            && self.teacher.offer_record() == other.teacher.offer_record()
             && self.open == other.open
             && self.teacher.routine() == other.teacher.routine()
             && self.arm.as_ref().map(CellArm::trail) == other.arm.as_ref().map(CellArm::trail)

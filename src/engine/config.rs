@@ -164,13 +164,13 @@ pub struct PredictOptions {
 /// When the experts' best candidate is offered (see [`EngineConfig::offer`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct OfferRule {
-    /// Offer when `p_useful` is at least this (0–1). None: an exact cell offers from the
-    /// threshold at which the offer rule's offers were right at the `target` rate on programs
-    /// it never saw, once its own record has earned it (`engine::teach::offer_rule`); a cell
-    /// whose noise matters offers from [`OfferRule::HEAD_START`].
+    /// Offer when `p_useful` is at least this (0–1). None: an exact cell steers its own
+    /// threshold so that its offers are right at the `target` rate
+    /// ([`super::experts::calibration`], "The cell's threshold"); a cell whose noise matters
+    /// offers from [`OfferRule::HEAD_START`].
     #[serde(default)]
     pub threshold: Option<f64>,
-    /// The share of offers that should be right (0–1), when an exact cell chooses its threshold.
+    /// The share of offers that should be right (0–1), when an exact cell steers its threshold.
     #[serde(default = "OfferRule::default_target")]
     pub target: f64,
     /// What counts as right: within this of the waypoint then taught (the calibration learns
@@ -183,7 +183,7 @@ pub struct OfferRule {
 
 impl OfferRule {
     /// The precision a cell's offers aim for by default.
-    pub const TARGET: f64 = 0.9;
+    pub const TARGET: f64 = 0.85;
 
     /// The threshold of a cell whose noise matters (a joystick operator's), when none is set:
     /// a suggestion more likely right than not. Such a cell is not held to `target`: its near

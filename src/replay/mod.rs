@@ -30,7 +30,6 @@ pub mod corpus;
 pub mod frames;
 pub mod method;
 pub mod methods;
-pub mod offer_rule_fit;
 pub mod placements;
 pub mod playback;
 #[cfg(feature = "plots")]

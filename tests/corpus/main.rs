@@ -2,8 +2,8 @@
 //! `common/corpus.rs` for what happens without it): the whole-corpus scoreboard (`scoreboard`),
 //! the replay harness (`harness`), the MAP baseline (`map_baseline`), the plots (`plots`, with
 //! the `plots` feature), the importer and the exporter on every corpus file (`importer`,
-//! `exporter`), the arm chosen and placed for each program (`layout`) and the offer rule's fit
-//! (`offer_rule_fit`). One binary, so the whole stack is linked once for all of them.
+//! `exporter`) and the arm chosen and placed for each program (`layout`). One binary, so the
+//! whole stack is linked once for all of them.
 
 #[path = "../common/corpus.rs"]
 mod corpus;
@@ -12,7 +12,6 @@ mod harness;
 mod importer;
 mod layout;
 mod map_baseline;
-mod offer_rule_fit;
 #[cfg(feature = "plots")]
 mod plots;
 mod scoreboard;

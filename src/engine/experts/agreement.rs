@@ -12,8 +12,7 @@
 //! first of equals), and takes every ungrouped candidate within the tolerance of it; the lead's
 //! pose is the group's.
 
-use super::agreement_weights::{INTERCEPT, PRECISION_FROM, WEIGHTS};
-use super::calibration::Count;
+use super::agreement_weights::{INTERCEPT, WEIGHTS};
 use super::frames::Tolerance;
 use super::{Candidate, Evidence, LatticeEvidence, Proposer};
 
@@ -262,64 +261,6 @@ impl Scorer {
     }
 }
 
-/// The group the rule offers among `candidates` (with their first-stage estimates `p_first`):
-/// the one `scorer` finds likeliest right (the first of equals), with that probability. None
-/// without candidates.
-pub fn best(
-    candidates: &[Candidate],
-    p_first: &[f64],
-    tolerance: Tolerance,
-    scorer: &Scorer,
-) -> Option<(Group, f64)> {
-    let mut best: Option<(Group, f64)> = None;
-    for g in groups(candidates, p_first, tolerance) {
-        let p = scorer.p(&g.features);
-        if best.as_ref().is_none_or(|(_, b)| p > *b) {
-            best = Some((g, p));
-        }
-    }
-    best
-}
-
-/// The threshold on a group's probability from which the rule's offers were right at least at
-/// `target` rate, out of fold on the shared corpora ([`PRECISION_FROM`]): the lowest such; 1
-/// (nothing offered) when no threshold reached it.
-pub fn threshold_for(target: f64) -> f64 {
-    PRECISION_FROM
-        .iter()
-        .find(|(_, precision)| *precision >= target)
-        .map_or(1.0, |(threshold, _)| *threshold)
-}
-
-/// The threshold of an exact cell that has not earned its own ([`earned_threshold`]). Chosen
-/// with the record's constants below on the shared corpora, every repository scored by a model
-/// fitted without it (docs/engine.md, "The offer rule").
-pub const CAUTIOUS_FROM: f64 = 0.8;
-/// Imaginary offers a cell's record starts with.
-pub const RECORD_PRIOR: f64 = 3.0;
-/// How often those imaginary offers were right.
-pub const RECORD_PRIOR_RATE: f64 = 0.6;
-/// The rate of right offers in its record from which a cell offers from its own threshold.
-pub const EARNED_AT: f64 = 0.7;
-
-/// The threshold an exact cell offers from for a `target` precision, with its `record` of the
-/// offers it would have made from [`threshold_for`] (shown or not) and the right ones: that
-/// threshold once the record, with [`RECORD_PRIOR`] imaginary offers right at
-/// [`RECORD_PRIOR_RATE`], is right at [`EARNED_AT`] at least; [`CAUTIOUS_FROM`] (or the own
-/// threshold if higher) until then, and again whenever it falls below.
-pub fn earned_threshold(record: &Count, target: f64) -> f64 {
-    earned(record, threshold_for(target))
-}
-
-/// [`earned_threshold`] from the cell's own threshold `own`.
-pub fn earned(record: &Count, own: f64) -> f64 {
-    if record.shrunk(RECORD_PRIOR_RATE, RECORD_PRIOR) >= EARNED_AT {
-        own
-    } else {
-        own.max(CAUTIOUS_FROM)
-    }
-}
-
 /// The logistic function.
 pub fn sigmoid(z: f64) -> f64 {
     1.0 / (1.0 + (-z).exp())
@@ -378,35 +319,6 @@ mod tests {
         assert!(!f.absolute && (f.p_first - 0.7).abs() < 1e-12);
         assert_eq!(g[0].features.long_share, 0.0);
         assert_eq!(g[0].features.competitor, 3);
-    }
-
-    /// The threshold for a target is the lowest whose out-of-fold offers reached it; a target
-    /// no threshold reached offers nothing. A record right at 70 % with its prior earns it, one
-    /// below is cautious, and a fresh one (no offers yet) is cautious.
-    #[test]
-    fn the_threshold_is_the_tables_and_a_record_earns_it() {
-        assert_eq!(threshold_for(0.0), PRECISION_FROM[0].0);
-        assert_eq!(threshold_for(1.01), 1.0);
-        let own = threshold_for(0.9);
-        let (t, precision) = PRECISION_FROM
-            .iter()
-            .copied()
-            .find(|(t, _)| *t == own)
-            .expect("a threshold of the table");
-        assert!(precision >= 0.9 && t < CAUTIOUS_FROM);
-        assert!(
-            PRECISION_FROM
-                .iter()
-                .filter(|(t, _)| *t < own)
-                .all(|(_, p)| *p < 0.9)
-        );
-        let record = |n: f64, useful: f64| Count { n, useful };
-        assert_eq!(earned(&Count::default(), own), CAUTIOUS_FROM);
-        // (7 + 1.8) / (10 + 3) = 0.68 < 0.7; (8 + 1.8) / 13 = 0.75.
-        assert_eq!(earned(&record(10.0, 7.0), own), CAUTIOUS_FROM);
-        assert_eq!(earned(&record(10.0, 8.0), own), own);
-        // A cell's own threshold above the cautious one stands.
-        assert_eq!(earned(&Count::default(), 0.9), 0.9);
     }
 
     /// The fitted model says more for more agreement, all else equal.

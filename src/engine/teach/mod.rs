@@ -39,7 +39,7 @@ use super::cdhmm::predict::{Prediction, Withheld, predict_move};
 use super::config::{EngineConfig, PredictOptions};
 use super::error::ConfigError;
 use super::experts::acceptance::Verdict;
-use super::experts::calibration::{Calibration, Count};
+use super::experts::calibration::Calibration;
 use super::experts::frames::Tolerance;
 use super::experts::noise::Noise;
 use super::experts::{Candidate, Evidence, Expert};
@@ -161,16 +161,10 @@ impl Teacher {
         self.offer_rule.calibration()
     }
 
-    /// An exact cell's record at its threshold: the offers it would have made from its own
-    /// threshold (shown or not) and the right ones ([`offer_rule`]).
-    pub fn offer_record(&self) -> Count {
-        self.offer_rule.record()
-    }
-
     /// The threshold on `p_useful` the cell offers at now: set; or its own, for the target
-    /// precision once its record has earned it and a cautious one until then (an exact cell,
-    /// [`offer_rule`]), or [`crate::engine::OfferRule::HEAD_START`] (a cell whose noise
-    /// matters). None without an offer rule.
+    /// precision (an exact cell, on its calibration's first-stage estimate) or
+    /// [`crate::engine::OfferRule::HEAD_START`] (a cell whose noise matters). None without an
+    /// offer rule.
     pub fn threshold(&self) -> Option<f64> {
         let rule = self.config.offer?;
         Some(self.offer_rule.threshold(&rule, self.noisy()))
@@ -183,11 +177,7 @@ impl Teacher {
         let judged = self.config.offer.is_some() && !self.routine.waypoints.is_empty();
         let noise = &self.noise;
         let outcome = judged.then_some(|proposed: &Pose| noise.outcome(proposed, &pose));
-        let cell = self.noise.cell();
-        let rule = self.config.offer;
-        let suggested =
-            self.offer_rule
-                .count(&pose, &self.routine.ahead, outcome, rule.as_ref(), &cell);
+        let suggested = self.offer_rule.count(&pose, &self.routine.ahead, outcome);
         if let Some(last) = self.routine.waypoints.last() {
             self.routine
                 .moves
@@ -336,9 +326,9 @@ impl Teacher {
             };
         };
         let candidates = self.candidates(routine, &model);
-        let prediction =
-            self.offer_rule
-                .decide(model, &candidates, &rule, last, &self.noise.cell());
+        let prediction = self
+            .offer_rule
+            .decide(model, &candidates, &rule, last, self.noisy());
         Ahead {
             candidates,
             prediction,

@@ -1,56 +1,38 @@
-//! The offer rule over every expert's candidates: which candidate the cell offers, with its
-//! `p_useful`; what every taught waypoint counts of the candidates proposed for it (and takes
-//! back when undone); the operator's verdicts on what was offered. [`OfferRuleState`] holds the
-//! calibration of the candidates' evidence, the cell's record at its threshold and, per
+//! The offer rule over every expert's candidates: each candidate's `p_useful` from the cell's
+//! calibration, the likeliest one offered when it reaches the threshold; what every taught
+//! waypoint counts of the candidates proposed for it (and takes back when undone); the
+//! operator's verdicts on what was offered. [`OfferRuleState`] holds the calibration and, per
 //! waypoint of the routine being taught, what that waypoint counted.
-//!
-//! **An exact cell** (its noise does not matter) groups the candidates by the pose they propose
-//! and offers the group most likely right by agreement ([`crate::engine::experts::agreement`]):
-//! its probability is the `p_useful` reported, and the cell offers it from the threshold at
-//! which such offers were right at the target rate on programs the model never saw
-//! ([`agreement::threshold_for`]). **It earns that threshold**: until its own record says its
-//! offers keep their word, it offers only from [`agreement::CAUTIOUS_FROM`]. The record counts,
-//! at every taught waypoint, the group the cell would offer at its threshold, shown or not, and
-//! whether it was right ([`agreement::earned_threshold`]: a fresh cell starts cautious, and a
-//! cell whose offers go wrong is cautious again).
-//!
-//! **A cell whose noise matters** (a joystick operator's) offers the likeliest candidate by its
-//! own evidence, from [`OfferRule::HEAD_START`]: its near misses are head starts.
 
 use super::Ahead;
 use crate::engine::cdhmm::predict::{Prediction, Withheld};
 use crate::engine::config::OfferRule;
 use crate::engine::experts::acceptance::Verdict;
-use crate::engine::experts::agreement::{self, Scorer};
-use crate::engine::experts::calibration::{Calibration, Count};
-use crate::engine::experts::{Candidate, Cell, Evidence, Proposer};
+use crate::engine::experts::calibration::Calibration;
+use crate::engine::experts::{Candidate, Evidence, Proposer};
 use crate::engine::pose::{Move, Pose};
 
-/// The offer rule's state: the cell's calibration of its experts' candidates, its record at its
-/// threshold, and what each waypoint of the routine being taught counted.
+/// The offer rule's state: the cell's calibration of its experts' candidates, and what each
+/// waypoint of the routine being taught counted in it.
 #[derive(Debug, Clone)]
 pub(super) struct OfferRuleState {
     /// What the cell learned of its candidates' outcomes (with an offer rule).
     calibration: Calibration,
-    /// The offers an exact cell would have made at its own threshold, and the right ones.
-    record: Count,
     /// Per waypoint of the current routine: the outcomes its teaching counted, for undo and
     /// the operator's verdicts.
     counted: Vec<Counted>,
 }
 
-/// The outcomes one taught waypoint counted: every candidate's, and the record's; and the
-/// suggestion offered for it, with the operator's verdict.
+/// The outcomes one taught waypoint counted: every candidate's, and the chosen one's by its
+/// first-stage estimate; and the suggestion offered for it, with the operator's verdict.
 #[derive(Debug, Clone, Default)]
 struct Counted {
     candidates: Vec<(Evidence, f64)>,
-    /// The outcome of the offer the cell would have made at its own threshold, counted in its
-    /// record, and which of `candidates` stand at that pose.
-    recorded: Option<(f64, Vec<usize>)>,
+    chosen: Option<(f64, f64)>,
     /// The waypoint was taught as the cell offered it (a suggestion taken as is).
     suggested: bool,
     /// The pose the cell offered for this waypoint, if it offered one, and which of
-    /// `candidates` stand at it.
+    /// `candidates` stand at it (the chosen one is the offered one).
     offered: Option<(Pose, Vec<usize>)>,
     /// The operator's verdict on that suggestion ([`OfferRuleState::feedback`]).
     verdict: Option<Verdict>,
@@ -72,7 +54,6 @@ impl OfferRuleState {
     pub(super) fn new() -> OfferRuleState {
         OfferRuleState {
             calibration: Calibration::new(),
-            record: Count::default(),
             counted: Vec::new(),
         }
     }
@@ -82,25 +63,16 @@ impl OfferRuleState {
         &self.calibration
     }
 
-    /// The cell's record at its threshold: the offers an exact cell would have made, and the
-    /// right ones (module doc).
-    pub(super) fn record(&self) -> Count {
-        self.record
-    }
-
     /// What the waypoint `pose` about to be taught counts: with `outcome` (how right a proposed
     /// pose was for it: given with an offer rule, from the second waypoint of a routine) every
-    /// candidate proposed for it in `ahead`, right or not, recorded in the calibration; in an
-    /// exact cell with no threshold set, the offer it would have made at its own threshold, in
-    /// its record; and the suggestion offered for it. Returns whether it was taught as
-    /// suggested. [`OfferRuleState::undo`] takes it back.
+    /// candidate proposed for it in `ahead`, right or not, and the chosen one by its first-stage
+    /// estimate, recorded in the calibration; and the suggestion offered for it. Returns
+    /// whether it was taught as suggested. [`OfferRuleState::undo`] takes it back.
     pub(super) fn count(
         &mut self,
         pose: &Pose,
         ahead: &Ahead,
         outcome: Option<impl Fn(&Pose) -> f64>,
-        rule: Option<&OfferRule>,
-        cell: &Cell,
     ) -> bool {
         let offered = &ahead.prediction;
         let offered = offered.pose.filter(|_| offered.offered());
@@ -108,26 +80,24 @@ impl OfferRuleState {
         let mut counted = match outcome {
             Some(outcome) => {
                 let candidates = &ahead.candidates;
-                let at = |o: &Pose| -> Vec<usize> {
-                    let all = candidates.iter().enumerate();
-                    all.filter(|(_, c)| same_pose(&c.pose, o))
-                        .map(|(i, _)| i)
-                        .collect()
-                };
-                let recorded = rule
-                    .filter(|r| r.threshold.is_none() && !cell.noisy)
-                    .and_then(|r| {
-                        let (p, c) = self.choose(candidates, cell)?;
-                        (p >= agreement::threshold_for(r.target))
-                            .then(|| (outcome(&c.pose), at(&c.pose)))
-                    });
+                let chosen = self
+                    .likeliest(candidates)
+                    .map(|(first, c)| (first, outcome(&c.pose)));
                 Counted {
                     candidates: candidates
                         .iter()
                         .map(|c| (c.evidence, outcome(&c.pose)))
                         .collect(),
-                    recorded,
-                    offered: offered.map(|o| (o, at(&o))),
+                    chosen,
+                    offered: offered.map(|o| {
+                        let at = candidates.iter().enumerate();
+                        (
+                            o,
+                            at.filter(|(_, c)| same_pose(&c.pose, &o))
+                                .map(|(i, _)| i)
+                                .collect(),
+                        )
+                    }),
                     ..Counted::default()
                 }
             }
@@ -137,8 +107,8 @@ impl OfferRuleState {
         for (evidence, right) in &counted.candidates {
             self.calibration.record(evidence, *right);
         }
-        if let Some((right, _)) = &counted.recorded {
-            self.record.add(*right);
+        if let Some((first, right)) = counted.chosen {
+            self.calibration.record_chosen(first, right);
         }
         self.counted.push(counted);
         suggested
@@ -166,15 +136,16 @@ impl OfferRuleState {
         }
     }
 
-    /// The threshold on `p_useful` the cell offers at now with `rule`: set; or, for a cell whose
-    /// noise matters, [`OfferRule::HEAD_START`]; or an exact cell's for its target, once its
-    /// record has earned it, and [`agreement::CAUTIOUS_FROM`] until then (module doc).
+    /// The threshold on `p_useful` the cell offers at now with `rule`: set; or its own, for
+    /// the target precision (an exact cell, on its calibration's first-stage estimate) or
+    /// [`OfferRule::HEAD_START`] (a cell whose noise matters, `noisy`).
     pub(super) fn threshold(&self, rule: &OfferRule, noisy: bool) -> f64 {
         rule.threshold.unwrap_or_else(|| {
             if noisy {
-                return OfferRule::HEAD_START;
+                OfferRule::HEAD_START
+            } else {
+                self.calibration.threshold(rule.target)
             }
-            agreement::earned_threshold(&self.record, rule.target)
         })
     }
 
@@ -183,12 +154,11 @@ impl OfferRuleState {
     /// `offered` is the suggestion's pose, and an adjusted one comes with the pose finally
     /// taught. A verdict that is not about what this cell offered there is ignored: no offer,
     /// another pose, a waypoint that is not the one accepted or adjusted to, or one already
-    /// judged. Returns whether it was taken, and whether it changed what the cell counted.
+    /// judged. Returns whether it was taken, and whether it changed the calibration.
     ///
-    /// A suggestion rejected counts as wrong (its candidates' outcomes with it, and the record's
-    /// when it is the offer recorded); an adjusted one's distance joins the verdicts the
-    /// tolerance is learned from when the routine is finished ([`OfferRuleState::adjusted_mm`]).
-    /// Undoing the waypoint takes the verdict back.
+    /// A suggestion rejected counts as wrong (its candidates' outcomes with it); an adjusted
+    /// one's distance joins the verdicts the tolerance is learned from when the routine is
+    /// finished ([`OfferRuleState::adjusted_mm`]). Undoing the waypoint takes the verdict back.
     pub(super) fn feedback(
         &mut self,
         routine: &[Pose],
@@ -224,7 +194,7 @@ impl OfferRuleState {
             // The calibration the waypoint's outcomes were counted in: the cell's, and the one
             // an undo restores when the waypoint changed the calibration's prior.
             let mut snapshot = counted.calibration_before.as_mut();
-            for &i in &at {
+            for i in at {
                 let (evidence, right) = &mut counted.candidates[i];
                 if *right > 0.0 {
                     for c in std::iter::once(&mut self.calibration).chain(snapshot.as_deref_mut()) {
@@ -235,12 +205,13 @@ impl OfferRuleState {
                     changed = true;
                 }
             }
-            if let Some((right, recorded_at)) = counted.recorded.as_mut()
+            if let Some((first, right)) = counted.chosen.as_mut()
                 && *right > 0.0
-                && recorded_at.iter().any(|i| at.contains(i))
             {
-                self.record.remove(*right);
-                self.record.add(0.0);
+                for c in std::iter::once(&mut self.calibration).chain(snapshot) {
+                    c.forget_chosen(*first, *right);
+                    c.record_chosen(*first, 0.0);
+                }
                 *right = 0.0;
                 changed = true;
             }
@@ -257,8 +228,8 @@ impl OfferRuleState {
         for (evidence, right) in counted.candidates {
             self.calibration.forget(&evidence, right);
         }
-        if let Some((right, _)) = counted.recorded {
-            self.record.remove(right);
+        if let Some((first, right)) = counted.chosen {
+            self.calibration.forget_chosen(first, right);
         }
     }
 
@@ -273,21 +244,26 @@ impl OfferRuleState {
         self.counted.clear();
     }
 
-    /// The offer rule's prediction from the candidates: the one chosen
-    /// ([`OfferRuleState::choose`]), offered when its `p_useful` reaches the threshold (the
-    /// model's own prediction when there is none).
+    /// The offer rule's prediction from the candidates: the likeliest one, offered when its
+    /// `p_useful` reaches the threshold (the model's own prediction when there is none); `noisy`:
+    /// whether the cell's noise matters.
     pub(super) fn decide(
         &self,
         model: Prediction,
         candidates: &[Candidate],
         rule: &OfferRule,
         last: &Pose,
-        cell: &Cell,
+        noisy: bool,
     ) -> Prediction {
-        let Some((p, c)) = self.choose(candidates, cell) else {
+        let Some((first, c)) = self.likeliest(candidates) else {
             return model;
         };
-        let offered = p >= self.threshold(rule, cell.noisy);
+        let p = self.calibration.chosen(first);
+        let offered = match rule.threshold {
+            Some(t) => p >= t,
+            None if noisy => p >= OfferRule::HEAD_START,
+            None => self.calibration.offers(first, rule.target),
+        };
         let c = *c;
         let mut out = model;
         let by_model = c.proposer() == Proposer::Model;
@@ -303,21 +279,11 @@ impl OfferRuleState {
         out
     }
 
-    /// The candidate the cell would offer, with its `p_useful`: in an exact cell the lead of the
-    /// group most likely right by agreement; in a cell whose noise matters the candidate with
-    /// the highest estimate by its own evidence (the first of equals).
-    fn choose<'a>(&self, candidates: &'a [Candidate], cell: &Cell) -> Option<(f64, &'a Candidate)> {
-        let p_first: Vec<f64> = candidates
-            .iter()
-            .map(|c| self.calibration.p_useful(&c.evidence))
-            .collect();
-        if !cell.noisy {
-            let (group, p) =
-                agreement::best(candidates, &p_first, cell.tolerance, &Scorer::FITTED)?;
-            return Some((p, &candidates[group.lead]));
-        }
+    /// The candidate with the highest first-stage `p_useful` (the first of equals), with it.
+    fn likeliest<'a>(&self, candidates: &'a [Candidate]) -> Option<(f64, &'a Candidate)> {
         let mut best: Option<(f64, &Candidate)> = None;
-        for (c, p) in candidates.iter().zip(p_first) {
+        for c in candidates {
+            let p = self.calibration.p_useful(&c.evidence);
             if best.is_none_or(|(b, _)| p > b) {
                 best = Some((p, c));
             }
@@ -330,9 +296,8 @@ impl OfferRuleState {
 mod tests {
     use super::super::tests::{pose, same_model};
     use crate::engine::Teacher;
-    use crate::engine::config::{EngineConfig, OfferRule, Profile};
+    use crate::engine::config::{EngineConfig, Profile};
     use crate::engine::experts::acceptance::{MIN_ADJUSTMENTS, Verdict};
-    use crate::engine::experts::agreement;
     use crate::engine::experts::noise::Noise;
 
     /// Every routine works somewhere new, then retracts to one point and goes home: with the
@@ -364,11 +329,7 @@ mod tests {
         assert!(p.offered(), "{:?}", p.withheld);
         let got = p.pose.unwrap();
         assert!(got.distance_to(&home) < 1e-6 && got.angle_to(&home) < 1e-6);
-        // Offered from the cell's threshold, which six routines of right offers have earned.
-        let threshold = t.threshold().unwrap();
-        assert!(p.p_useful.unwrap() >= threshold, "{:?}", p.p_useful);
-        assert!(p.p_useful.unwrap() > 0.8, "{:?}", p.p_useful);
-        assert_eq!(threshold, agreement::threshold_for(OfferRule::TARGET));
+        assert!(p.p_useful.unwrap() >= 0.9, "{:?}", p.p_useful);
         assert!(p.expert.is_some());
         assert_ne!(
             t.calibration(),
@@ -377,62 +338,6 @@ mod tests {
         );
         while t.undo().is_some() {}
         assert_eq!(t.calibration(), &before);
-    }
-
-    /// An exact cell earns its threshold: a fresh one offers only from the cautious threshold;
-    /// routines whose repeats it gets right earn it the threshold of its target; suggestions
-    /// the operator rejects count as wrong and send it back to caution; undo takes each
-    /// waypoint's count back, to the record and threshold before it.
-    #[test]
-    fn an_exact_cell_earns_its_threshold_and_loses_it_when_wrong() {
-        let own = agreement::threshold_for(OfferRule::TARGET);
-        assert!(own < agreement::CAUTIOUS_FROM);
-        let mut t = Teacher::new(EngineConfig::profile(Profile::Default)).unwrap();
-        assert_eq!(t.threshold(), Some(agreement::CAUTIOUS_FROM));
-        let square = |dx: f64| {
-            [
-                [0.0, 0.0],
-                [200.0, 0.0],
-                [200.0, 200.0],
-                [0.0, 200.0],
-                [0.0, 0.0],
-            ]
-            .map(|[x, y]| pose([x + dx, y, 300.0], 0.0))
-        };
-        for _ in 0..4 {
-            square(0.0).iter().for_each(|w| t.teach(*w));
-            t.finish_routine();
-        }
-        let record = t.offer_record();
-        assert!(
-            record.n >= 3.0 && record.useful >= 0.9 * record.n,
-            "{record:?}"
-        );
-        assert_eq!(t.threshold(), Some(own), "{record:?}");
-        // The operator rejects every suggestion of two more squares (they were right, but a
-        // rejected suggestion counts as wrong): the record falls and the cell is cautious again.
-        let mut rejected = 0;
-        for _ in 0..2 {
-            for (i, w) in square(0.0).iter().enumerate() {
-                let p = t.predict();
-                let offer = p.pose.filter(|_| p.offered());
-                t.teach(*w);
-                if let Some(o) = offer {
-                    assert!(t.feedback(i, &o, Verdict::Rejected, None));
-                    rejected += 1;
-                }
-            }
-            t.finish_routine();
-        }
-        assert!(rejected >= 4, "{rejected} rejected");
-        let wrong = t.offer_record();
-        assert!(wrong.useful < 0.7 * wrong.n, "{wrong:?}");
-        assert_eq!(t.threshold(), Some(agreement::CAUTIOUS_FROM), "{wrong:?}");
-        // Undo within a routine takes the record back step by step.
-        let before = (t.offer_record(), t.threshold());
-        square(0.0).iter().for_each(|w| t.teach(*w));
-        while t.undo().is_some() {}
-        assert_eq!((t.offer_record(), t.threshold()), before);
     }
 
     /// A picky operator (accepts within half the tolerance their noise implies, fine-tunes
